@@ -1,0 +1,36 @@
+//! Command-line definitions: one module per subcommand, each with `Args` and `run`.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+pub mod accumulate;
+
+/// octavar: how good is this gyroscope? Allan variance, noise terms, simulation and the sim-to-real gap.
+#[derive(Debug, Parser)]
+#[command(name = "octavar", version, about, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the exact octave Allan accumulator over integer ADC codes and print every octave.
+    Accumulate(accumulate::Args),
+}
+
+impl Command {
+    pub fn run(self) -> anyhow::Result<ExitCode> {
+        match self {
+            Command::Accumulate(a) => a.run(),
+        }
+    }
+}
+
+/// True when the error is a closed stdout (`octavar ... | head`): that is a normal end, exit 0.
+pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|e| {
+        e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}

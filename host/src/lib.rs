@@ -1,0 +1,7 @@
+//! octavar's host library: everything the `octavar` command does, as functions the tests call.
+//!
+//! The binary (`src/main.rs`, `src/cli/`) only parses flags, calls these functions and prints. The library has no
+//! clap, no stdout and no `process::exit`; errors are typed per module and locate the fault (file, line, column).
+
+pub mod accumulate;
+pub mod input;

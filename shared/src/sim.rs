@@ -1,0 +1,1 @@
+//! The virtual gyro + ADC (work in progress).
