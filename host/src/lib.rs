@@ -5,3 +5,4 @@
 
 pub mod accumulate;
 pub mod input;
+pub mod stats;

@@ -15,6 +15,7 @@
 #![deny(missing_docs)]
 
 pub mod acc;
+pub mod proto;
 pub mod sensor;
 pub mod sim;
 

@@ -1,0 +1,1 @@
+//! The Allan deviation family and its confidence intervals (being written).

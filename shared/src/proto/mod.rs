@@ -1,0 +1,1 @@
+//! The frame protocol (being written).

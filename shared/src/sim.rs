@@ -1,1 +1,0 @@
-//! The virtual gyro + ADC (work in progress).

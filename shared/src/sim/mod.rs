@@ -1,0 +1,1 @@
+//! The virtual gyro + ADC (being written).
