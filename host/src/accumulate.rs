@@ -216,7 +216,7 @@ pub fn accumulate<R: BufRead>(
         })
     };
     let mut block = Vec::with_capacity(4096);
-    let mut flush = |block: &mut Vec<u16>, acc: &mut StridedAllan| {
+    let flush = |block: &mut Vec<u16>, acc: &mut StridedAllan| {
         acc.push_slice(block);
         block.clear();
     };
