@@ -1,0 +1,247 @@
+//! The frames the device sends to the host.
+//!
+//! Plain data: bounded collections are heapless 0.9 `Vec`/`String` with the capacities of [`super`]'s
+//! constants, so every value has a worst-case size (see [`super::MaxSize`]) that fits one frame.
+//! The order of the variants and of the fields is the wire format: change it only with a
+//! [`super::PROTOCOL_VERSION`] bump.
+
+use heapless::{String, Vec};
+use serde::{Deserialize, Serialize};
+
+use super::{SnapshotPart, MAX_CHANNELS, MAX_CHANNEL_NAME, MAX_CODES, MAX_IDENT, PROTOCOL_VERSION};
+use crate::sensor::SensorKind;
+
+/// Everything the device sends to the host (the body of a device -> host frame).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Frame {
+    /// Who is talking: versions, board, sampling and the channel list.
+    Hello(Hello),
+    /// Raw ADC codes of one or more channels.
+    Samples(Samples),
+    /// One part of a channel's accumulator snapshot.
+    AllanSnapshot(SnapshotPart),
+    /// Health counters.
+    Status(Status),
+    /// The onboard estimate of N and B per gyro channel.
+    Estimate(Estimate),
+    /// One part of a snapshot read back from the field log in flash.
+    FieldLog(FieldLogRecord),
+    /// The end of a field-log read-out.
+    FieldLogEnd(FieldLogEnd),
+}
+
+/// The device introduces itself.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Hello {
+    /// [`PROTOCOL_VERSION`] of the firmware: the host refuses a version it does not know.
+    pub protocol_version: u16,
+    /// Firmware version, for example `0.1.0+9831cae`.
+    pub firmware: String<MAX_IDENT>,
+    /// Board name, for example `octavar-f405`.
+    pub board: String<MAX_IDENT>,
+    /// Samples per second per channel, in Hz.
+    pub sample_rate_hz: u32,
+    /// ADC resolution in bits.
+    pub adc_bits: u8,
+    /// ADC reference voltage, in mV.
+    pub vref_mv: u16,
+    /// Stride S of the onboard accumulators (see [`crate::acc`]).
+    pub stride: u8,
+    /// The channels, in channel order: channel `i` is bit `i` of every channel mask.
+    pub channels: Vec<ChannelInfo, MAX_CHANNELS>,
+}
+
+impl Hello {
+    /// A hello with this crate's [`PROTOCOL_VERSION`] and no channels; names longer than [`MAX_IDENT`] bytes
+    /// are cut at a character boundary.
+    pub fn new(firmware: &str, board: &str, sample_rate_hz: u32, adc_bits: u8, vref_mv: u16, stride: u8) -> Self {
+        Hello {
+            protocol_version: PROTOCOL_VERSION,
+            firmware: truncated(firmware),
+            board: truncated(board),
+            sample_rate_hz,
+            adc_bits,
+            vref_mv,
+            stride,
+            channels: Vec::new(),
+        }
+    }
+}
+
+/// One channel of the device.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ChannelInfo {
+    /// The part on the channel.
+    pub kind: SensorKind,
+    /// A short name, for example `adxrs300` or `idg1215.x`.
+    pub name: String<MAX_CHANNEL_NAME>,
+}
+
+impl ChannelInfo {
+    /// A channel; a name longer than [`MAX_CHANNEL_NAME`] bytes is cut at a character boundary.
+    pub fn new(kind: SensorKind, name: &str) -> Self {
+        ChannelInfo { kind, name: truncated(name) }
+    }
+}
+
+/// `s` cut to at most `N` bytes at a character boundary.
+pub(super) fn truncated<const N: usize>(s: &str) -> String<N> {
+    let mut out = String::new();
+    for c in s.chars() {
+        if out.push(c).is_err() {
+            break;
+        }
+    }
+    out
+}
+
+/// Raw codes, interleaved: sample set after sample set, each set one code per channel of `channel_mask`
+/// in increasing channel order.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Samples {
+    /// Index of the first sample set (per-channel sample count since the last reset, starting at 0).
+    pub first_sample: u64,
+    /// Bit `i` set: channel `i` is in every set.
+    pub channel_mask: u8,
+    /// The codes; their number is a multiple of the channels in the mask.
+    pub codes: Vec<u16, MAX_CODES>,
+}
+
+impl Samples {
+    /// An empty frame for the channels of `channel_mask`, starting at sample `first_sample`.
+    pub const fn new(first_sample: u64, channel_mask: u8) -> Self {
+        Samples { first_sample, channel_mask, codes: Vec::new() }
+    }
+
+    /// Channels per sample set.
+    pub const fn channels(&self) -> usize {
+        self.channel_mask.count_ones() as usize
+    }
+
+    /// Complete sample sets held (0 for an empty mask).
+    pub fn sets(&self) -> usize {
+        self.codes.len().checked_div(self.channels()).unwrap_or(0)
+    }
+
+    /// Sample sets one frame holds for `channel_mask` (`MAX_CODES / channels`).
+    pub const fn capacity_sets(channel_mask: u8) -> usize {
+        match channel_mask.count_ones() {
+            0 => 0,
+            c => MAX_CODES / c as usize,
+        }
+    }
+
+    /// Append one sample set (one code per channel of the mask).
+    ///
+    /// # Errors
+    /// `Err(())` when the set does not have one code per channel or the frame is full; nothing is appended.
+    #[allow(clippy::result_unit_err)]
+    pub fn push_set(&mut self, set: &[u16]) -> Result<(), ()> {
+        if set.len() != self.channels() || set.is_empty() || self.codes.len() + set.len() > MAX_CODES {
+            return Err(());
+        }
+        self.codes.extend_from_slice(set).map_err(|_| ())
+    }
+
+    /// The code of channel slot `slot` (0-based among the mask's channels) in sample set `set`.
+    pub fn code(&self, set: usize, slot: usize) -> Option<u16> {
+        if slot >= self.channels() {
+            return None;
+        }
+        self.codes.get(set * self.channels() + slot).copied()
+    }
+}
+
+/// Health counters of the device.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Status {
+    /// Time since boot, in ms.
+    pub uptime_ms: u64,
+    /// Samples taken per channel since the last reset.
+    pub samples_per_channel: u64,
+    /// ADC overruns since boot (each one restarts the ADC and loses samples).
+    pub adc_overruns: u32,
+    /// Frames dropped since boot because USB was busy or disconnected.
+    pub frames_dropped: u32,
+    /// Board temperature in degC (the MCU's sensor, or a gyro's temperature output); `None` without one.
+    pub temperature_c: Option<f32>,
+}
+
+/// The onboard noise estimate of the gyro channels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Estimate {
+    /// Samples per channel the estimate is based on.
+    pub samples: u64,
+    /// One entry per gyro channel.
+    pub channels: Vec<ChannelEstimate, MAX_CHANNELS>,
+}
+
+/// N and B of one channel (f32, computed on the device).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ChannelEstimate {
+    /// Channel index.
+    pub channel: u8,
+    /// Angle random walk N, in deg/sqrt(s); `None` until enough data.
+    pub n_deg_per_rt_s: Option<f32>,
+    /// Bias instability B (ADEV floor / 0.6643), in deg/s; `None` until the floor is seen.
+    pub b_dps: Option<f32>,
+}
+
+/// One part of a snapshot read back from the field log.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FieldLogRecord {
+    /// Index of the checkpoint in the log (increasing with time).
+    pub checkpoint: u32,
+    /// Device time the checkpoint was written at, in ms (the store's clock).
+    pub time_ms: u64,
+    /// The snapshot part, as [`Frame::AllanSnapshot`] carries it.
+    pub part: SnapshotPart,
+}
+
+/// The end of a field-log read-out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FieldLogEnd {
+    /// Checkpoints sent in this read-out.
+    pub checkpoints: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_cut_at_char_boundaries() {
+        let c = ChannelInfo::new(SensorKind::Generic, "ééééééééé"); // 18 bytes
+        assert_eq!(c.name.as_str(), "éééééééé");
+        let h = Hello::new("0123456789012345678901234567", "b", 2000, 12, 3300, 8);
+        assert_eq!(h.firmware.len(), MAX_IDENT);
+        assert_eq!(h.protocol_version, PROTOCOL_VERSION);
+    }
+
+    #[test]
+    fn samples_sets() {
+        let mut s = Samples::new(10, 0b101);
+        assert_eq!(Samples::capacity_sets(0b101), 80);
+        assert_eq!(Samples::capacity_sets(0), 0);
+        assert!(s.push_set(&[1]).is_err());
+        for i in 0..80 {
+            s.push_set(&[i, i + 1000]).unwrap();
+        }
+        assert!(s.push_set(&[1, 2]).is_err());
+        assert_eq!(s.sets(), 80);
+        assert_eq!(s.code(79, 1), Some(1079));
+        assert_eq!(s.code(0, 2), None);
+        let mut empty = Samples::new(0, 0);
+        assert!(empty.push_set(&[]).is_err());
+        assert_eq!(empty.sets(), 0);
+    }
+}
