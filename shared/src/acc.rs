@@ -55,6 +55,10 @@ pub const LEVELS: usize = 32;
 const LOW_LEVELS: usize = 16;
 /// The largest stride the accumulator accepts.
 pub const MAX_STRIDE: usize = 64;
+/// Levels that can take a difference at every sample: 0..=log2 MAX_STRIDE.
+const FAST_LEVELS: usize = 7;
+/// The every-sample levels' u64 partial sums are folded into u128 every 2^16 samples.
+const FLUSH_LOG2: u32 = 16;
 /// log2 of the bound on any level's sum of squares after 2^40 samples with the largest stride:
 /// `2^40 * 64 * 2^31 * 65535^2 < 2^109`, well inside the `u128` sum.
 pub const SUM_SQ_BOUND_LOG2: u32 = 40 + 6 + 31 + 32;
@@ -98,8 +102,11 @@ pub struct OctaveAllan<const S: usize> {
     low_ring: [[[u32; S]; 2]; LOW_LEVELS],
     /// The same for levels 16..32, modulo 2^64.
     high_ring: [[[u64; S]; 2]; LEVELS - LOW_LEVELS],
-    /// Per level: the exact sum of the squared second differences.
+    /// Per level: the exact sum of the squared second differences (for levels 0..=log2 S, less `fast`).
     sum_sq: [u128; LEVELS],
+    /// Partial sums of the every-sample levels 0..=log2 S, folded into `sum_sq` every 2^FLUSH_LOG2 samples.
+    /// Bound: at most 2^16 terms of D^2 < (2^6 * 65535)^2 < 2^44 each, so < 2^60.
+    fast: [u64; FAST_LEVELS],
 }
 
 impl<const S: usize> Default for OctaveAllan<S> {
@@ -124,6 +131,7 @@ impl<const S: usize> OctaveAllan<S> {
             low_ring: [[[0; S]; 2]; LOW_LEVELS],
             high_ring: [[[0; S]; 2]; LEVELS - LOW_LEVELS],
             sum_sq: [0; LEVELS],
+            fast: [0; FAST_LEVELS],
         }
     }
 
@@ -162,29 +170,47 @@ impl<const S: usize> OctaveAllan<S> {
     /// Push one ADC code: integer work only.
     #[inline]
     pub fn push(&mut self, code: u16) {
-        self.count += 1;
-        let t = self.count;
-        self.phase = self.phase.wrapping_add(u64::from(code));
-        let x = self.phase;
+        let t = self.count + 1;
+        self.count = t;
+        let x = self.phase.wrapping_add(u64::from(code));
+        self.phase = x;
         let x32 = x as u32;
         let shift = Self::SHIFT as usize;
 
-        // Levels below log2 S: m = 2^k < S, fully overlapping; their phases are in the ring of level log2 S,
-        // which holds x_{t-1} .. x_{t-2S} before this sample is stored.
-        let base = &self.low_ring[shift];
+        // Levels 0..=log2 S take a difference at every sample (m <= S: fully overlapping). They all read the
+        // ring of level log2 S, which holds x_{t-1} .. x_{t-2S} before x_t is stored. Their squares go to u64
+        // partial sums, folded into the u128 sums every 2^FLUSH_LOG2 samples (see `fast`).
+        let ring = &mut self.low_ring[shift];
         for k in 0..shift {
             let m = 1u64 << k;
             if t >= 2 * m {
-                let mid = ring_get(base, (t - m) & Self::RING_MASK, shift);
-                let old = ring_get(base, (t - 2 * m) & Self::RING_MASK, shift);
-                let d = x32.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old) as i32;
-                self.sum_sq[k] += u128::from((i64::from(d) * i64::from(d)) as u64);
+                let mid = ring_get(ring, (t - m) & Self::RING_MASK, shift);
+                let old = ring_get(ring, (t - 2 * m) & Self::RING_MASK, shift);
+                self.fast[k] += square32(x32.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old));
             }
         }
+        let half = ((t >> shift) & 1) as usize;
+        let i = (t & (S as u64 - 1)) as usize;
+        let old = ring[half][i];
+        let mid = ring[half ^ 1][i];
+        if t >= 2 * S as u64 {
+            self.fast[shift] += square32(x32.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old));
+        }
+        ring[half][i] = x32;
 
-        // Levels log2 S and up: level k takes a phase every d = 2^(k - log2 S) samples.
+        if t & 1 == 0 {
+            self.push_upper(t, x);
+        }
+    }
+
+    /// Levels above log2 S: level k takes a phase every d = 2^(k - log2 S) samples, so this runs for every
+    /// second sample and, amortised, touches one level per sample.
+    #[inline]
+    fn push_upper(&mut self, t: u64, x: u64) {
+        let shift = Self::SHIFT as usize;
+        let x32 = x as u32;
         let top = (shift + t.trailing_zeros() as usize).min(LEVELS - 1);
-        for k in shift..=top {
+        for k in shift + 1..=top {
             let j = t >> (k - shift); // index of this phase in the level's own step
             let half = ((j >> shift) & 1) as usize;
             let i = (j & (S as u64 - 1)) as usize;
@@ -194,8 +220,8 @@ impl<const S: usize> OctaveAllan<S> {
                 let old = ring[half][i]; // x_{t - 2m}
                 let mid = ring[half ^ 1][i]; // x_{t - m}
                 if counted {
-                    let d = x32.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old) as i32;
-                    self.sum_sq[k] += u128::from((i64::from(d) * i64::from(d)) as u64);
+                    let d2 = square32(x32.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old));
+                    self.sum_sq[k] += u128::from(d2);
                 }
                 ring[half][i] = x32;
             } else {
@@ -210,6 +236,16 @@ impl<const S: usize> OctaveAllan<S> {
                 ring[half][i] = x;
             }
         }
+        if t & ((1 << FLUSH_LOG2) - 1) == 0 {
+            self.flush_fast();
+        }
+    }
+
+    /// Fold the u64 partial sums of the every-sample levels into their u128 sums.
+    fn flush_fast(&mut self) {
+        for k in 0..=Self::SHIFT as usize {
+            self.sum_sq[k] += u128::from(core::mem::take(&mut self.fast[k]));
+        }
     }
 
     /// Number of second differences taken so far at `level` (cluster size m = 2^level).
@@ -219,17 +255,24 @@ impl<const S: usize> OctaveAllan<S> {
 
     /// The exact sum of squared second differences at `level`, in codes^2 (times m^2).
     pub fn sum_sq(&self, level: usize) -> u128 {
-        self.sum_sq[level]
+        self.sum_sq[level] + self.fast.get(level).map_or(0, |&f| u128::from(f))
     }
 
     /// A copy of the counts and sums: what the device sends and the host compares.
     pub fn snapshot(&self) -> Snapshot {
         let mut levels = [LevelSum::default(); LEVELS];
         for (k, l) in levels.iter_mut().enumerate() {
-            *l = LevelSum { n: self.pairs(k), sum_sq: self.sum_sq[k] };
+            *l = LevelSum { n: self.pairs(k), sum_sq: self.sum_sq(k) };
         }
         Snapshot { stride: S as u8, samples: self.count, levels }
     }
+}
+
+/// The square of a second difference known to fit `i32` (computed modulo 2^32), exactly, as u64.
+#[inline(always)]
+fn square32(d: u32) -> u64 {
+    let d = i64::from(d as i32);
+    (d * d) as u64
 }
 
 #[inline(always)]
@@ -403,6 +446,7 @@ mod tests {
             let codes: Vec<u16> = (0..len).map(|i| if (i / hp) % 2 == 0 { 65535 } else { 0 }).collect();
             check_all::<1>(&codes);
             check_all::<8>(&codes);
+            check_all::<64>(&codes);
         }
     }
 
