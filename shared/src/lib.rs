@@ -15,6 +15,8 @@
 #![deny(missing_docs)]
 
 pub mod acc;
+pub mod estimate;
+pub mod fieldlog;
 pub mod proto;
 pub mod sensor;
 pub mod sim;
