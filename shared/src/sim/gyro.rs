@@ -1,0 +1,347 @@
+//! One virtual gyro channel: the model's terms summed sample by sample, then the ADC.
+//!
+//! Order within a sample: bias + white (N, plus the flicker bank's completion) + flicker + random walk + ramp +
+//! Gauss-Markov + sinusoids + temperature coupling + bias steps; that sum goes through the sensor's first-order
+//! bandwidth; outliers are added after the filter; the result is the analog rate at the ADC
+//! ([`Sample::rate_dps`]), which the [`Quantizer`] turns into a code.
+
+use super::adc::Quantizer;
+use super::effects::{Sinusoids, Spikes, Steps};
+use super::flicker::FlickerBank;
+use super::model::GyroSim;
+use super::noise::{GaussMarkov, LowPass, RandomWalk};
+use super::rng::SimRng;
+use super::temperature::ThermalLag;
+use crate::sensor::Channel;
+
+/// Why a model cannot be simulated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SimError {
+    /// The sample rate is not a positive finite number.
+    InvalidSampleRate,
+    /// A model parameter is out of its range (negative sd, zero period, probability above 1, not finite, ...);
+    /// the field is named.
+    InvalidParameter(&'static str),
+    /// A bench channel names a temperature sensor as its gyro.
+    NotAGyro,
+}
+
+impl core::fmt::Display for SimError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SimError::InvalidSampleRate => {
+                f.write_str("sample rate must be a positive finite number of Hz")
+            }
+            SimError::InvalidParameter(field) => {
+                write!(f, "model parameter `{field}` is out of range")
+            }
+            SimError::NotAGyro => {
+                f.write_str("a bench channel must be a gyro, not a temperature sensor")
+            }
+        }
+    }
+}
+
+impl core::error::Error for SimError {}
+
+/// One simulated sample of a channel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// The analog rate at the ADC (every term and effect, before quantisation and clipping), deg/s.
+    pub rate_dps: f64,
+    /// The ADC code.
+    pub code: u16,
+    /// The rate fell outside the ADC's range: the code sits at a rail.
+    pub clipped: bool,
+}
+
+/// A deterministic virtual gyro + ADC for one channel, in constant memory (see `size_of` in the tests).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VirtualGyro {
+    rng: SimRng,
+    n: u64,
+    bias: f64,
+    white_sigma: f64,
+    ramp_step: f64,
+    flicker: Option<FlickerBank>,
+    rw: Option<RandomWalk>,
+    gm: Option<GaussMarkov>,
+    sines: Sinusoids,
+    temp: Option<ThermalLag>,
+    steps: Option<Steps>,
+    spikes: Option<Spikes>,
+    lowpass: Option<LowPass>,
+    adc: Quantizer,
+    clipped: u64,
+}
+
+fn check(ok: bool, field: &'static str) -> Result<(), SimError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(SimError::InvalidParameter(field))
+    }
+}
+
+fn nonneg(x: f64, field: &'static str) -> Result<(), SimError> {
+    check(x.is_finite() && x >= 0.0, field)
+}
+
+fn positive(x: f64, field: &'static str) -> Result<(), SimError> {
+    check(x.is_finite() && x > 0.0, field)
+}
+
+impl GyroSim {
+    /// Check every parameter's range.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming the first bad field.
+    pub fn validate(&self) -> Result<(), SimError> {
+        check(self.bias_dps.is_finite(), "bias_dps")?;
+        nonneg(self.n_deg_per_rt_s, "n_deg_per_rt_s")?;
+        nonneg(self.b_dps, "b_dps")?;
+        nonneg(self.k_dps_per_rt_s, "k_dps_per_rt_s")?;
+        check(self.r_dps_per_s.is_finite(), "r_dps_per_s")?;
+        if let Some(g) = &self.gauss_markov {
+            nonneg(g.sigma_dps, "gauss_markov.sigma_dps")?;
+            positive(g.tau_s, "gauss_markov.tau_s")?;
+        }
+        if let Some(f) = self.bandwidth_hz {
+            positive(f, "bandwidth_hz")?;
+        }
+        for s in &self.sinusoids {
+            check(
+                s.amplitude_dps.is_finite() && s.phase_rad.is_finite(),
+                "sinusoids.amplitude_dps",
+            )?;
+            positive(s.period_s, "sinusoids.period_s")?;
+        }
+        if let Some(t) = &self.temperature {
+            check(
+                t.dps_per_c.is_finite() && t.ref_c.is_finite(),
+                "temperature.dps_per_c",
+            )?;
+            nonneg(t.lag_s, "temperature.lag_s")?;
+        }
+        if let Some(b) = &self.bias_steps {
+            nonneg(b.per_hour, "bias_steps.per_hour")?;
+            nonneg(b.sigma_dps, "bias_steps.sigma_dps")?;
+        }
+        if let Some(o) = &self.outliers {
+            check(
+                o.per_sample.is_finite() && (0.0..=1.0).contains(&o.per_sample),
+                "outliers.per_sample",
+            )?;
+            check(
+                o.size_dps.is_finite() && o.size_sigma.is_finite(),
+                "outliers.size_dps",
+            )?;
+        }
+        Ok(())
+    }
+}
+
+impl VirtualGyro {
+    /// A virtual gyro for `model` on `channel`, sampled at `fs_hz`, random stream `seed`.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidSampleRate`] or [`SimError::InvalidParameter`].
+    pub fn new(model: &GyroSim, channel: Channel, fs_hz: f64, seed: u64) -> Result<Self, SimError> {
+        if !(fs_hz.is_finite() && fs_hz > 0.0) {
+            return Err(SimError::InvalidSampleRate);
+        }
+        model.validate()?;
+        let tau0 = 1.0 / fs_hz;
+        let mut rng = SimRng::new(seed);
+        let n_sigma = model.n_deg_per_rt_s * libm::sqrt(fs_hz);
+        let flicker = (model.b_dps > 0.0).then(|| FlickerBank::new(model.b_dps, &mut rng));
+        let white_var =
+            n_sigma * n_sigma + flicker.as_ref().map_or(0.0, FlickerBank::completion_var);
+        let gm = model
+            .gauss_markov
+            .filter(|g| g.sigma_dps > 0.0)
+            .map(|g| GaussMarkov::new(g.sigma_dps, g.tau_s, tau0, &mut rng));
+        let steps = model
+            .bias_steps
+            .filter(|b| b.per_hour > 0.0)
+            .map(|b| Steps::new(&b, fs_hz, &mut rng));
+        let spikes = model
+            .outliers
+            .filter(|o| o.per_sample > 0.0)
+            .map(|o| Spikes::new(&o, n_sigma, &mut rng));
+        Ok(VirtualGyro {
+            n: 0,
+            bias: model.bias_dps,
+            white_sigma: libm::sqrt(white_var),
+            ramp_step: model.r_dps_per_s * tau0,
+            flicker,
+            rw: (model.k_dps_per_rt_s > 0.0).then(|| RandomWalk::new(model.k_dps_per_rt_s, tau0)),
+            gm,
+            sines: Sinusoids::new(&model.sinusoids, tau0),
+            temp: model.temperature.map(|t| ThermalLag::new(&t, tau0)),
+            steps,
+            spikes,
+            lowpass: model.bandwidth_hz.map(|f| LowPass::new(f, fs_hz)),
+            adc: Quantizer::new(&channel),
+            clipped: 0,
+            rng,
+        })
+    }
+
+    /// The next analog rate in deg/s, without the ADC (the noise-only path): `temp_c` is the bench
+    /// temperature at this sample (ignored without temperature coupling).
+    #[inline]
+    pub fn next_rate(&mut self, temp_c: f64) -> f64 {
+        let n = self.n;
+        self.n += 1;
+        let rng = &mut self.rng;
+        let mut r = self.bias;
+        if self.white_sigma != 0.0 {
+            r += self.white_sigma * rng.normal();
+        }
+        if let Some(f) = &mut self.flicker {
+            r += f.next(n, rng);
+        }
+        if let Some(w) = &mut self.rw {
+            r += w.next(rng);
+        }
+        if self.ramp_step != 0.0 {
+            r += self.ramp_step * n as f64;
+        }
+        if let Some(g) = &mut self.gm {
+            r += g.next(rng);
+        }
+        if !self.sines.is_empty() {
+            r += self.sines.next(n);
+        }
+        if let Some(t) = &mut self.temp {
+            r += t.next(temp_c);
+        }
+        if let Some(s) = &mut self.steps {
+            r += s.next(rng);
+        }
+        if let Some(lp) = &mut self.lowpass {
+            r = lp.next(r);
+        }
+        if let Some(s) = &mut self.spikes {
+            r += s.next(rng);
+        }
+        r
+    }
+
+    /// The next sample: analog rate, ADC code and clipping.
+    #[inline]
+    pub fn next(&mut self, temp_c: f64) -> Sample {
+        let rate_dps = self.next_rate(temp_c);
+        let (code, clipped) = self.adc.quantize(rate_dps);
+        self.clipped += u64::from(clipped);
+        Sample {
+            rate_dps,
+            code,
+            clipped,
+        }
+    }
+
+    /// Fill `codes` with consecutive ADC codes at a constant temperature.
+    pub fn fill_codes(&mut self, temp_c: f64, codes: &mut [u16]) {
+        for c in codes {
+            *c = self.next(temp_c).code;
+        }
+    }
+
+    /// Samples produced so far.
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    /// Samples that clipped at the ADC so far.
+    pub fn clipped_count(&self) -> u64 {
+        self.clipped
+    }
+
+    /// Bias steps taken so far.
+    pub fn step_count(&self) -> u64 {
+        self.steps.as_ref().map_or(0, Steps::count)
+    }
+
+    /// Outliers injected so far.
+    pub fn outlier_count(&self) -> u64 {
+        self.spikes.as_ref().map_or(0, Spikes::count)
+    }
+
+    /// The per-sample sd of the white Gaussian actually drawn (N sqrt(fs), plus the flicker bank's completion),
+    /// deg/s.
+    pub fn white_sigma_dps(&self) -> f64 {
+        self.white_sigma
+    }
+
+    /// The channel's ADC map.
+    pub fn quantizer(&self) -> &Quantizer {
+        &self.adc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensor::{ADXRS300, IDG1215_X};
+
+    #[test]
+    fn rejects_bad_parameters() {
+        let ch = Channel::bench(ADXRS300);
+        assert_eq!(
+            VirtualGyro::new(&GyroSim::default(), ch, 0.0, 1).unwrap_err(),
+            SimError::InvalidSampleRate
+        );
+        let m = GyroSim {
+            n_deg_per_rt_s: -1.0,
+            ..Default::default()
+        };
+        assert_eq!(
+            VirtualGyro::new(&m, ch, 100.0, 1).unwrap_err(),
+            SimError::InvalidParameter("n_deg_per_rt_s")
+        );
+        let m = GyroSim {
+            bandwidth_hz: Some(f64::NAN),
+            ..Default::default()
+        };
+        assert!(VirtualGyro::new(&m, ch, 100.0, 1).is_err());
+    }
+
+    #[test]
+    fn constant_bias_gives_a_constant_code() {
+        let ch = Channel::bench(IDG1215_X);
+        let m = GyroSim {
+            bias_dps: 1.25,
+            ..Default::default()
+        };
+        let mut g = VirtualGyro::new(&m, ch, 100.0, 1).unwrap();
+        let want = ch.dps_to_code(1.25);
+        for _ in 0..100 {
+            let s = g.next(25.0);
+            assert_eq!((s.rate_dps, s.code, s.clipped), (1.25, want, false));
+        }
+    }
+
+    #[test]
+    fn clipping_is_counted() {
+        let ch = Channel::bench(IDG1215_X);
+        let m = GyroSim {
+            bias_dps: 500.0,
+            ..Default::default()
+        };
+        let mut g = VirtualGyro::new(&m, ch, 100.0, 1).unwrap();
+        let s = g.next(25.0);
+        assert_eq!((s.code, s.clipped), (4095, true));
+        let m = GyroSim {
+            bias_dps: -500.0,
+            ..Default::default()
+        };
+        let mut g = VirtualGyro::new(&m, ch, 100.0, 1).unwrap();
+        for _ in 0..9 {
+            assert_eq!(g.next(25.0).code, 0);
+        }
+        assert_eq!(g.clipped_count(), 9);
+    }
+}

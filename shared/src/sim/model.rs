@@ -1,0 +1,200 @@
+//! The simulation model: what a `model.toml` holds, per gyro channel and for the bench.
+//!
+//! Every term defaults to absent (zero or `None`), so a model file names only what it uses. Units are in the
+//! field names: `n_deg_per_rt_s` is deg/sqrt(s), `b_dps` deg/s, `k_dps_per_rt_s` deg/s/sqrt(s),
+//! `r_dps_per_s` deg/s^2.
+//!
+//! ```toml
+//! fs_hz = 2000.0
+//! seed = 42
+//!
+//! [temperature]          # one profile shared by every channel
+//! min_c = 22.0
+//! max_c = 25.0
+//! period_s = 86400.0
+//! wander = { sigma_c = 0.1, tau_s = 1800.0 }
+//!
+//! [[channels]]
+//! sensor = "Adxrs300"    # the bench wiring of that part (sensor::Channel::bench)
+//! [channels.gyro]
+//! bias_dps = 0.2
+//! n_deg_per_rt_s = 0.046
+//! b_dps = 0.026
+//! bandwidth_hz = 40.0
+//! temperature = { dps_per_c = 0.01, lag_s = 600.0 }
+//! [[channels.gyro.sinusoids]]
+//! amplitude_dps = 0.05
+//! period_s = 0.02
+//! ```
+
+use serde::{Deserialize, Serialize};
+
+use crate::sensor::{Channel, SensorKind};
+
+/// Most sinusoids one channel carries.
+pub const MAX_SINUSOIDS: usize = 4;
+/// Most channels one bench drives.
+pub const MAX_CHANNELS: usize = 8;
+
+/// The noise terms and effects of one gyro channel, in deg/s units.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GyroSim {
+    /// Constant bias, deg/s.
+    pub bias_dps: f64,
+    /// White rate noise (angle random walk) N, deg/sqrt(s): per-sample sd `N sqrt(fs)`.
+    pub n_deg_per_rt_s: f64,
+    /// Flicker (bias instability) B, deg/s: Allan deviation floor 0.6643 B.
+    pub b_dps: f64,
+    /// Rate random walk K, deg/s/sqrt(s).
+    pub k_dps_per_rt_s: f64,
+    /// Rate ramp R, deg/s^2.
+    pub r_dps_per_s: f64,
+    /// A Gauss-Markov (exponentially correlated) rate noise.
+    pub gauss_markov: Option<GaussMarkovSim>,
+    /// The sensor's first-order output bandwidth (-3 dB), Hz; applied to the sum of all rate terms.
+    pub bandwidth_hz: Option<f64>,
+    /// Sinusoids on the rate (vibration, supply ripple).
+    pub sinusoids: heapless::Vec<Sinusoid, MAX_SINUSOIDS>,
+    /// Temperature sensitivity of the bias.
+    pub temperature: Option<TempCoupling>,
+    /// Random bias steps.
+    pub bias_steps: Option<BiasSteps>,
+    /// Outliers (spikes after the sensor's filter, before the ADC).
+    pub outliers: Option<Outliers>,
+}
+
+/// Gauss-Markov rate noise: stationary sd and correlation time.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaussMarkovSim {
+    /// Stationary standard deviation, deg/s.
+    pub sigma_dps: f64,
+    /// Correlation time T, s.
+    pub tau_s: f64,
+}
+
+/// A sinusoid on the rate: `amplitude_dps * sin(2 pi t / period_s + phase_rad)`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sinusoid {
+    /// Amplitude, deg/s.
+    pub amplitude_dps: f64,
+    /// Period, s.
+    pub period_s: f64,
+    /// Phase at t = 0, rad.
+    #[serde(default)]
+    pub phase_rad: f64,
+}
+
+/// Bias temperature coupling: `bias += dps_per_c * (T_lag - ref_c)`, where `T_lag` follows the temperature
+/// through a first-order lag of time constant `lag_s` (the sensor's thermal mass).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TempCoupling {
+    /// Coefficient, deg/s per degC.
+    pub dps_per_c: f64,
+    /// Temperature of zero added bias, degC.
+    #[serde(default = "default_ref_c")]
+    pub ref_c: f64,
+    /// Thermal time constant, s (0: no lag).
+    #[serde(default)]
+    pub lag_s: f64,
+}
+
+fn default_ref_c() -> f64 {
+    25.0
+}
+
+/// Random bias steps.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BiasSteps {
+    /// Mean number of steps per hour.
+    pub per_hour: f64,
+    /// Standard deviation of one step, deg/s.
+    pub sigma_dps: f64,
+}
+
+/// Outliers: spikes of size `size_dps + size_sigma * N sqrt(fs)` with a random sign.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Outliers {
+    /// Probability that a sample carries a spike.
+    pub per_sample: f64,
+    /// Size in deg/s.
+    #[serde(default)]
+    pub size_dps: f64,
+    /// Size in units of the white noise's per-sample sd.
+    #[serde(default)]
+    pub size_sigma: f64,
+}
+
+/// The bench temperature: a sinusoidal cycle between `min_c` and `max_c` plus an optional slow wander.
+/// `T(t) = mid + half * sin(2 pi t / period_s + phase_rad) + wander(t)`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TemperatureProfile {
+    /// Lowest temperature of the cycle, degC.
+    pub min_c: f64,
+    /// Highest temperature of the cycle, degC.
+    pub max_c: f64,
+    /// Cycle period, s (a day by default).
+    pub period_s: f64,
+    /// Phase at t = 0, rad.
+    pub phase_rad: f64,
+    /// A slow Gauss-Markov wander on top.
+    pub wander: Option<Wander>,
+}
+
+impl Default for TemperatureProfile {
+    fn default() -> Self {
+        TemperatureProfile {
+            min_c: 25.0,
+            max_c: 25.0,
+            period_s: 86_400.0,
+            phase_rad: 0.0,
+            wander: None,
+        }
+    }
+}
+
+/// A Gauss-Markov temperature wander.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wander {
+    /// Stationary sd, degC.
+    pub sigma_c: f64,
+    /// Correlation time, s.
+    pub tau_s: f64,
+}
+
+/// One channel of a simulated bench: which part (wired as on octavar's bench, or fully described) and its noise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelSim {
+    /// The part; its bench wiring comes from [`Channel::bench`] unless `channel` is given.
+    pub sensor: SensorKind,
+    /// A full channel description that overrides the bench wiring.
+    #[serde(default)]
+    pub channel: Option<Channel>,
+    /// The noise model.
+    #[serde(default)]
+    pub gyro: GyroSim,
+}
+
+/// A simulated bench: channels sampled together at one rate, one shared temperature.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BenchSim {
+    /// Sample rate per channel, Hz.
+    pub fs_hz: f64,
+    /// Seed of the whole run.
+    #[serde(default)]
+    pub seed: u64,
+    /// The temperature profile.
+    #[serde(default)]
+    pub temperature: TemperatureProfile,
+    /// The channels, in ADC scan order.
+    pub channels: heapless::Vec<ChannelSim, MAX_CHANNELS>,
+}
