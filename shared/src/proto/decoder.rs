@@ -35,6 +35,7 @@ use super::{framing::crc32, CRC_LEN, MAX_FRAME, SEQ_LEN};
 
 /// A frame that passed every check.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Received<M> {
     /// Its sequence number.
     pub seq: u32,

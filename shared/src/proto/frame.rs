@@ -31,6 +31,21 @@ pub enum Frame {
     FieldLogEnd(FieldLogEnd),
 }
 
+impl Frame {
+    /// The variant's name, for logs and per-kind counts.
+    pub const fn name(&self) -> &'static str {
+        match self {
+            Frame::Hello(_) => "hello",
+            Frame::Samples(_) => "samples",
+            Frame::AllanSnapshot(_) => "allan-snapshot",
+            Frame::Status(_) => "status",
+            Frame::Estimate(_) => "estimate",
+            Frame::FieldLog(_) => "field-log",
+            Frame::FieldLogEnd(_) => "field-log-end",
+        }
+    }
+}
+
 /// The device introduces itself.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -162,6 +162,24 @@ mod tests {
         assert_eq!(encode_frame(0, &fits[..], &mut out[..n]), Ok(n));
     }
 
+    /// Bodies of every length, with and without zero bytes, across COBS's 254-byte group boundaries.
+    #[test]
+    fn every_body_length_round_trips() {
+        use crate::proto::{Decoder, Received};
+        type Bytes = heapless::Vec<u8, MAX_BODY>;
+        let mut out = [0u8; MAX_FRAME];
+        for len in 0..=MAX_BODY - 2 {
+            for fill in [|i: usize| (i % 255 + 1) as u8, |i: usize| (i % 7) as u8, |_| 0] {
+                let body: Bytes = (0..len).map(fill).collect();
+                let n = encode_frame(len as u32, &body, &mut out).unwrap();
+                assert!(n <= MAX_FRAME);
+                let mut dec = Decoder::<Bytes>::new();
+                let got: std::vec::Vec<_> = dec.feed(&out[..n]).collect();
+                assert_eq!(got, [Ok(Received { seq: len as u32, lost: 0, msg: body })], "{len}");
+            }
+        }
+    }
+
     #[test]
     fn encoder_counts_and_wraps() {
         let mut e = Encoder::starting_at(u32::MAX);

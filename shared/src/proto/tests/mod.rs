@@ -143,7 +143,7 @@ impl XorShift {
     }
     /// Uniform in `0..n` (n > 0).
     pub(super) fn below(&mut self, n: usize) -> usize {
-        ((self.next_u64() >> 32) * n as u64 >> 32) as usize
+        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
     }
     pub(super) fn byte(&mut self) -> u8 {
         (self.next_u64() >> 56) as u8
