@@ -5,4 +5,5 @@
 
 pub mod accumulate;
 pub mod input;
+pub mod simulate;
 pub mod stats;

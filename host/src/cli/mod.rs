@@ -5,6 +5,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub mod accumulate;
+pub mod progress;
+pub mod simulate;
 
 /// octavar: how good is this gyroscope? Allan variance, noise terms, simulation and the sim-to-real gap.
 #[derive(Debug, Parser)]
@@ -18,12 +20,15 @@ pub struct Cli {
 pub enum Command {
     /// Run the exact octave Allan accumulator over integer ADC codes and print every octave.
     Accumulate(accumulate::Args),
+    /// Simulate a gyro bench from a model (flags or model.toml): CSV of rates in deg/s, or raw ADC codes.
+    Simulate(simulate::Args),
 }
 
 impl Command {
     pub fn run(self) -> anyhow::Result<ExitCode> {
         match self {
             Command::Accumulate(a) => a.run(),
+            Command::Simulate(a) => a.run(),
         }
     }
 }
