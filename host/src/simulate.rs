@@ -188,7 +188,7 @@ pub fn simulate<W: Write>(
     }
     let mut clipped = vec![0u64; names.len()];
     for i in 0..total {
-        let s = bench.next();
+        let s = bench.next_sample();
         for (c, &clip) in clipped.iter_mut().zip(&s.clipped[..s.len]) {
             *c += u64::from(clip);
         }

@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 /// Which part a channel carries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[serde(rename_all = "snake_case")]
 pub enum SensorKind {
     /// InvenSense IDG-1215, X output.
     Idg1215X,

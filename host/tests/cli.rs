@@ -1,0 +1,133 @@
+//! The `octavar` command from the outside: exit codes, error messages that locate the fault, pipelines.
+
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
+
+fn octavar(args: &[&str], stdin: Option<&[u8]>) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_octavar"))
+        .args(args)
+        .stdin(if stdin.is_some() { Stdio::piped() } else { Stdio::null() })
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run octavar");
+    if let Some(bytes) = stdin {
+        child.stdin.take().unwrap().write_all(bytes).unwrap();
+    }
+    child.wait_with_output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn accumulate_rejects_bad_codes_with_the_line() {
+    let o = octavar(&["accumulate", "-"], Some(b"100\n101\n1.5\n"));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("stdin, line 3: \"1.5\" is not an integer code"), "{}", stderr(&o));
+
+    let o = octavar(&["accumulate", "-"], Some(b"100\n65536\n"));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("line 2") && stderr(&o).contains("outside 0..=65535"), "{}", stderr(&o));
+
+    let o = octavar(&["accumulate", "-"], Some(b""));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no samples"), "{}", stderr(&o));
+
+    let o = octavar(&["accumulate", "/nonexistent/codes.txt"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("/nonexistent/codes.txt"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
+}
+
+#[test]
+fn accumulate_json_has_the_documented_keys_and_reproduces_nbs14() {
+    // The NBS-14 10-point set (integers, tau0 = 1 s). Published (NIST SP 1065 p. 107): ADEV(1) = 91.22945,
+    // ADEV(2) = 115.8082, OADEV(2) = 85.95287. Stride 1 is ADEV; stride 2 is fully overlapping at m <= 2.
+    let data = b"892\n809\n823\n798\n671\n644\n883\n903\n677\n";
+    let run = |stride: &str| {
+        let o = octavar(&["accumulate", "-", "--json", "--rate", "1", "--stride", stride], Some(data));
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let adev = run("1");
+    let first = &adev["octaves"][0];
+    for key in ["m", "tau_s", "n", "sum_sq", "avar", "adev"] {
+        assert!(first.get(key).is_some(), "missing {key}");
+    }
+    // Differences -83 14 -25 -127 -27 239 20 -226: an exact integer sum, printed as a decimal string.
+    assert_eq!(first["sum_sq"], "133165");
+    assert_eq!(first["n"], 8);
+    let close = |v: &serde_json::Value, published: f64| (v.as_f64().unwrap() / published - 1.0).abs() < 1e-6;
+    assert!(close(&first["adev"], 91.22945), "{}", first["adev"]);
+    assert!(close(&adev["octaves"][1]["adev"], 115.8082), "{}", adev["octaves"][1]["adev"]);
+    let oadev = run("2");
+    assert!(close(&oadev["octaves"][1]["adev"], 85.95287), "{}", oadev["octaves"][1]["adev"]);
+    assert_eq!(oadev["octaves"][1]["n"], 6);
+}
+
+#[test]
+fn simulate_is_deterministic_and_pipes_into_accumulate() {
+    let args = ["simulate", "--sensor", "adxrs300", "--n", "0.046", "--duration", "20s", "--seed", "5", "--codes"];
+    let a = octavar(&args, None);
+    let b = octavar(&args, None);
+    assert!(a.status.success(), "{}", stderr(&a));
+    assert_eq!(a.stdout, b.stdout, "same seed, same codes");
+    let c = octavar(&["simulate", "--sensor", "adxrs300", "--n", "0.046", "--duration", "20s", "--seed", "6", "--codes"], None);
+    assert_ne!(a.stdout, c.stdout, "another seed, other codes");
+    assert_eq!(a.stdout.iter().filter(|&&ch| ch == b'\n').count(), 40_000);
+
+    let acc = octavar(&["accumulate", "-", "--json"], Some(&a.stdout));
+    assert!(acc.status.success(), "{}", stderr(&acc));
+    let v: serde_json::Value = serde_json::from_slice(&acc.stdout).unwrap();
+    // White rate noise: AVAR(m = 1) in codes^2 is the per-sample variance, N^2 fs / (deg/s per code)^2.
+    let ch = octavar_shared::sensor::Channel::bench(octavar_shared::sensor::ADXRS300);
+    let sigma_codes = 0.046 * 2000f64.sqrt() / ch.dps_per_code();
+    let avar0 = v["octaves"][0]["avar"].as_f64().unwrap();
+    let expected = sigma_codes * sigma_codes + 1.0 / 12.0; // plus the quantisation's own variance
+    assert!((avar0 / expected - 1.0).abs() < 0.05, "avar(m=1) {avar0} vs {expected}");
+}
+
+#[test]
+fn simulate_rejects_bad_flags_and_models() {
+    let o = octavar(&["simulate", "--duration", "ten"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("\"ten\""), "{}", stderr(&o));
+
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("model.toml");
+    std::fs::write(&model, "fs_hz = 100.0\n[[channels]]\nsensor = \"adxrs300\"\n[channels.gyro]\nn_deg_per_rt_s = -1.0\n")
+        .unwrap();
+    let o = octavar(&["simulate", "--model", model.to_str().unwrap(), "--duration", "1s"], None);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+
+    std::fs::write(&model, "fs_hz = 100.0\nchannels = [\n").unwrap();
+    let o = octavar(&["simulate", "--model", model.to_str().unwrap()], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("model.toml"), "{}", stderr(&o));
+}
+
+#[test]
+fn simulate_writes_temperature_when_the_model_has_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("model.toml");
+    std::fs::write(
+        &model,
+        "fs_hz = 10.0\nseed = 1\n[temperature]\nmin_c = 22.0\nmax_c = 25.0\nperiod_s = 60.0\n\
+         [[channels]]\nsensor = \"idg1215_y\"\n[channels.gyro]\nn_deg_per_rt_s = 0.003\n\
+         temperature = { dps_per_c = 0.05, lag_s = 5.0 }\n",
+    )
+    .unwrap();
+    let out = dir.path().join("sim.csv");
+    let o = octavar(&["simulate", "--model", model.to_str().unwrap(), "--duration", "60s", "-o", out.to_str().unwrap()], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), "t_s,idg1215_y_dps,temp_c");
+    let temps: Vec<f64> = lines.map(|l| l.split(',').nth(2).unwrap().parse().unwrap()).collect();
+    assert_eq!(temps.len(), 600);
+    let (lo, hi) = temps.iter().fold((f64::MAX, f64::MIN), |(a, b), &t| (a.min(t), b.max(t)));
+    assert!(lo >= 21.99 && hi <= 25.01 && hi - lo > 2.9, "temperature {lo}..{hi}");
+}
