@@ -9,6 +9,7 @@ use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
 use super::{SnapshotPart, MAX_CHANNELS, MAX_CHANNEL_NAME, MAX_CODES, MAX_IDENT, PROTOCOL_VERSION};
+use crate::estimate::NoiseEstimate;
 use crate::sensor::SensorKind;
 
 /// Everything the device sends to the host (the body of a device -> host frame).
@@ -197,26 +198,45 @@ pub struct Estimate {
     pub channels: Vec<ChannelEstimate, MAX_CHANNELS>,
 }
 
-/// N and B of one channel (f32, computed on the device).
+/// N and B of one channel (f32, computed on the device by [`crate::estimate`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ChannelEstimate {
     /// Channel index.
     pub channel: u8,
     /// Angle random walk N, in deg/sqrt(s); `None` until enough data.
-    pub n_deg_per_rt_s: Option<f32>,
+    pub n_dps_per_rt_s: Option<f32>,
     /// Bias instability B (ADEV floor / 0.6643), in deg/s; `None` until the floor is seen.
     pub b_dps: Option<f32>,
+    /// The averaging time B was read at, in s.
+    pub tau_b_s: Option<f32>,
 }
 
-/// One part of a snapshot read back from the field log.
+impl ChannelEstimate {
+    /// The estimate of channel `channel`.
+    pub const fn new(channel: u8, e: &NoiseEstimate) -> Self {
+        ChannelEstimate { channel, n_dps_per_rt_s: e.n_dps_per_rt_s, b_dps: e.b_dps, tau_b_s: e.tau_b_s }
+    }
+
+    /// The estimate without its channel index.
+    pub const fn noise(&self) -> NoiseEstimate {
+        NoiseEstimate { n_dps_per_rt_s: self.n_dps_per_rt_s, b_dps: self.b_dps, tau_b_s: self.tau_b_s }
+    }
+}
+
+/// One part of one channel's snapshot of a checkpoint read back from the field log
+/// ([`crate::fieldlog::Checkpoint`]).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FieldLogRecord {
-    /// Index of the checkpoint in the log (increasing with time).
+    /// The checkpoint's sequence number in the log (increasing with time).
     pub checkpoint: u32,
-    /// Device time the checkpoint was written at, in ms (the store's clock).
-    pub time_ms: u64,
+    /// The sampling time the checkpoint covers, in s, pooled over its sessions (the log keeps no wall clock).
+    pub time_s: u32,
+    /// Power-on sessions pooled in the checkpoint.
+    pub sessions: u32,
+    /// ADC overruns counted over those sessions.
+    pub adc_overruns: u32,
     /// The snapshot part, as [`Frame::AllanSnapshot`] carries it.
     pub part: SnapshotPart,
 }

@@ -116,9 +116,20 @@ sum_of_fields!(Status {
     frames_dropped: u32,
     temperature_c: Option<f32>,
 });
-sum_of_fields!(ChannelEstimate { channel: u8, n_deg_per_rt_s: Option<f32>, b_dps: Option<f32> });
+sum_of_fields!(ChannelEstimate {
+    channel: u8,
+    n_dps_per_rt_s: Option<f32>,
+    b_dps: Option<f32>,
+    tau_b_s: Option<f32>,
+});
 sum_of_fields!(Estimate { samples: u64, channels: Vec<ChannelEstimate, { super::MAX_CHANNELS }> });
-sum_of_fields!(FieldLogRecord { checkpoint: u32, time_ms: u64, part: SnapshotPart });
+sum_of_fields!(FieldLogRecord {
+    checkpoint: u32,
+    time_s: u32,
+    sessions: u32,
+    adc_overruns: u32,
+    part: SnapshotPart,
+});
 sum_of_fields!(FieldLogEnd { checkpoints: u32 });
 
 impl MaxSize for Frame {

@@ -49,8 +49,10 @@ pub(super) fn example_frames() -> Vec<Frame> {
     };
 
     let mut estimate = Estimate { samples: 1 << 30, channels: heapless::Vec::new() };
-    estimate.channels.push(ChannelEstimate { channel: 0, n_deg_per_rt_s: Some(4.0e-4), b_dps: Some(9.5e-4) }).unwrap();
-    estimate.channels.push(ChannelEstimate { channel: 2, n_deg_per_rt_s: Some(0.046), b_dps: None }).unwrap();
+    let env05h = ChannelEstimate { channel: 0, n_dps_per_rt_s: Some(4.0e-4), b_dps: Some(9.5e-4), tau_b_s: Some(64.0) };
+    estimate.channels.push(env05h).unwrap();
+    let adxrs = ChannelEstimate { channel: 2, n_dps_per_rt_s: Some(0.046), b_dps: None, tau_b_s: None };
+    estimate.channels.push(adxrs).unwrap();
 
     vec![
         Frame::Hello(hello),
@@ -64,7 +66,7 @@ pub(super) fn example_frames() -> Vec<Frame> {
             temperature_c: Some(23.5),
         }),
         Frame::Estimate(estimate),
-        Frame::FieldLog(FieldLogRecord { checkpoint: 12, time_ms: 3_600_000, part }),
+        Frame::FieldLog(FieldLogRecord { checkpoint: 12, time_s: 3600, sessions: 2, adc_overruns: 1, part }),
         Frame::FieldLogEnd(FieldLogEnd { checkpoints: 13 }),
     ]
 }
@@ -109,7 +111,12 @@ pub(super) fn worst_frames() -> Vec<Frame> {
     let mut codes = heapless::Vec::new();
     while codes.push(u16::MAX).is_ok() {}
     let mut est = heapless::Vec::new();
-    let e = ChannelEstimate { channel: 255, n_deg_per_rt_s: Some(f32::MAX), b_dps: Some(f32::MIN) };
+    let e = ChannelEstimate {
+        channel: 255,
+        n_dps_per_rt_s: Some(f32::MAX),
+        b_dps: Some(f32::MIN),
+        tau_b_s: Some(f32::MAX),
+    };
     while est.push(e).is_ok() {}
     vec![
         Frame::Hello(hello),
@@ -123,7 +130,13 @@ pub(super) fn worst_frames() -> Vec<Frame> {
             temperature_c: Some(f32::MAX),
         }),
         Frame::Estimate(Estimate { samples: u64::MAX, channels: est }),
-        Frame::FieldLog(FieldLogRecord { checkpoint: u32::MAX, time_ms: u64::MAX, part: worst_part() }),
+        Frame::FieldLog(FieldLogRecord {
+            checkpoint: u32::MAX,
+            time_s: u32::MAX,
+            sessions: u32::MAX,
+            adc_overruns: u32::MAX,
+            part: worst_part(),
+        }),
         Frame::FieldLogEnd(FieldLogEnd { checkpoints: u32::MAX }),
     ]
 }
@@ -187,7 +200,13 @@ pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
             if rng.below(2) == 0 {
                 Frame::AllanSnapshot(part)
             } else {
-                Frame::FieldLog(FieldLogRecord { checkpoint: r(rng, 20) as u32, time_ms: r(rng, 40), part })
+                Frame::FieldLog(FieldLogRecord {
+                    checkpoint: r(rng, 20) as u32,
+                    time_s: r(rng, 32) as u32,
+                    sessions: r(rng, 4) as u32,
+                    adc_overruns: r(rng, 8) as u32,
+                    part,
+                })
             }
         }
         3 => Frame::Status(Status {
@@ -202,8 +221,9 @@ pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
             let channels: heapless::Vec<ChannelEstimate, MAX_CHANNELS> = (0..n)
                 .map(|i| ChannelEstimate {
                     channel: i as u8,
-                    n_deg_per_rt_s: Some(r(rng, 20) as f32 * 1e-6),
+                    n_dps_per_rt_s: Some(r(rng, 20) as f32 * 1e-6),
                     b_dps: (rng.below(3) > 0).then(|| r(rng, 20) as f32 * 1e-6),
+                    tau_b_s: (rng.below(3) > 0).then(|| r(rng, 10) as f32),
                 })
                 .collect();
             Frame::Estimate(Estimate { samples: r(rng, 40), channels })

@@ -38,14 +38,14 @@ fn worst_case_table() {
     assert_eq!(Samples::MAX_SIZE + 1, 494);
     assert_eq!(SnapshotPart::MAX_SIZE + 1, 480);
     assert_eq!(Status::MAX_SIZE + 1, 36);
-    assert_eq!(Estimate::MAX_SIZE + 1, 100);
-    assert_eq!(FieldLogRecord::MAX_SIZE + 1, 495);
+    assert_eq!(Estimate::MAX_SIZE + 1, 140);
+    assert_eq!(FieldLogRecord::MAX_SIZE + 1, 500);
     assert_eq!(FieldLogEnd::MAX_SIZE + 1, 6);
-    assert_eq!(Frame::MAX_SIZE, 495);
+    assert_eq!(Frame::MAX_SIZE, 500);
     assert_eq!(Command::MAX_SIZE, 6);
-    // 495 body + 8 header/CRC = 503 bytes before COBS; COBS adds ceil(503 / 254) = 2; plus the delimiter.
+    // 500 body + 8 sequence/CRC = 508 bytes before COBS; COBS adds ceil(508 / 254) = 2; plus the delimiter.
     let wire = Frame::MAX_SIZE + SEQ_LEN + CRC_LEN;
-    assert_eq!(cobs::max_encoding_length(wire) + 1, 506);
+    assert_eq!(cobs::max_encoding_length(wire) + 1, 511);
     assert!(cobs::max_encoding_length(wire) < MAX_FRAME);
 }
 
@@ -77,7 +77,13 @@ fn full_snapshot_splits_into_two_fitting_frames() {
     for p in &parts {
         let n = encode_to_vec(0, &Frame::AllanSnapshot(p.clone())).unwrap().len();
         assert!(n <= MAX_FRAME, "{n}");
-        let rec = FieldLogRecord { checkpoint: u32::MAX, time_ms: u64::MAX, part: p.clone() };
+        let rec = FieldLogRecord {
+            checkpoint: u32::MAX,
+            time_s: u32::MAX,
+            sessions: u32::MAX,
+            adc_overruns: u32::MAX,
+            part: p.clone(),
+        };
         assert!(encode_to_vec(0, &Frame::FieldLog(rec)).unwrap().len() <= MAX_FRAME);
     }
     assert_eq!(SnapshotPart::join(&parts), Ok((7, snap)));
