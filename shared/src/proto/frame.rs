@@ -168,7 +168,8 @@ impl Samples {
         if slot >= self.channels() {
             return None;
         }
-        self.codes.get(set * self.channels() + slot).copied()
+        let i = set.checked_mul(self.channels())?.checked_add(slot)?;
+        self.codes.get(i).copied()
     }
 }
 
@@ -275,6 +276,7 @@ mod tests {
         assert_eq!(s.sets(), 80);
         assert_eq!(s.code(79, 1), Some(1079));
         assert_eq!(s.code(0, 2), None);
+        assert_eq!(s.code(usize::MAX, 1), None);
         let mut empty = Samples::new(0, 0);
         assert!(empty.push_set(&[]).is_err());
         assert_eq!(empty.sets(), 0);
