@@ -1,4 +1,6 @@
 //! octavar's end-to-end tests, built as one binary (one module per claim area).
 
 mod acc_allantools;
+mod reference_nbs14;
+mod reference_stable32;
 mod util;

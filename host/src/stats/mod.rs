@@ -1,5 +1,23 @@
-//! The Allan deviation family and its confidence intervals.
+//! The Allan deviation family and its confidence intervals, on f64 phase or frequency data.
 //!
-//! - [`edf`]: equivalent degrees of freedom (Greenhall's algorithm and the simple formulas) and chi-square intervals.
+//! - [`series`]: input preparation (frequency to phase, precision, NaN gaps);
+//! - [`taus`]: tau lists (octave, decade, all, N per decade, explicit) with Stable32's stop ratios;
+//! - [`deviation`]: ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, TOTDEV in O(N) per tau;
+//! - [`noise_id`]: power-law noise identification (lag-1 autocorrelation, B1/R(n) fallback);
+//! - [`edf`]: equivalent degrees of freedom (Greenhall's algorithm, SP 1065 formulas) and chi-square intervals;
+//! - [`analysis`]: all of it in one call, one row per tau, like a Stable32 table.
 
+pub mod analysis;
+pub mod deviation;
 pub mod edf;
+pub mod error;
+pub mod noise_id;
+pub mod series;
+pub mod taus;
+
+pub use analysis::{analyze, analyze_series, edf_for, identify, strided_avar_edf, DevPoint, NoiseSpec, Options};
+pub use deviation::{estimate, Estimate, Statistic};
+pub use error::StatsError;
+pub use noise_id::NoiseMethod;
+pub use series::{DataKind, Series};
+pub use taus::TauSpec;

@@ -1,0 +1,196 @@
+//! One call from data to a Stable32-like table: tau list, deviations, noise type, EDF and confidence interval.
+//!
+//! Each row carries what Stable32 prints (AF = m, tau, `#` = n, alpha, min sigma, sigma, max sigma) plus the EDF.
+//! The interval is the chi-square one on the deviation ([`super::edf::confidence_interval`]) with:
+//! - Greenhall's EDF for ADEV (d = 2, F = m, S = 1), OADEV (S = m), MDEV and TDEV (F = 1, S = m), HDEV (d = 3,
+//!   S = 1), OHDEV (d = 3, S = m), with N = the number of phase points;
+//! - NIST SP 1065's TOTDEV formula (Table 11) for TOTDEV.
+//!
+//! The noise type is identified at every m ([`super::noise_id`]): lag-1 autocorrelation with at least 30 points,
+//! else the B1 ratio (with R(n) for PM noise); alpha is limited to the statistic's convergent range (>= -2 for
+//! the Allan family, >= -4 for Hadamard), as the EDF needs `alpha + 2 d > 1`.
+//!
+//! Work per tau is O(N) and taus run in parallel (rayon) unless [`Options::parallel`] is off.
+//!
+//! # Examples
+//! ```
+//! use octavar::stats::{analyze, DataKind, Options, Statistic, TauSpec};
+//! // 1000 samples of a deterministic pseudo-random frequency record (NBS-14's generator).
+//! let mut n: u64 = 1_234_567_890;
+//! let y: Vec<f64> = (0..1000).map(|_| { let v = n as f64 / 2147483647.0; n = n * 16807 % 2147483647; v }).collect();
+//! let rows = analyze(&y, DataKind::Frequency, 1.0, Statistic::Oadev, &TauSpec::Octave, &Options::default()).unwrap();
+//! assert_eq!(rows[0].n, 999);
+//! assert!((rows[0].dev - 0.2922319).abs() < 1e-6);
+//! assert!(rows[0].lo < rows[0].dev && rows[0].dev < rows[0].hi);
+//! ```
+
+use rayon::prelude::*;
+
+use super::deviation::{estimate, Statistic};
+use super::edf::{confidence_interval, greenhall_edf, totdev_edf};
+use super::error::StatsError;
+use super::noise_id::{acf_noise_id, b1_noise_id, NoiseMethod};
+use super::series::{DataKind, Series};
+
+use super::taus::{averaging_factors, TauSpec};
+
+/// How to choose the noise type behind each confidence interval.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoiseSpec {
+    /// Identify it at every tau (lag-1 autocorrelation, B1/R(n) fallback).
+    Auto,
+    /// Use this alpha everywhere (2 white PM ... -4 random run FM).
+    Fixed(i32),
+}
+
+/// Analysis options.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Two-sided confidence of the interval; Stable32's default confidence factor is 0.683.
+    pub confidence: f64,
+    /// Noise type for the EDF.
+    pub noise: NoiseSpec,
+    /// Compute the taus in parallel (rayon).
+    pub parallel: bool,
+    /// Compute noise type, EDF and interval (off: deviations and counts only, fastest).
+    pub intervals: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options { confidence: 0.683, noise: NoiseSpec::Auto, parallel: true, intervals: true }
+    }
+}
+
+/// One row of the result.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DevPoint {
+    /// Averaging factor.
+    pub m: u64,
+    /// tau = m tau0, seconds.
+    pub tau_s: f64,
+    /// Number of terms averaged (Stable32's `#`).
+    pub n: u64,
+    /// The deviation.
+    pub dev: f64,
+    /// Noise type used for the interval (power-law alpha of S_y); 0 when intervals are off.
+    pub alpha: i32,
+    /// How alpha was obtained.
+    pub noise_method: NoiseMethod,
+    /// Equivalent degrees of freedom (NaN when intervals are off or the EDF is undefined).
+    pub edf: f64,
+    /// Lower bound of the interval (NaN when not computed).
+    pub lo: f64,
+    /// Upper bound of the interval (NaN when not computed).
+    pub hi: f64,
+}
+
+/// Analyse `data` (phase or frequency, one sample every `tau0_s` seconds) with statistic `stat` at the taus of
+/// `taus`.
+///
+/// # Errors
+/// See [`Series::new`]; also [`StatsError::BadConfidence`], [`StatsError::BadTau`], and [`StatsError::NoTau`]
+/// when no requested tau can be computed.
+pub fn analyze(
+    data: &[f64],
+    kind: DataKind,
+    tau0_s: f64,
+    stat: Statistic,
+    taus: &TauSpec,
+    opts: &Options,
+) -> Result<Vec<DevPoint>, StatsError> {
+    let series = Series::new(data, kind, tau0_s)?;
+    analyze_series(&series, stat, taus, opts)
+}
+
+/// As [`analyze`], on a prepared [`Series`] (prepare once, analyse several statistics).
+///
+/// # Errors
+/// As [`analyze`].
+pub fn analyze_series(
+    series: &Series,
+    stat: Statistic,
+    taus: &TauSpec,
+    opts: &Options,
+) -> Result<Vec<DevPoint>, StatsError> {
+    if opts.intervals && !(opts.confidence > 0.0 && opts.confidence < 1.0) {
+        return Err(StatsError::BadConfidence(opts.confidence));
+    }
+    let n_phase = series.n_phase();
+    let ms = averaging_factors(taus, stat.stop_ratio(), stat.m_limit(n_phase), n_phase, series.tau0_s())?;
+    let row = |&m: &u64| point(series, stat, m as usize, opts);
+    let rows: Vec<DevPoint> = if opts.parallel {
+        ms.par_iter().filter_map(row).collect()
+    } else {
+        ms.iter().filter_map(row).collect()
+    };
+    if rows.is_empty() {
+        return Err(StatsError::NoTau { n_phase });
+    }
+    Ok(rows)
+}
+
+/// One row at averaging factor m.
+fn point(series: &Series, stat: Statistic, m: usize, opts: &Options) -> Option<DevPoint> {
+    let est = estimate(series, stat, m)?;
+    let mut p = DevPoint {
+        m: m as u64,
+        tau_s: m as f64 * series.tau0_s(),
+        n: est.n as u64,
+        dev: est.dev,
+        alpha: 0,
+        noise_method: NoiseMethod::Default,
+        edf: f64::NAN,
+        lo: f64::NAN,
+        hi: f64::NAN,
+    };
+    if !opts.intervals {
+        return Some(p);
+    }
+    let (alpha, method) = match opts.noise {
+        NoiseSpec::Fixed(a) => (a, NoiseMethod::Fixed),
+        NoiseSpec::Auto => identify(series, stat, m),
+    };
+    p.alpha = alpha;
+    p.noise_method = method;
+    p.edf = edf_for(stat, alpha, m as f64, series.n_phase() as f64);
+    let (lo, hi) = confidence_interval(est.dev, p.edf, opts.confidence);
+    p.lo = lo;
+    p.hi = hi;
+    Some(p)
+}
+
+/// The noise type at averaging factor m for the interval of `stat`, and how it was found.
+pub fn identify(series: &Series, stat: Statistic, m: usize) -> (i32, NoiseMethod) {
+    let d = stat.difference_order();
+    let min_alpha = if d == 3 { -4 } else { -2 };
+    if let Some((a, _)) = acf_noise_id(series, m, d) {
+        return (a.clamp(min_alpha, 2), NoiseMethod::Acf);
+    }
+    let avar_stat = match stat {
+        Statistic::Adev | Statistic::Hdev => Statistic::Adev,
+        _ => Statistic::Oadev,
+    };
+    match b1_noise_id(series, m, avar_stat, min_alpha) {
+        Some(a) => (a.clamp(min_alpha, 2), NoiseMethod::B1),
+        None => (0, NoiseMethod::Default),
+    }
+}
+
+/// The EDF Stable32 uses for `stat` at averaging factor m with `n_phase` phase points and noise type alpha.
+pub fn edf_for(stat: Statistic, alpha: i32, m: f64, n_phase: f64) -> f64 {
+    match stat {
+        Statistic::Adev => greenhall_edf(alpha, 2, m, m, 1.0, n_phase),
+        Statistic::Oadev => greenhall_edf(alpha, 2, m, m, m, n_phase),
+        Statistic::Mdev | Statistic::Tdev => greenhall_edf(alpha, 2, m, 1.0, m, n_phase),
+        Statistic::Hdev => greenhall_edf(alpha, 3, m, m, 1.0, n_phase),
+        Statistic::Ohdev => greenhall_edf(alpha, 3, m, m, m, n_phase),
+        Statistic::Totdev => totdev_edf(alpha, m, n_phase),
+    }
+}
+
+/// EDF of an Allan variance whose clusters start every m/S samples (the octave accumulator's stride S: S = 1
+/// non-overlapping, S = m fully overlapping), from `n_phase` phase points.
+pub fn strided_avar_edf(alpha: i32, m: f64, stride_factor: f64, n_phase: f64) -> f64 {
+    greenhall_edf(alpha, 2, m, m, stride_factor.clamp(1.0, m), n_phase)
+}

@@ -1,0 +1,361 @@
+//! The estimators: ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV and TOTDEV at one averaging factor, in O(N) each.
+//!
+//! Definitions as NIST SP 1065 (W. J. Riley, 2008) and allantools, on N phase points x (see [`super::series`]):
+//! - ADEV (eq. 7) / OADEV (eq. 11): `sum (x[i+2m] - 2x[i+m] + x[i])^2 / (2 n tau^2)`, stride m / stride 1,
+//!   n = floor((N-1)/m) - 1 / N - 2m;
+//! - MDEV (eq. 14): `sum (sum_{i=j}^{j+m-1} x[i+2m] - 2x[i+m] + x[i])^2 / (2 m^2 n tau^2)`, n = N - 3m + 1, with
+//!   the inner sums from double-double prefix sums (O(1) per term); TDEV = tau MDEV / sqrt(3) (eq. 15);
+//! - HDEV (eq. 18) / OHDEV (eq. 20): `sum (x[i+3m] - 3x[i+2m] + 3x[i+m] - x[i])^2 / (6 n tau^2)`, stride m / 1,
+//!   n = floor((N-1)/m) - 2 / N - 3m;
+//! - TOTDEV (eq. 25): OADEV's terms over the record extended at both ends by odd reflection
+//!   (`x*[-j] = 2x[0] - x[j]`, `x*[N-1+j] = 2x[N-1] - x[N-1-j]`), i = 1..N-2, n = N - 2.
+//!
+//! The term counts are Stable32's `#` column. With gaps, terms touching a gap are skipped and n counts the rest.
+
+use super::series::Series;
+
+/// A statistic of the Allan family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Statistic {
+    /// Non-overlapping Allan deviation.
+    Adev,
+    /// Fully overlapping Allan deviation.
+    Oadev,
+    /// Modified Allan deviation.
+    Mdev,
+    /// Time deviation (seconds for phase in seconds): tau MDEV / sqrt(3).
+    Tdev,
+    /// Non-overlapping Hadamard deviation.
+    Hdev,
+    /// Fully overlapping Hadamard deviation.
+    Ohdev,
+    /// Total deviation.
+    Totdev,
+}
+
+impl Statistic {
+    /// Every statistic, in table order.
+    pub const ALL: [Statistic; 7] = [
+        Statistic::Adev,
+        Statistic::Oadev,
+        Statistic::Mdev,
+        Statistic::Tdev,
+        Statistic::Hdev,
+        Statistic::Ohdev,
+        Statistic::Totdev,
+    ];
+
+    /// Upper-case short name as in Stable32 and allantools (ADEV, OADEV, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Statistic::Adev => "ADEV",
+            Statistic::Oadev => "OADEV",
+            Statistic::Mdev => "MDEV",
+            Statistic::Tdev => "TDEV",
+            Statistic::Hdev => "HDEV",
+            Statistic::Ohdev => "OHDEV",
+            Statistic::Totdev => "TOTDEV",
+        }
+    }
+
+    /// Stable32's stop ratio: generated tau lists end at m <= N_freq / ratio (see [`super::taus`]).
+    pub fn stop_ratio(self) -> u64 {
+        match self {
+            Statistic::Adev | Statistic::Hdev => 5,
+            Statistic::Oadev | Statistic::Mdev | Statistic::Tdev | Statistic::Ohdev => 4,
+            Statistic::Totdev => 2,
+        }
+    }
+
+    /// Order of the phase difference: 2 for the Allan family, 3 for Hadamard.
+    pub fn difference_order(self) -> u32 {
+        match self {
+            Statistic::Hdev | Statistic::Ohdev => 3,
+            _ => 2,
+        }
+    }
+
+    /// Number of terms for `n_phase` points at averaging factor m, for a record without gaps (Stable32's `#`).
+    /// 0 when m is too large.
+    pub fn terms(self, n_phase: usize, m: usize) -> usize {
+        let n = n_phase as i64;
+        let mi = m as i64;
+        let t = match self {
+            Statistic::Adev => (n - 1) / mi - 1,
+            Statistic::Oadev => n - 2 * mi,
+            Statistic::Mdev | Statistic::Tdev => n - 3 * mi + 1,
+            Statistic::Hdev => (n - 1) / mi - 2,
+            Statistic::Ohdev => n - 3 * mi,
+            Statistic::Totdev => {
+                if mi <= n - 2 {
+                    n - 2
+                } else {
+                    0
+                }
+            }
+        };
+        t.max(0) as usize
+    }
+
+    /// The largest m with at least one term.
+    pub(crate) fn m_limit(self, n_phase: usize) -> u64 {
+        let n = n_phase as u64;
+        match self {
+            Statistic::Adev | Statistic::Oadev => (n - 1) / 2,
+            Statistic::Mdev | Statistic::Tdev | Statistic::Hdev | Statistic::Ohdev => (n - 1) / 3,
+            Statistic::Totdev => n.saturating_sub(2),
+        }
+    }
+}
+
+/// One estimate: the deviation and the number of terms averaged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// The deviation (frequency units; TDEV in the phase's time unit).
+    pub dev: f64,
+    /// Number of terms averaged.
+    pub n: usize,
+}
+
+/// The estimate of `stat` at averaging factor `m`, or None when no term can be formed.
+pub fn estimate(series: &Series, stat: Statistic, m: usize) -> Option<Estimate> {
+    if m == 0 {
+        return None;
+    }
+    let tau = m as f64 * series.tau0_s;
+    let (sum, n, norm) = match stat {
+        Statistic::Adev => {
+            let (s, n) = diff_sumsq(series, m, m, 2);
+            (s, n, 2.0)
+        }
+        Statistic::Oadev => {
+            let (s, n) = diff_sumsq(series, m, 1, 2);
+            (s, n, 2.0)
+        }
+        Statistic::Hdev => {
+            let (s, n) = diff_sumsq(series, m, m, 3);
+            (s, n, 6.0)
+        }
+        Statistic::Ohdev => {
+            let (s, n) = diff_sumsq(series, m, 1, 3);
+            (s, n, 6.0)
+        }
+        Statistic::Mdev | Statistic::Tdev => {
+            let (s, n) = mod_sumsq(series, m);
+            (s, n, 2.0 * (m as f64) * (m as f64))
+        }
+        Statistic::Totdev => {
+            let (s, n) = tot_sumsq(series, m);
+            (s, n, 2.0)
+        }
+    };
+    if n == 0 {
+        return None;
+    }
+    let mut dev = (sum / (norm * n as f64)).sqrt() / tau;
+    if stat == Statistic::Tdev {
+        dev *= tau / 3f64.sqrt();
+    }
+    Some(Estimate { dev, n })
+}
+
+/// Sum of squared differences of order `d` (2 or 3) at lag m, every `stride` points, and the number of terms.
+fn diff_sumsq(series: &Series, m: usize, stride: usize, d: usize) -> (f64, usize) {
+    let x = &series.x;
+    let n_phase = x.len();
+    if n_phase <= d * m {
+        return (0.0, 0);
+    }
+    let last = n_phase - 1 - d * m; // last start index
+    match (&series.bad, stride, d) {
+        (None, 1, 2) => (sumsq_o2(x, m, last + 1), last + 1),
+        (None, 1, 3) => (sumsq_o3(x, m, last + 1), last + 1),
+        _ => {
+            let bad = series.bad.as_deref();
+            let mut s = 0.0;
+            let mut n = 0usize;
+            let mut i = 0;
+            while i <= last {
+                if bad.is_none_or(|b| Series::valid(b, series.kind, i, i + d * m)) {
+                    let v = if d == 2 {
+                        x[i + 2 * m] - 2.0 * x[i + m] + x[i]
+                    } else {
+                        x[i + 3 * m] - 3.0 * x[i + 2 * m] + 3.0 * x[i + m] - x[i]
+                    };
+                    s += v * v;
+                    n += 1;
+                }
+                i += stride;
+            }
+            (s, n)
+        }
+    }
+}
+
+/// Block length for the partial sums: keeps rounding error low and the working set in cache.
+const BLOCK: usize = 4096;
+
+/// sum over i < count of (x[i+2m] - 2x[i+m] + x[i])^2: eight independent accumulators (vectorises), summed per
+/// block.
+fn sumsq_o2(x: &[f64], m: usize, count: usize) -> f64 {
+    let a = &x[..count];
+    let b = &x[m..m + count];
+    let c = &x[2 * m..2 * m + count];
+    let mut total = 0.0;
+    for ((ab, bb), cb) in a.chunks(BLOCK).zip(b.chunks(BLOCK)).zip(c.chunks(BLOCK)) {
+        let mut acc = [0.0f64; 8];
+        let mut ai = ab.chunks_exact(8);
+        let mut bi = bb.chunks_exact(8);
+        let mut ci = cb.chunks_exact(8);
+        for ((a8, b8), c8) in (&mut ai).zip(&mut bi).zip(&mut ci) {
+            for k in 0..8 {
+                let v = c8[k] - 2.0 * b8[k] + a8[k];
+                acc[k] += v * v;
+            }
+        }
+        let mut s: f64 = acc.iter().sum();
+        for ((av, bv), cv) in ai.remainder().iter().zip(bi.remainder()).zip(ci.remainder()) {
+            let v = cv - 2.0 * bv + av;
+            s += v * v;
+        }
+        total += s;
+    }
+    total
+}
+
+/// sum over i < count of (x[i+3m] - 3x[i+2m] + 3x[i+m] - x[i])^2, as [`sumsq_o2`].
+fn sumsq_o3(x: &[f64], m: usize, count: usize) -> f64 {
+    let a = &x[..count];
+    let b = &x[m..m + count];
+    let c = &x[2 * m..2 * m + count];
+    let e = &x[3 * m..3 * m + count];
+    let mut total = 0.0;
+    let mut start = 0;
+    while start < count {
+        let end = (start + BLOCK).min(count);
+        let mut acc = [0.0f64; 8];
+        let mut i = start;
+        while i + 8 <= end {
+            for k in 0..8 {
+                let v = e[i + k] - 3.0 * c[i + k] + 3.0 * b[i + k] - a[i + k];
+                acc[k] += v * v;
+            }
+            i += 8;
+        }
+        let mut s: f64 = acc.iter().sum();
+        while i < end {
+            let v = e[i] - 3.0 * c[i] + 3.0 * b[i] - a[i];
+            s += v * v;
+            i += 1;
+        }
+        total += s;
+        start = end;
+    }
+    total
+}
+
+/// MDEV: sum over j of (W(j+2m) - 2 W(j+m) + W(j))^2 with W(j) = x[j] + ... + x[j+m-1] from the double-double
+/// prefix sums (each window difference is formed before combining, so the error stays relative to the window).
+fn mod_sumsq(series: &Series, m: usize) -> (f64, usize) {
+    let n_phase = series.x.len();
+    if n_phase + 1 <= 3 * m {
+        return (0.0, 0);
+    }
+    let count = n_phase + 1 - 3 * m;
+    let (hi, lo) = series.prefix();
+    let w = |j: usize| (hi[j + m] - hi[j]) + (lo[j + m] - lo[j]);
+    let bad = series.bad.as_deref();
+    let mut total = 0.0;
+    let mut n = 0usize;
+    let mut start = 0;
+    while start < count {
+        let end = (start + BLOCK).min(count);
+        let mut s = 0.0;
+        for j in start..end {
+            if let Some(b) = bad {
+                if !Series::valid(b, series.kind, j, j + 3 * m - 1) {
+                    continue;
+                }
+            }
+            let v = w(j + 2 * m) - 2.0 * w(j + m) + w(j);
+            s += v * v;
+            n += 1;
+        }
+        total += s;
+        start = end;
+    }
+    (total, n)
+}
+
+/// TOTDEV: OADEV's terms on the reflected extension, centre index i = 1..=N-2.
+fn tot_sumsq(series: &Series, m: usize) -> (f64, usize) {
+    let x = &series.x;
+    let n_phase = x.len();
+    if n_phase < 3 || m > n_phase - 2 {
+        return (0.0, 0);
+    }
+    let last = n_phase - 1;
+    let (x0, xl) = (x[0], x[last]);
+    // Extended point at signed original index k, and the original span it depends on.
+    let ext = |k: i64| -> f64 {
+        if k < 0 {
+            2.0 * x0 - x[(-k) as usize]
+        } else if k as usize > last {
+            2.0 * xl - x[2 * last - k as usize]
+        } else {
+            x[k as usize]
+        }
+    };
+    let span = |k: i64| -> (usize, usize) {
+        if k < 0 {
+            (0, (-k) as usize)
+        } else if k as usize > last {
+            (2 * last - k as usize, last)
+        } else {
+            (k as usize, k as usize)
+        }
+    };
+    let mi = m as i64;
+    let bad = series.bad.as_deref();
+    let mut total = 0.0;
+    let mut n = 0usize;
+    // Interior terms (no reflection): i in [m, last - m], contiguous, vectorisable when there is no gap.
+    let lo_int = m.max(1);
+    let hi_int = last.saturating_sub(m).min(last - 1);
+    let edge = |i: usize, total: &mut f64, n: &mut usize| {
+        let k = i as i64;
+        if let Some(b) = bad {
+            let (a0, b0) = span(k - mi);
+            let (a2, b2) = span(k + mi);
+            let lo = a0.min(i).min(a2);
+            let hi = b0.max(i).max(b2);
+            if !Series::valid(b, series.kind, lo, hi) {
+                return;
+            }
+        }
+        let v = ext(k - mi) - 2.0 * ext(k) + ext(k + mi);
+        *total += v * v;
+        *n += 1;
+    };
+    if lo_int <= hi_int {
+        for i in 1..lo_int {
+            edge(i, &mut total, &mut n);
+        }
+        if bad.is_none() {
+            total += sumsq_o2(&x[lo_int - m..], m, hi_int - lo_int + 1);
+            n += hi_int - lo_int + 1;
+        } else {
+            for i in lo_int..=hi_int {
+                edge(i, &mut total, &mut n);
+            }
+        }
+        for i in hi_int + 1..=last - 1 {
+            edge(i, &mut total, &mut n);
+        }
+    } else {
+        for i in 1..=last - 1 {
+            edge(i, &mut total, &mut n);
+        }
+    }
+    (total, n)
+}

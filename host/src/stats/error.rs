@@ -1,0 +1,41 @@
+//! The errors of `octavar::stats`: what was wrong with the data or the request.
+
+use thiserror::Error;
+
+/// Why a stability analysis could not be done.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum StatsError {
+    /// The sample interval must be a positive, finite number of seconds.
+    #[error("tau0 must be positive and finite, got {tau0_s} s")]
+    BadTau0 {
+        /// The rejected sample interval, seconds.
+        tau0_s: f64,
+    },
+    /// Too few valid samples for any estimate (after trimming leading and trailing NaNs).
+    #[error("too few valid samples: {valid} (need at least {needed})")]
+    TooFewSamples {
+        /// Samples left after trimming NaNs at both ends.
+        valid: usize,
+        /// The least number this statistic needs.
+        needed: usize,
+    },
+    /// A sample is infinite (NaN marks a gap; infinities are not data).
+    #[error("sample {index} is infinite")]
+    Infinite {
+        /// Index of the sample in the input.
+        index: usize,
+    },
+    /// The confidence level must lie strictly between 0 and 1.
+    #[error("confidence must be in (0, 1), got {0}")]
+    BadConfidence(f64),
+    /// An explicit tau list held a value that is not positive and finite, or a per-decade count of 0.
+    #[error("bad tau request: {0}")]
+    BadTau(String),
+    /// The tau request left no averaging factor that the data can support.
+    #[error("no tau value can be computed from {n_phase} phase points")]
+    NoTau {
+        /// Number of phase points available.
+        n_phase: usize,
+    },
+}
