@@ -21,13 +21,14 @@
 //! # Determinism and cost
 //! One model and one seed give the same samples bit for bit (xoshiro256++, a ziggurat Gaussian, and only `+ - *`
 //! in the per-sample path, which IEEE 754 rounds the same everywhere). Memory is fixed: a [`VirtualGyro`] is
-//! under 1 KiB whatever the run length. Per sample and channel, with every term on: about eight Gaussian draws
-//! (white, five fast flicker processes plus one amortised slow one, random walk), forty multiply-adds, and one
-//! decrement for each of bias steps and outliers; no division and no transcendental call except on the rare
-//! events (a bias step, an outlier, a ziggurat tail). On the x86_64 host that is about 60 million samples/s for
-//! N + B + K + ADC (criterion bench `host/benches/sim.rs`). On the Cortex-M4 the `f64` arithmetic is software,
-//! so a channel costs a few thousand cycles per sample: enough for a self-test at a few kS/s, not for 2 kS/s on
-//! five channels at once while the firmware does its real work.
+//! under 1 KiB whatever the run length. Per sample and channel, with every term on: four Gaussian draws (white,
+//! random walk, Gauss-Markov, a bias step's size only on a step), the flicker bank's four multiply-adds on about
+//! 2.3 random words, some thirty multiply-adds in all, and one decrement for each of bias steps and outliers; no
+//! division and no transcendental call except on rare events (a bias step, an outlier, a ziggurat tail). On this
+//! x86_64 host that measured about 15 ns of CPU per sample for N + B + K + ADC (67 million samples/s on one core;
+//! criterion bench `host/benches/sim.rs`). On the Cortex-M4 the `f64` arithmetic is software, so a channel costs
+//! a few thousand cycles per sample: enough for a self-test at a few kS/s, not for five channels at 2 kS/s while
+//! the firmware does its real work.
 //!
 //! # Examples
 //! ```

@@ -15,7 +15,7 @@
 //! wander = { sigma_c = 0.1, tau_s = 1800.0 }
 //!
 //! [[channels]]
-//! sensor = "Adxrs300"    # the bench wiring of that part (sensor::Channel::bench)
+//! sensor = "adxrs300"    # the bench wiring of that part (sensor::Channel::bench)
 //! [channels.gyro]
 //! bias_dps = 0.2
 //! n_deg_per_rt_s = 0.046
