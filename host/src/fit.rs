@@ -46,6 +46,17 @@ impl Term {
     /// All five, in parameter order.
     pub const ALL: [Term; 5] = [Term::Q, Term::N, Term::B, Term::K, Term::R];
 
+    /// The Allan variance of a unit coefficient at `tau`, with the white term shaped by a known bandwidth.
+    pub fn basis_with(self, tau: f64, bandwidth_hz: Option<f64>) -> f64 {
+        match (self, bandwidth_hz) {
+            (Term::N, Some(f)) if f > 0.0 => {
+                let t = 1.0 / (2.0 * std::f64::consts::PI * f);
+                lowpass_white_factor(tau / t) / tau
+            }
+            _ => self.basis(tau),
+        }
+    }
+
     /// The Allan variance of a unit coefficient at `tau`.
     pub fn basis(self, tau: f64) -> f64 {
         match self {
@@ -113,12 +124,30 @@ pub struct FitOptions {
     pub tau_max_s: f64,
     /// Two-sided confidence of the intervals (0.95 by default).
     pub confidence: f64,
+    /// A known first-order output bandwidth (-3 dB, Hz): the white-noise term then takes the exact Allan form of
+    /// low-passed white noise, `N^2/tau [1 - T/(2 tau) (3 - 4 e^(-tau/T) + e^(-2 tau/T))]`, T = 1/(2 pi f3dB),
+    /// instead of bending the fit at short tau.
+    pub bandwidth_hz: Option<f64>,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { terms: Term::ALL.to_vec(), tau_min_s: 0.0, tau_max_s: f64::INFINITY, confidence: 0.95 }
+        FitOptions {
+            terms: Term::ALL.to_vec(),
+            tau_min_s: 0.0,
+            tau_max_s: f64::INFINITY,
+            confidence: 0.95,
+            bandwidth_hz: None,
+        }
     }
+}
+
+/// The Allan variance factor of first-order low-passed white noise relative to N^2 / tau, at tau / T = x.
+pub fn lowpass_white_factor(x: f64) -> f64 {
+    if x > 50.0 {
+        return 1.0 - 1.5 / x;
+    }
+    1.0 - (3.0 - 4.0 * (-x).exp() + (-2.0 * x).exp()) / (2.0 * x)
 }
 
 /// What went wrong.
@@ -194,6 +223,8 @@ pub struct NoiseFit {
     pub tau_range_s: [f64; 2],
     /// Confidence of the intervals.
     pub confidence: f64,
+    /// The bandwidth the white term was shaped with, Hz.
+    pub bandwidth_hz: Option<f64>,
     /// The classic readouts.
     pub classic: ClassicReadouts,
 }
@@ -212,12 +243,12 @@ impl NoiseFit {
 
     /// The fitted model's Allan variance at `tau`, (deg/s)^2 (every term with its fitted square).
     pub fn model_avar(&self, tau: f64) -> f64 {
-        Term::ALL.iter().zip(self.squares).map(|(t, s)| s * t.basis(tau)).sum()
+        Term::ALL.iter().zip(self.squares).map(|(t, s)| s * t.basis_with(tau, self.bandwidth_hz)).sum()
     }
 
     /// One term's share of the model at `tau`, (deg/s)^2.
     pub fn term_avar(&self, term: Term, tau: f64) -> f64 {
-        self.squares[term as usize] * term.basis(tau)
+        self.squares[term as usize] * term.basis_with(tau, self.bandwidth_hz)
     }
 }
 
@@ -245,9 +276,10 @@ pub fn fit(points: &[FitPoint], opts: &FitOptions) -> Result<NoiseFit, FitError>
 
     // IRLS: variances from the model, starting from the measured values.
     let mut var_of: Vec<f64> = pts.iter().map(|p| 2.0 * p.avar * p.avar / p.edf).collect();
-    let mut best = solve_nonnegative(&pts, &var_of, &allowed);
+    let bw = opts.bandwidth_hz;
+    let mut best = solve_nonnegative(&pts, &var_of, &allowed, bw);
     for _ in 0..8 {
-        let model: Vec<f64> = pts.iter().map(|p| predict(&best.theta, p.tau_s)).collect();
+        let model: Vec<f64> = pts.iter().map(|p| predict(&best.theta, p.tau_s, bw)).collect();
         var_of = pts
             .iter()
             .zip(&model)
@@ -256,7 +288,7 @@ pub fn fit(points: &[FitPoint], opts: &FitOptions) -> Result<NoiseFit, FitError>
                 2.0 * m * m / p.edf
             })
             .collect();
-        let next = solve_nonnegative(&pts, &var_of, &allowed);
+        let next = solve_nonnegative(&pts, &var_of, &allowed, bw);
         let converged = next
             .theta
             .iter()
@@ -294,7 +326,7 @@ pub fn fit(points: &[FitPoint], opts: &FitOptions) -> Result<NoiseFit, FitError>
             }
         } else if allowed.contains(&j) {
             // Not in the best model: bound it by a fit that forces it in.
-            let bound = upper_bound_when_forced(&pts, &var_of, &best.active, j, z, inflation);
+            let bound = upper_bound_when_forced(&pts, &var_of, &best.active, j, z, inflation, bw);
             TermEstimate { value: None, lo: None, hi: bound, unit, identifiable: false }
         } else {
             TermEstimate { value: None, lo: None, hi: None, unit, identifiable: false }
@@ -318,12 +350,13 @@ pub fn fit(points: &[FitPoint], opts: &FitOptions) -> Result<NoiseFit, FitError>
         dof,
         tau_range_s: [pts[0].tau_s, pts[pts.len() - 1].tau_s],
         confidence: opts.confidence,
+        bandwidth_hz: bw,
         classic: classic_readouts(&pts),
     })
 }
 
-fn predict(theta: &[f64; 5], tau: f64) -> f64 {
-    Term::ALL.iter().zip(theta).map(|(t, th)| th * t.basis(tau)).sum()
+fn predict(theta: &[f64; 5], tau: f64, bw: Option<f64>) -> f64 {
+    Term::ALL.iter().zip(theta).map(|(t, th)| th * t.basis_with(tau, bw)).sum()
 }
 
 struct Solution {
@@ -335,7 +368,7 @@ struct Solution {
 }
 
 /// Exact NNLS for at most five parameters: the feasible subset of least chi-square.
-fn solve_nonnegative(pts: &[FitPoint], var: &[f64], allowed: &[usize]) -> Solution {
+fn solve_nonnegative(pts: &[FitPoint], var: &[f64], allowed: &[usize], bw: Option<f64>) -> Solution {
     let mut best: Option<Solution> = None;
     let n_allowed = allowed.len();
     for mask in 1u32..(1 << n_allowed) {
@@ -343,7 +376,7 @@ fn solve_nonnegative(pts: &[FitPoint], var: &[f64], allowed: &[usize]) -> Soluti
         if active.len() > pts.len() {
             continue;
         }
-        let Some((theta_a, cov)) = weighted_lsq(pts, var, &active) else { continue };
+        let Some((theta_a, cov)) = weighted_lsq(pts, var, &active, bw) else { continue };
         if theta_a.iter().any(|&t| t < 0.0) {
             continue;
         }
@@ -355,7 +388,7 @@ fn solve_nonnegative(pts: &[FitPoint], var: &[f64], allowed: &[usize]) -> Soluti
             .iter()
             .zip(var)
             .map(|(p, v)| {
-                let r = p.avar - predict(&theta, p.tau_s);
+                let r = p.avar - predict(&theta, p.tau_s, bw);
                 r * r / v
             })
             .sum();
@@ -373,14 +406,14 @@ fn solve_nonnegative(pts: &[FitPoint], var: &[f64], allowed: &[usize]) -> Soluti
 
 /// Weighted least squares over the `active` columns, with columns scaled for conditioning.
 /// Returns the parameters and their covariance, or `None` if singular.
-fn weighted_lsq(pts: &[FitPoint], var: &[f64], active: &[usize]) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
+fn weighted_lsq(pts: &[FitPoint], var: &[f64], active: &[usize], bw: Option<f64>) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
     let p = active.len();
     let terms: Vec<Term> = active.iter().map(|&j| Term::ALL[j]).collect();
     // Column scales: the weighted norm of each column.
     let mut scale = vec![0.0f64; p];
     for (pt, v) in pts.iter().zip(var) {
         for (c, t) in terms.iter().enumerate() {
-            let x = t.basis(pt.tau_s);
+            let x = t.basis_with(pt.tau_s, bw);
             scale[c] += x * x / v;
         }
     }
@@ -393,7 +426,7 @@ fn weighted_lsq(pts: &[FitPoint], var: &[f64], active: &[usize]) -> Option<(Vec<
     let mut a = vec![vec![0.0f64; p]; p];
     let mut b = vec![0.0f64; p];
     for (pt, v) in pts.iter().zip(var) {
-        let xs: Vec<f64> = terms.iter().zip(&scale).map(|(t, s)| t.basis(pt.tau_s) / s).collect();
+        let xs: Vec<f64> = terms.iter().zip(&scale).map(|(t, s)| t.basis_with(pt.tau_s, bw) / s).collect();
         for i in 0..p {
             b[i] += xs[i] * pt.avar / v;
             for j in 0..p {
@@ -452,11 +485,12 @@ fn upper_bound_when_forced(
     j: usize,
     z: f64,
     inflation: f64,
+    bw: Option<f64>,
 ) -> Option<f64> {
     let mut with = active.to_vec();
     with.push(j);
     with.sort_unstable();
-    let (theta, cov) = weighted_lsq(pts, var, &with)?;
+    let (theta, cov) = weighted_lsq(pts, var, &with, bw)?;
     let pos = with.iter().position(|&a| a == j)?;
     let sd = (cov[pos][pos] * inflation).max(0.0).sqrt();
     let hi = theta[pos].max(0.0) + z * sd;
@@ -507,7 +541,7 @@ mod tests {
         (0..25)
             .map(|k| {
                 let tau = 1e-3 * 2f64.powi(k);
-                let avar = predict(&sq, tau);
+                let avar = predict(&sq, tau, None);
                 FitPoint { tau_s: tau, avar, edf: edf(tau) }
             })
             .collect()
@@ -553,6 +587,25 @@ mod tests {
         assert!((c.n.unwrap() / n - 1.0).abs() < 0.05, "{:?}", c.n);
         // The curve flattens only at its last points: the floor read there is B to a few percent.
         assert!((c.b.unwrap() / b - 1.0).abs() < 0.05, "{:?}", c.b);
+    }
+
+    #[test]
+    fn known_bandwidth_shapes_the_white_term() {
+        // Low-passed white noise at 600 Hz: the plain N^2/tau model would read N low from the bent short taus.
+        let n = 3e-3;
+        let t = 1.0 / (2.0 * std::f64::consts::PI * 600.0);
+        let pts: Vec<FitPoint> = (0..14)
+            .map(|k| {
+                let tau = 5e-4 * 2f64.powi(k);
+                FitPoint { tau_s: tau, avar: n * n / tau * lowpass_white_factor(tau / t), edf: 1e6 / tau }
+            })
+            .collect();
+        let shaped = fit(&pts, &FitOptions { bandwidth_hz: Some(600.0), ..Default::default() }).unwrap();
+        assert!((shaped.n.value.unwrap() / n - 1.0).abs() < 1e-6, "{:?}", shaped.n);
+        let plain = fit(&pts, &FitOptions { terms: vec![Term::N], ..Default::default() }).unwrap();
+        assert!(plain.n.value.unwrap() < 0.99 * n, "{:?}", plain.n);
+        // lowpass_white_factor tends to 1 - 3T/(2 tau) and is continuous at its switch point.
+        assert!((lowpass_white_factor(50.0) - lowpass_white_factor(50.0 + 1e-9)).abs() < 1e-9);
     }
 
     #[test]

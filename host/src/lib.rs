@@ -7,4 +7,5 @@ pub mod accumulate;
 pub mod fit;
 pub mod input;
 pub mod simulate;
+pub mod snapshot_stats;
 pub mod stats;
