@@ -1,0 +1,193 @@
+//! The store task: the field log. Checkpoints the snapshot rounds to flash at most every ten minutes and reads
+//! them back for the host after a power cycle.
+//!
+//! The log logic (record format, recovery, write order, power-cut safety) is `octavar_shared::fieldlog`, tested
+//! on the host. Here: the flash driver behind its `LogFlash` trait, and the policy. At boot the newest checkpoint
+//! is read back; every checkpoint of this session pools it with the session's snapshots
+//! (`Checkpoint::merge_session`), so the log always covers the whole deployment, and a power cut loses at most the
+//! samples since the last checkpoint.
+//!
+//! On the board the log lives in flash sectors 10 and 11 (0x080C_0000 and 0x080E_0000, 128 KiB each), which the
+//! root `memory.x` keeps out of the program's FLASH region. The STM32F405 has one flash bank: while a sector is
+//! erased (about 1 s, at most 2 s; DS8626 table "Flash memory characteristics") the CPU cannot fetch from flash,
+//! the DMA ring overflows and the sampler reports a gap. Sectors are erased only when one is full (every 32
+//! checkpoints: about five hours), so that costs a second or two every five hours, counted as an ADC overrun.
+
+use embassy_futures::select::{select, Either};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::signal::Signal;
+use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogFlash};
+use octavar_shared::proto::{FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
+
+use crate::characterize::{Round, SNAPSHOT_READY};
+use crate::config::*;
+use crate::frames;
+
+/// The checkpoint type of this firmware: one snapshot per gyro.
+pub type GyroCheckpoint = Checkpoint<GYROS>;
+/// Payload words of one checkpoint.
+pub const CHECKPOINT_WORDS: usize = GyroCheckpoint::WORDS;
+
+/// A host asked for the field log from this checkpoint on (link task -> store).
+pub static LOG_READ: Signal<CriticalSectionRawMutex, u32> = Signal::new();
+
+/// Checkpoints snapshot rounds and answers field-log reads; generic over the flash (real or RAM).
+///
+/// Only the log, the boot checkpoint and one record's words live across the waits (this future is a static).
+pub async fn run<F: LogFlash>(flash: F) -> ! {
+    let mut words = [0u32; CHECKPOINT_WORDS];
+    let mut log = match FieldLog::open(flash, CHECKPOINT_WORDS) {
+        Ok(log) => log,
+        Err(e) => defmt::panic!("field log: {}", defmt::Debug2Format(&e)),
+    };
+    let base = boot_checkpoint(&mut log, &mut words);
+    let mut last_checkpoint_samples: Option<u64> = None;
+    loop {
+        // The round is handled inside the match (no await there), so it is not kept across the read-out's waits.
+        let read_from = match select(SNAPSHOT_READY.wait(), LOG_READ.wait()).await {
+            Either::First(round) => {
+                checkpoint(&mut log, base.as_ref(), &round, &mut words, &mut last_checkpoint_samples);
+                None
+            }
+            Either::Second(from) => Some(from),
+        };
+        if let Some(from) = read_from {
+            // One frame at a time: decode the newest record, send its i-th part, until there are no more.
+            let mut sent = 0;
+            let mut i = 0;
+            while let Some(frame) = log_frame(&mut log, from, &mut words, i) {
+                frames::send_wait(frame).await;
+                sent = 1;
+                i += 1;
+            }
+            frames::send_wait(Frame::FieldLogEnd(FieldLogEnd { checkpoints: sent })).await;
+        }
+    }
+}
+
+/// Read the newest checkpoint at boot: this session pools with it.
+fn boot_checkpoint<F: LogFlash>(log: &mut FieldLog<F>, words: &mut [u32; CHECKPOINT_WORDS]) -> Option<GyroCheckpoint> {
+    match log.read_latest(words) {
+        Ok(Some(seq)) => {
+            let cp = GyroCheckpoint::decode::<()>(words).ok()?;
+            defmt::info!("field log: checkpoint {} of {} sessions, {} samples", seq, cp.sessions, cp.snapshots[0].samples);
+            Some(cp)
+        }
+        Ok(None) => {
+            defmt::info!("field log: empty");
+            None
+        }
+        Err(e) => {
+            defmt::warn!("field log: {}", defmt::Debug2Format(&e));
+            None
+        }
+    }
+}
+
+/// Write a checkpoint of `round` (pooled with the boot checkpoint) if the last one is old enough.
+fn checkpoint<F: LogFlash>(
+    log: &mut FieldLog<F>,
+    base: Option<&GyroCheckpoint>,
+    round: &Round,
+    words: &mut [u32; CHECKPOINT_WORDS],
+    last: &mut Option<u64>,
+) {
+    if last.is_some_and(|s| round.samples < s + CHECKPOINT_EVERY_SETS) {
+        return;
+    }
+    let cp = GyroCheckpoint::merge_session(base, &round.snapshots, round.adc_overruns);
+    if cp.encode::<()>(words).is_err() {
+        return;
+    }
+    match log.append(words) {
+        Ok(seq) => {
+            *last = Some(round.samples);
+            defmt::info!("field log: checkpoint {} ({} samples this session)", seq, round.samples);
+        }
+        Err(e) => defmt::warn!("field log: append failed: {}", defmt::Debug2Format(&e)),
+    }
+}
+
+/// The `i`-th field-log frame of the newest checkpoint, if its number is at least `from`.
+fn log_frame<F: LogFlash>(log: &mut FieldLog<F>, from: u32, words: &mut [u32; CHECKPOINT_WORDS], i: usize) -> Option<Frame> {
+    let seq = log.read_latest(words).ok()??;
+    if seq < from {
+        return None;
+    }
+    let cp = GyroCheckpoint::decode::<()>(words).ok()?;
+    let mut k = 0;
+    for (g, snap) in cp.snapshots.iter().enumerate() {
+        for part in SnapshotPart::split(g as u8, snap) {
+            if k == i {
+                return Some(Frame::FieldLog(FieldLogRecord {
+                    checkpoint: seq,
+                    time_s: (snap.samples / u64::from(SAMPLE_RATE_HZ)) as u32,
+                    sessions: cp.sessions,
+                    adc_overruns: cp.adc_overruns,
+                    part,
+                }));
+            }
+            k += 1;
+        }
+    }
+    None
+}
+
+/// The field log's flash on the board: sectors 10 and 11 through embassy-stm32's blocking flash driver.
+#[cfg(not(feature = "qemu"))]
+pub struct BoardFlash {
+    flash: embassy_stm32::flash::Flash<'static, embassy_stm32::flash::Blocking>,
+}
+
+#[cfg(not(feature = "qemu"))]
+impl BoardFlash {
+    /// Take the flash from the store's parts.
+    pub fn new(parts: crate::board::StoreParts) -> Self {
+        Self { flash: parts.flash }
+    }
+
+    /// Byte offset from the start of flash (what embassy-stm32 takes) of `word` in `sector`.
+    fn offset(sector: usize, word: usize) -> u32 {
+        use octavar_shared::fieldlog::STM32F405_LOG_SECTORS;
+        STM32F405_LOG_SECTORS[sector].address - embassy_stm32::flash::FLASH_BASE as u32 + 4 * word as u32
+    }
+}
+
+#[cfg(not(feature = "qemu"))]
+impl LogFlash for BoardFlash {
+    type Error = embassy_stm32::flash::Error;
+
+    fn sector_words(&self) -> usize {
+        octavar_shared::fieldlog::STM32F405_LOG_SECTORS[0].bytes as usize / 4
+    }
+
+    fn erase(&mut self, sector: usize) -> Result<(), Self::Error> {
+        let from = Self::offset(sector, 0);
+        let to = from + octavar_shared::fieldlog::STM32F405_LOG_SECTORS[sector].bytes;
+        defmt::info!("field log: erasing sector {}", octavar_shared::fieldlog::STM32F405_LOG_SECTORS[sector].index);
+        self.flash.blocking_erase(from, to)
+    }
+
+    fn write(&mut self, sector: usize, offset: usize, words: &[u32]) -> Result<(), Self::Error> {
+        let mut bytes = [0u8; 64];
+        for (i, chunk) in words.chunks(16).enumerate() {
+            for (b, w) in bytes.chunks_exact_mut(4).zip(chunk) {
+                b.copy_from_slice(&w.to_le_bytes());
+            }
+            self.flash.blocking_write(Self::offset(sector, offset + 16 * i), &bytes[..4 * chunk.len()])?;
+        }
+        Ok(())
+    }
+
+    fn read(&mut self, sector: usize, offset: usize, buf: &mut [u32]) -> Result<(), Self::Error> {
+        let mut bytes = [0u8; 64];
+        for (i, chunk) in buf.chunks_mut(16).enumerate() {
+            let n = 4 * chunk.len();
+            self.flash.blocking_read(Self::offset(sector, offset + 16 * i), &mut bytes[..n])?;
+            for (w, b) in chunk.iter_mut().zip(bytes.chunks_exact(4)) {
+                *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            }
+        }
+        Ok(())
+    }
+}
