@@ -4,6 +4,7 @@
 //! clap, no stdout and no `process::exit`; errors are typed per module and locate the fault (file, line, column).
 
 pub mod accumulate;
+pub mod demo;
 pub mod fit;
 pub mod input;
 pub mod simulate;
