@@ -194,3 +194,45 @@ pub fn edf_for(stat: Statistic, alpha: i32, m: f64, n_phase: f64) -> f64 {
 pub fn strided_avar_edf(alpha: i32, m: f64, stride_factor: f64, n_phase: f64) -> f64 {
     greenhall_edf(alpha, 2, m, m, stride_factor.clamp(1.0, m), n_phase)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Timing of OADEV at octave tau on 1e7 frequency samples; run with
+    /// `cargo test --release -p octavar --lib speed_oadev -- --ignored --nocapture`.
+    /// (allantools 2024.6, numpy, same machine: about 1.0 s for the same 22 taus.)
+    #[test]
+    #[ignore]
+    fn speed_oadev_octave_1e7() {
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        let y: Vec<f64> = (0..10_000_000)
+            .map(|_| {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        let t0 = std::time::Instant::now();
+        let series = Series::new(&y, DataKind::Frequency, 1.0).unwrap();
+        println!("Series::new {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+        for m in [1usize, 64, 4096, 1 << 21] {
+            let t0 = std::time::Instant::now();
+            let e = estimate(&series, Statistic::Oadev, m).unwrap();
+            let t1 = t0.elapsed().as_secs_f64() * 1e3;
+            let t0 = std::time::Instant::now();
+            let id = identify(&series, Statistic::Oadev, m);
+            println!("m={m}: estimate {t1:.1} ms, identify {:.1} ms ({:?}, n {})", t0.elapsed().as_secs_f64() * 1e3, id, e.n);
+        }
+        for (label, intervals) in [("deviations only", false), ("with noise ID + EDF + CI", true)] {
+            let opts = Options { intervals, ..Options::default() };
+            let mut best = f64::INFINITY;
+            let mut rows = Vec::new();
+            for _ in 0..5 {
+                let t0 = std::time::Instant::now();
+                rows = analyze(&y, DataKind::Frequency, 1.0, Statistic::Oadev, &TauSpec::Octave, &opts).unwrap();
+                best = best.min(t0.elapsed().as_secs_f64());
+            }
+            println!("OADEV octave 1e7 ({label}): {:.1} ms, {} taus", best * 1e3, rows.len());
+        }
+    }
+}
