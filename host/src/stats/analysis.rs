@@ -26,7 +26,7 @@
 
 use rayon::prelude::*;
 
-use super::deviation::{estimate, Statistic};
+use super::deviation::{estimate, estimate_many, Estimate, Statistic};
 use super::edf::{confidence_interval, greenhall_edf, totdev_edf};
 use super::error::StatsError;
 use super::noise_id::{acf_noise_id, b1_noise_id, NoiseMethod};
@@ -118,11 +118,17 @@ pub fn analyze_series(
     }
     let n_phase = series.n_phase();
     let ms = averaging_factors(taus, stat.stop_ratio(), stat.m_limit(n_phase), n_phase, series.tau0_s())?;
-    let row = |&m: &u64| point(series, stat, m as usize, opts);
-    let rows: Vec<DevPoint> = if opts.parallel {
-        ms.par_iter().filter_map(row).collect()
+    let ms: Vec<usize> = ms.iter().map(|&m| m as usize).collect();
+    let estimates = if opts.parallel {
+        estimate_many(series, stat, &ms)
     } else {
-        ms.iter().filter_map(row).collect()
+        ms.iter().map(|&m| estimate(series, stat, m)).collect()
+    };
+    let row = |(&m, est): (&usize, &Option<Estimate>)| est.map(|e| point(series, stat, m, e, opts));
+    let rows: Vec<DevPoint> = if opts.parallel && opts.intervals {
+        ms.par_iter().zip(estimates.par_iter()).filter_map(row).collect()
+    } else {
+        ms.iter().zip(estimates.iter()).filter_map(row).collect()
     };
     if rows.is_empty() {
         return Err(StatsError::NoTau { n_phase });
@@ -131,8 +137,7 @@ pub fn analyze_series(
 }
 
 /// One row at averaging factor m.
-fn point(series: &Series, stat: Statistic, m: usize, opts: &Options) -> Option<DevPoint> {
-    let est = estimate(series, stat, m)?;
+fn point(series: &Series, stat: Statistic, m: usize, est: Estimate, opts: &Options) -> DevPoint {
     let mut p = DevPoint {
         m: m as u64,
         tau_s: m as f64 * series.tau0_s(),
@@ -145,7 +150,7 @@ fn point(series: &Series, stat: Statistic, m: usize, opts: &Options) -> Option<D
         hi: f64::NAN,
     };
     if !opts.intervals {
-        return Some(p);
+        return p;
     }
     let (alpha, method) = match opts.noise {
         NoiseSpec::Fixed(a) => (a, NoiseMethod::Fixed),
@@ -157,7 +162,7 @@ fn point(series: &Series, stat: Statistic, m: usize, opts: &Options) -> Option<D
     let (lo, hi) = confidence_interval(est.dev, p.edf, opts.confidence);
     p.lo = lo;
     p.hi = hi;
-    Some(p)
+    p
 }
 
 /// The noise type at averaging factor m for the interval of `stat`, and how it was found.
@@ -222,6 +227,15 @@ mod tests {
             let t0 = std::time::Instant::now();
             let id = identify(&series, Statistic::Oadev, m);
             println!("m={m}: estimate {t1:.1} ms, identify {:.1} ms ({:?}, n {})", t0.elapsed().as_secs_f64() * 1e3, id, e.n);
+        }
+        for _ in 0..3 {
+            let t0 = std::time::Instant::now();
+            let s2 = Series::new(&y, DataKind::Frequency, 1.0).unwrap();
+            let t1 = t0.elapsed().as_secs_f64() * 1e3;
+            let ms: Vec<usize> = (0..22).map(|k| 1usize << k).collect();
+            let t0 = std::time::Instant::now();
+            let e = crate::stats::deviation::estimate_many(&s2, Statistic::Oadev, &ms);
+            println!("Series::new {t1:.1} ms, estimate_many {:.1} ms ({})", t0.elapsed().as_secs_f64() * 1e3, e.len());
         }
         for (label, intervals) in [("deviations only", false), ("with noise ID + EDF + CI", true)] {
             let opts = Options { intervals, ..Options::default() };

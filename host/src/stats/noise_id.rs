@@ -35,10 +35,29 @@ pub enum NoiseMethod {
 
 /// The lag-1 autocorrelation estimate: integer alpha (rounded), the continuous estimate, and the differences taken.
 pub fn acf_noise_id(series: &Series, m: usize, dmax: u32) -> Option<(i32, f64)> {
-    let raw = &series.raw;
+    let m = m.max(1);
+    let x = &series.x;
     let mut v: Vec<f64> = match series.kind {
-        DataKind::Phase => raw.iter().step_by(m.max(1)).copied().collect(),
-        DataKind::Frequency => raw.chunks_exact(m.max(1)).map(|c| c.iter().sum::<f64>() / c.len() as f64).collect(),
+        // Phase decimated by m (a missing point stays missing).
+        DataKind::Phase => {
+            (0..x.len()).step_by(m).map(|k| if series.is_gap(k) { f64::NAN } else { x[k] }).collect()
+        }
+        // Frequency averaged over blocks of m samples (cut to whole blocks); a block touching a gap is missing.
+        DataKind::Frequency => {
+            let scale = 1.0 / (m as f64 * series.tau0_s);
+            let blocks = (x.len() - 1) / m;
+            let bad = series.bad.as_deref();
+            (0..blocks)
+                .map(|b| {
+                    let (k0, k1) = (b * m, b * m + m);
+                    if bad.is_some_and(|bb| !Series::valid(bb, series.kind, k0, k1)) {
+                        f64::NAN
+                    } else {
+                        (x[k1] - x[k0]) * scale
+                    }
+                })
+                .collect()
+        }
     };
     if v.len() < ACF_MIN_POINTS {
         return None;
@@ -55,7 +74,11 @@ pub fn acf_noise_id(series: &Series, m: usize, dmax: u32) -> Option<(i32, f64)> 
             let alpha_int = (-(2.0 * rho).round_ties_even() - 2.0 * d as f64 + add) as i32;
             return Some((alpha_int, p + add));
         }
-        v = v.windows(2).map(|w| w[1] - w[0]).collect();
+        // Difference in place.
+        for k in 0..v.len() - 1 {
+            v[k] = v[k + 1] - v[k];
+        }
+        v.pop();
         d += 1;
     }
 }
@@ -64,14 +87,18 @@ pub fn acf_noise_id(series: &Series, m: usize, dmax: u32) -> Option<(i32, f64)> 
 fn lag1_acf(x: &[f64]) -> f64 {
     let (s, n) = x.iter().filter(|v| !v.is_nan()).fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
     let mu = s / n as f64;
-    let mut a = 0.0;
-    for w in x.windows(2) {
-        let p = (w[0] - mu) * (w[1] - mu);
-        if !p.is_nan() {
-            a += p;
+    let (mut a, mut b) = (0.0, 0.0);
+    let mut prev = f64::NAN;
+    for &v in x {
+        let c = v - mu;
+        if !c.is_nan() {
+            b += c * c;
+            if !prev.is_nan() {
+                a += prev * c;
+            }
         }
+        prev = c;
     }
-    let b: f64 = x.iter().filter(|v| !v.is_nan()).map(|v| (v - mu) * (v - mu)).sum();
     a / b
 }
 

@@ -7,7 +7,7 @@
 //! # Precision
 //! A constant frequency offset (phase: a constant and a linear ramp are removed the same way) cancels in every
 //! statistic here, so it is removed first: frequency data lose their mean before integration, phase data lose the
-//! straight line through their end points. The integration is compensated (Kahan), and the prefix sums of the
+//! straight line through their end points. The integration is a plain running sum (the mean removed first keeps it small), and the prefix sums of the
 //! phase that MDEV/TDEV use are kept as double-double, so long records keep their precision.
 //!
 //! # Gaps (NaN)
@@ -17,7 +17,12 @@
 //! number actually averaged, and nothing is interpolated or averaged over a gap. Without gaps, `n` is Stable32's
 //! `#` column.
 
+use rayon::prelude::*;
+
 use super::error::StatsError;
+
+/// Work unit of the parallel passes over the samples.
+const CHUNK: usize = 1 << 18;
 
 /// What a sample is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -37,8 +42,6 @@ pub struct Series {
     pub(crate) tau0_s: f64,
     /// Phase points, gaps replaced by 0 (never read inside a gap: see `valid`).
     pub(crate) x: Vec<f64>,
-    /// The trimmed input (frequency with its mean removed, or phase), NaN kept: noise identification reads it.
-    pub(crate) raw: Vec<f64>,
     /// `bad[k]`: number of gap elements before k (phase: bad points in [0, k); frequency: bad intervals in [0, k)),
     /// or None when the record has no gap.
     pub(crate) bad: Option<Vec<u32>>,
@@ -56,9 +59,6 @@ impl Series {
         if !(tau0_s > 0.0 && tau0_s.is_finite()) {
             return Err(StatsError::BadTau0 { tau0_s });
         }
-        if let Some(index) = data.iter().position(|v| v.is_infinite()) {
-            return Err(StatsError::Infinite { index });
-        }
         let first = data.iter().position(|v| !v.is_nan()).unwrap_or(data.len());
         let last = data.iter().rposition(|v| !v.is_nan()).map_or(first, |i| i + 1);
         let d = &data[first..last.max(first)];
@@ -66,11 +66,33 @@ impl Series {
             DataKind::Phase => d.len(),
             DataKind::Frequency => d.len() + 1,
         };
-        if d.is_empty() || n_phase < 3 {
-            return Err(StatsError::TooFewSamples { valid: d.len(), needed: 3 });
+        // One parallel scan: sum of the valid samples, number of NaNs, first infinity.
+        let (sum, n_nan, inf) = d
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(c, ch)| {
+                let (mut s, mut nan, mut inf) = ([0.0f64; 4], 0usize, None);
+                for (j, q) in ch.chunks(4).enumerate() {
+                    for (k, &v) in q.iter().enumerate() {
+                        if v.is_nan() {
+                            nan += 1;
+                        } else if v.is_infinite() {
+                            inf = inf.or(Some(c * CHUNK + j * 4 + k));
+                        } else {
+                            s[k] += v;
+                        }
+                    }
+                }
+                (s.iter().sum::<f64>(), nan, inf)
+            })
+            .reduce(|| (0.0, 0, None), |a, b| (a.0 + b.0, a.1 + b.1, a.2.or(b.2)));
+        if let Some(i) = inf {
+            return Err(StatsError::Infinite { index: first + i });
         }
-        let has_gap = d.iter().any(|v| v.is_nan());
-        let bad = has_gap.then(|| {
+        if d.is_empty() || n_phase < 3 {
+            return Err(StatsError::TooFewSamples { valid: d.len() - n_nan, needed: 3 });
+        }
+        let bad = (n_nan > 0).then(|| {
             let mut b = Vec::with_capacity(n_phase + 1);
             let mut c = 0u32;
             b.push(0);
@@ -83,36 +105,53 @@ impl Series {
             }
             b
         });
-        let (x, raw) = match kind {
+        let x = match kind {
             DataKind::Frequency => {
-                let mean = mean_valid(d);
-                let raw: Vec<f64> = d.iter().map(|v| v - mean).collect();
-                let mut x = Vec::with_capacity(n_phase);
-                x.push(0.0);
-                // Kahan-compensated running sum.
-                let (mut s, mut c) = (0.0f64, 0.0f64);
-                for &v in &raw {
-                    let yv = if v.is_nan() { 0.0 } else { v * tau0_s } - c;
-                    let t = s + yv;
-                    c = (t - s) - yv;
-                    s = t;
-                    x.push(s);
+                let mean = sum / (d.len() - n_nan) as f64;
+                let step = |v: f64| if v.is_nan() { 0.0 } else { (v - mean) * tau0_s };
+                // Parallel prefix sum: chunk totals, their exclusive scan, then each chunk from its offset.
+                let totals: Vec<f64> =
+                    d.par_chunks(CHUNK).map(|ch| ch.iter().map(|&v| step(v)).sum::<f64>()).collect();
+                let mut offsets = Vec::with_capacity(totals.len());
+                let mut acc = 0.0;
+                for t in &totals {
+                    offsets.push(acc);
+                    acc += t;
                 }
-                (x, raw)
+                let mut x = vec![0.0f64; n_phase];
+                x[1..].par_chunks_mut(CHUNK).zip(d.par_chunks(CHUNK)).zip(offsets.par_iter()).for_each(
+                    |((out, ch), &off)| {
+                        let mut s = off;
+                        for (o, &v) in out.iter_mut().zip(ch) {
+                            s += step(v);
+                            *o = s;
+                        }
+                    },
+                );
+                x
             }
             DataKind::Phase => {
                 // Remove the line through the first and last points (both valid after trimming).
                 let n1 = (d.len() - 1) as f64;
                 let (a, b) = (d[0], d[d.len() - 1]);
-                let x: Vec<f64> = d
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &v)| if v.is_nan() { 0.0 } else { v - a - (b - a) * (i as f64 / n1) })
-                    .collect();
-                (x, d.to_vec())
+                let slope = (b - a) / n1;
+                let mut x = vec![0.0f64; n_phase];
+                x.par_chunks_mut(CHUNK).zip(d.par_chunks(CHUNK)).enumerate().for_each(|(c, (out, ch))| {
+                    for (j, (o, &v)) in out.iter_mut().zip(ch).enumerate() {
+                        let i = (c * CHUNK + j) as f64;
+                        *o = if v.is_nan() { 0.0 } else { v - a - slope * i };
+                    }
+                });
+                x
             }
         };
-        Ok(Series { kind, tau0_s, x, raw, bad, prefix: std::sync::OnceLock::new() })
+        Ok(Series { kind, tau0_s, x, bad, prefix: std::sync::OnceLock::new() })
+    }
+
+    /// Whether phase point k is missing (phase data) or interval [k, k+1) is (frequency data).
+    #[inline]
+    pub(crate) fn is_gap(&self, k: usize) -> bool {
+        self.bad.as_deref().is_some_and(|b| b[k + 1] != b[k])
     }
 
     /// Number of phase points (frequency samples + 1 for frequency data), after trimming.
@@ -166,25 +205,5 @@ impl Series {
             }
             (hi, lo)
         })
-    }
-}
-
-/// Mean of the non-NaN values (pairwise-accurate enough: compensated).
-fn mean_valid(d: &[f64]) -> f64 {
-    let (mut s, mut c, mut n) = (0.0f64, 0.0f64, 0usize);
-    for &v in d {
-        if v.is_nan() {
-            continue;
-        }
-        let y = v - c;
-        let t = s + y;
-        c = (t - s) - y;
-        s = t;
-        n += 1;
-    }
-    if n == 0 {
-        0.0
-    } else {
-        s / n as f64
     }
 }
