@@ -96,7 +96,7 @@ async fn main(spawner: Spawner) {
 #[cfg(not(feature = "qemu"))]
 type LogFlashImpl = store::BoardFlash;
 #[cfg(feature = "qemu")]
-type LogFlashImpl = octavar_shared::fieldlog::RamFlash<2048>;
+type LogFlashImpl = qemu::QemuFlash;
 
 /// The field log (see `store.rs`).
 #[embassy_executor::task]

@@ -17,7 +17,8 @@ use core::sync::atomic::Ordering;
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_time::{Duration, Ticker, Timer};
 use octavar_shared::acc::OctaveAllan;
-use octavar_shared::fieldlog::RamFlash;
+use octavar_shared::fieldlog::{LogFlash, RamFlash, RamFlashError};
+use static_cell::StaticCell;
 use octavar_shared::sensor::{Channel, ADXRS300};
 use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim};
 
@@ -69,8 +70,37 @@ mod usart1 {
 pub struct Parts {
     /// SysTick, for the time driver.
     pub syst: cortex_m::peripheral::SYST,
-    /// The RAM flash standing in for sectors 10 and 11 (two 8 KiB sectors: two checkpoints each).
-    pub flash: RamFlash<2048>,
+    /// The RAM flash standing in for sectors 10 and 11.
+    pub flash: QemuFlash,
+}
+
+/// Words in each of the two RAM sectors: 8 KiB, two checkpoints each (so the log alternates and erases often).
+pub const SECTOR_WORDS: usize = 2048;
+
+/// The RAM flash, in a static so that tasks hold only a reference to it.
+static FLASH: StaticCell<RamFlash<SECTOR_WORDS>> = StaticCell::new();
+
+/// The field log's flash in QEMU: a [`RamFlash`] in a static.
+pub struct QemuFlash(&'static mut RamFlash<SECTOR_WORDS>);
+
+impl LogFlash for QemuFlash {
+    type Error = RamFlashError;
+
+    fn sector_words(&self) -> usize {
+        self.0.sector_words()
+    }
+
+    fn erase(&mut self, sector: usize) -> Result<(), RamFlashError> {
+        self.0.erase(sector)
+    }
+
+    fn write(&mut self, sector: usize, offset: usize, words: &[u32]) -> Result<(), RamFlashError> {
+        self.0.write(sector, offset, words)
+    }
+
+    fn read(&mut self, sector: usize, offset: usize, buf: &mut [u32]) -> Result<(), RamFlashError> {
+        self.0.read(sector, offset, buf)
+    }
 }
 
 /// Enable USART1 (115200 Bd at 84 MHz, 8N1; QEMU ignores the rate) and hand out the parts.
@@ -82,7 +112,7 @@ pub fn init() -> Parts {
         usart1::BRR.write_volatile(84_000_000 / 115_200);
         usart1::CR1.write_volatile(usart1::UE | usart1::TE);
     }
-    Parts { syst: core.SYST, flash: RamFlash::new() }
+    Parts { syst: core.SYST, flash: QemuFlash(FLASH.init(RamFlash::new())) }
 }
 
 fn uart_write(bytes: &[u8]) {
@@ -170,8 +200,8 @@ pub async fn sim_sampler_task(mut blocks: BlockSender) {
 /// SysTick counts virtual time at 168 MHz: so virtual nanoseconds per sample are instructions per sample. The DWT
 /// cycle counter is read too, to show whether this QEMU emulates it.
 pub fn bench_accumulator() {
-    const CODES: usize = 4096;
-    const ROUNDS: usize = 64;
+    const CODES: usize = 1024;
+    const ROUNDS: usize = 256;
     static mut CODES_BUF: [u16; CODES] = [0; CODES];
     // SAFETY: used only here, before the executor starts.
     let codes = unsafe { &mut *core::ptr::addr_of_mut!(CODES_BUF) };
