@@ -4,9 +4,16 @@
 //! clap, no stdout and no `process::exit`; errors are typed per module and locate the fault (file, line, column).
 
 pub mod accumulate;
+pub mod capture;
+pub mod decode;
+pub mod device_sim;
 pub mod demo;
 pub mod fit;
 pub mod input;
+pub mod plot;
+pub mod record;
+pub mod recording;
 pub mod simulate;
 pub mod snapshot_stats;
 pub mod stats;
+pub mod verify;
