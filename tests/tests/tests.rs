@@ -3,4 +3,5 @@
 mod acc_allantools;
 mod reference_nbs14;
 mod reference_stable32;
+mod sim_closed_form;
 mod util;
