@@ -63,6 +63,6 @@ pub fn temperature_c(mean_code: f64) -> f32 {
     (25.0 + (sensor_mv - t.mv_at_25c) / t.mv_per_c) as f32
 }
 
-const _: () = assert!(BLOCK_SETS % RAW_SETS_PER_FRAME == 0);
+const _: () = assert!(BLOCK_SETS.is_multiple_of(RAW_SETS_PER_FRAME));
 const _: () = assert!(RAW_SETS_PER_FRAME * CHANNELS <= octavar_shared::proto::MAX_CODES);
 const _: () = assert!(GYROS + 1 == CHANNELS && TEMP_CHANNEL == GYROS);
