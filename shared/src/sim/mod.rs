@@ -25,10 +25,11 @@
 //! random walk, Gauss-Markov, a bias step's size only on a step), the flicker bank's four multiply-adds on about
 //! 2.3 random words, some thirty multiply-adds in all, and one decrement for each of bias steps and outliers; no
 //! division and no transcendental call except on rare events (a bias step, an outlier, a ziggurat tail). On this
-//! x86_64 host that measured about 15 ns of CPU per sample for N + B + K + ADC (67 million samples/s on one core;
-//! criterion bench `host/benches/sim.rs`). On the Cortex-M4 the `f64` arithmetic is software, so a channel costs
-//! a few thousand cycles per sample: enough for a self-test at a few kS/s, not for five channels at 2 kS/s while
-//! the firmware does its real work.
+//! x86_64 host one core measured about 14.5 ns of CPU per sample for N + B + K + ADC (69 million samples/s) and
+//! 22 ns with every term and effect on (45 million samples/s); criterion bench `host/benches/sim.rs`. A
+//! [`VirtualGyro`] is 904 bytes, a [`Bench`] of up to eight channels 8.5 KiB. On the Cortex-M4 the `f64`
+//! arithmetic is software, so a channel costs a few thousand cycles per sample: enough for a self-test at a few
+//! kS/s, not for five channels at 2 kS/s while the firmware does its real work.
 //!
 //! # Examples
 //! ```
