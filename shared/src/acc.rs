@@ -59,6 +59,7 @@ pub const MAX_STRIDE: usize = 64;
 const FAST_LEVELS: usize = 7;
 /// The every-sample levels' u64 partial sums are folded into u128 every 2^16 samples.
 const FLUSH_LOG2: u32 = 16;
+const FLUSH_MASK: u64 = (1 << FLUSH_LOG2) - 1;
 /// log2 of the bound on any level's sum of squares after 2^40 samples with the largest stride:
 /// `2^40 * 64 * 2^31 * 65535^2 < 2^109`, well inside the `u128` sum.
 pub const SUM_SQ_BOUND_LOG2: u32 = 40 + 6 + 31 + 32;
@@ -160,11 +161,27 @@ impl<const S: usize> OctaveAllan<S> {
         Ok(())
     }
 
-    /// Push a block of codes.
+    /// Push a block of codes: the fast path. Count, phase and the every-sample levels' partial sums stay in
+    /// registers across the block; the indices of the every-sample levels are 32-bit.
     pub fn push_slice(&mut self, codes: &[u16]) {
-        for &c in codes {
-            self.push(c);
+        let mut rest = codes;
+        while self.count < Self::WARM && !rest.is_empty() {
+            self.push(rest[0]);
+            rest = &rest[1..];
         }
+        let (mut t, mut x, mut fast) = (self.count, self.phase, self.fast);
+        for &c in rest {
+            t += 1;
+            x = x.wrapping_add(u64::from(c));
+            Self::every_sample_levels(&mut self.low_ring[Self::SHIFT as usize], &mut fast, t as u32, x as u32);
+            if t & 1 == 0 {
+                self.push_upper(t, x);
+                if t & FLUSH_MASK == 0 {
+                    Self::flush(&mut self.sum_sq, &mut fast);
+                }
+            }
+        }
+        (self.count, self.phase, self.fast) = (t, x, fast);
     }
 
     /// Push one ADC code: integer work only.
@@ -174,33 +191,57 @@ impl<const S: usize> OctaveAllan<S> {
         self.count = t;
         let x = self.phase.wrapping_add(u64::from(code));
         self.phase = x;
-        let x32 = x as u32;
-        let shift = Self::SHIFT as usize;
+        if t < Self::WARM {
+            self.push_warm(t, x as u32);
+        } else {
+            Self::every_sample_levels(&mut self.low_ring[Self::SHIFT as usize], &mut self.fast, t as u32, x as u32);
+        }
+        if t & 1 == 0 {
+            self.push_upper(t, x);
+            if t & FLUSH_MASK == 0 {
+                Self::flush(&mut self.sum_sq, &mut self.fast);
+            }
+        }
+    }
 
-        // Levels 0..=log2 S take a difference at every sample (m <= S: fully overlapping). They all read the
-        // ring of level log2 S, which holds x_{t-1} .. x_{t-2S} before x_t is stored. Their squares go to u64
-        // partial sums, folded into the u128 sums every 2^FLUSH_LOG2 samples (see `fast`).
-        let ring = &mut self.low_ring[shift];
+    /// Samples after which every level 0..=log2 S takes a difference at each sample.
+    const WARM: u64 = 2 * S as u64;
+
+    /// Levels 0..=log2 S once t >= 2S (m <= S: fully overlapping): each takes a difference at every sample. They
+    /// all read the ring of level log2 S, which holds x_{t-1} .. x_{t-2S} in slot `t mod 2S` (its
+    /// `[slot / S][slot % S]` layout is exactly the flat order) before x_t is stored. Their squares go to u64
+    /// partial sums, folded into the u128 sums every 2^FLUSH_LOG2 samples (see `fast`).
+    #[inline(always)]
+    fn every_sample_levels(ring: &mut [[u32; S]; 2], fast: &mut [u64; FAST_LEVELS], t: u32, x32: u32) {
+        let ring = ring.as_flattened_mut();
+        let mask = Self::RING_MASK as u32;
+        for (k, f) in fast.iter_mut().enumerate().take(Self::SHIFT as usize) {
+            let m = 1u32 << k;
+            let mid = ring[(t.wrapping_sub(m) & mask) as usize];
+            let old = ring[(t.wrapping_sub(2 * m) & mask) as usize];
+            *f += square32(x32.wrapping_sub(mid << 1).wrapping_add(old));
+        }
+        let j = (t & mask) as usize;
+        let old = ring[j]; // x_{t - 2S}
+        let mid = ring[j ^ S]; // x_{t - S}
+        fast[Self::SHIFT as usize] += square32(x32.wrapping_sub(mid << 1).wrapping_add(old));
+        ring[j] = x32;
+    }
+
+    /// The first 2S samples: a level takes its first difference only once 2m samples are in.
+    fn push_warm(&mut self, t: u64, x32: u32) {
+        let shift = Self::SHIFT as usize;
+        let ring = self.low_ring[shift].as_flattened_mut();
+        let mask = Self::RING_MASK;
         for k in 0..shift {
             let m = 1u64 << k;
             if t >= 2 * m {
-                let mid = ring_get(ring, (t - m) & Self::RING_MASK, shift);
-                let old = ring_get(ring, (t - 2 * m) & Self::RING_MASK, shift);
-                self.fast[k] += square32(x32.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old));
+                let mid = ring[((t - m) & mask) as usize];
+                let old = ring[((t - 2 * m) & mask) as usize];
+                self.fast[k] += square32(x32.wrapping_sub(mid << 1).wrapping_add(old));
             }
         }
-        let half = ((t >> shift) & 1) as usize;
-        let i = (t & (S as u64 - 1)) as usize;
-        let old = ring[half][i];
-        let mid = ring[half ^ 1][i];
-        if t >= 2 * S as u64 {
-            self.fast[shift] += square32(x32.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old));
-        }
-        ring[half][i] = x32;
-
-        if t & 1 == 0 {
-            self.push_upper(t, x);
-        }
+        ring[(t & mask) as usize] = x32;
     }
 
     /// Levels above log2 S: level k takes a phase every d = 2^(k - log2 S) samples, so this runs for every
@@ -236,15 +277,12 @@ impl<const S: usize> OctaveAllan<S> {
                 ring[half][i] = x;
             }
         }
-        if t & ((1 << FLUSH_LOG2) - 1) == 0 {
-            self.flush_fast();
-        }
     }
 
     /// Fold the u64 partial sums of the every-sample levels into their u128 sums.
-    fn flush_fast(&mut self) {
+    fn flush(sum_sq: &mut [u128; LEVELS], fast: &mut [u64; FAST_LEVELS]) {
         for k in 0..=Self::SHIFT as usize {
-            self.sum_sq[k] += u128::from(core::mem::take(&mut self.fast[k]));
+            sum_sq[k] += u128::from(core::mem::take(&mut fast[k]));
         }
     }
 
@@ -275,10 +313,6 @@ fn square32(d: u32) -> u64 {
     (d * d) as u64
 }
 
-#[inline(always)]
-fn ring_get<const S: usize>(ring: &[[u32; S]; 2], slot: u64, shift: usize) -> u32 {
-    ring[(slot >> shift) as usize & 1][(slot & (S as u64 - 1)) as usize]
-}
 
 /// Number of second differences at `level` after `count` samples with stride `stride`:
 /// `floor(count / d) - 2 m / d + 1` (zero if negative), with step `d = max(1, m / stride)`.
@@ -428,6 +462,36 @@ mod tests {
             check_all::<8>(&codes);
             check_all::<16>(&codes);
         }
+    }
+
+    /// One code at a time, whole slices, and random chunkings all give the same state, including across the
+    /// warm-up and the 2^16-sample fold of the partial sums.
+    #[test]
+    fn push_and_push_slice_agree_in_any_chunking() {
+        fn run<const S: usize>(codes: &[u16]) {
+            let mut one = OctaveAllan::<S>::new();
+            for &c in codes {
+                one.push(c);
+            }
+            let mut whole = OctaveAllan::<S>::new();
+            whole.push_slice(codes);
+            let mut chunked = OctaveAllan::<S>::new();
+            let mut rest = codes;
+            let mut n = 1usize;
+            while !rest.is_empty() {
+                let k = n.min(rest.len());
+                chunked.push_slice(&rest[..k]);
+                rest = &rest[k..];
+                n = (n * 7 + 3) % 1000;
+            }
+            assert_eq!(one, whole, "S={S}");
+            assert_eq!(one, chunked, "S={S}");
+        }
+        let codes = lcg_codes((1 << 17) + 123, 21, 16);
+        run::<1>(&codes);
+        run::<2>(&codes);
+        run::<8>(&codes);
+        run::<64>(&codes);
     }
 
     #[test]
