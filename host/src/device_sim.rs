@@ -19,7 +19,7 @@
 //! let mut dev = DeviceSim::new(cfg, 0xff);
 //! let mut wire = Vec::new();
 //! dev.boot(&mut wire);
-//! for i in 0..4_000u32 {
+//! for i in 0..4_100u32 {
 //!     let c = 2048 + (i % 7) as u16;
 //!     dev.push_scan(&[c, c, c, c, 1900], &mut wire);
 //! }
