@@ -9,7 +9,7 @@
 //! [`adev_plot`] draws several channels on one log-log plot, each with its own colour (Okabe-Ito, safe for
 //! colour-blind readers) and marker: the points with their confidence intervals as error bars, the fitted
 //! IEEE 952 model as a solid line and each identifiable fitted term (Q, N, B, K, R) as a dashed, lighter line
-//! where it matters (within a factor of ten of the model). The legend sits to the right of the axes, names each
+//! where it matters (within a factor of four of the model). The legend sits to the right of the axes, names each
 //! channel with its fitted values, and explains the line styles once.
 //!
 //! [`gap_plot`] draws a measured ADEV curve against one or two ensembles of simulated curves, each as a shaded
@@ -424,12 +424,13 @@ impl LogAxis {
             .filter(|&v| inside(v))
             .collect();
         minor.extend(decades.iter().copied().filter(|d| !major.contains(d)));
-        if major.len() < 2 {
-            // Less than a decade: label the 2s and 5s too.
+        if major.len() < 3 {
+            // Two decades or less: label the 2s and 5s too.
             major = (e0..=e1)
                 .flat_map(|e| STEPS.iter().map(move |s| s * 10f64.powi(e)))
                 .filter(|&v| inside(v))
                 .collect();
+            minor.retain(|v| !major.iter().any(|m| (m / v - 1.0).abs() < 1e-9));
         }
         LogAxis { lo, hi, major, minor }
     }
@@ -466,13 +467,13 @@ fn superscript(n: i32) -> String {
         .collect()
 }
 
-/// A value with three significant digits: `4.02×10⁻⁴`, `0.0130`, `2.61`.
+/// A value with three significant digits: `4.02×10⁻⁴`, `1.30×10⁻²`, `0.261`, `2.61`, `261`.
 fn value_label(v: f64) -> String {
     if !v.is_finite() || v == 0.0 {
         return format!("{v}");
     }
     let e = v.abs().log10().floor() as i32;
-    if (-2..=2).contains(&e) {
+    if (-1..=2).contains(&e) {
         let digits = (2 - e).max(0) as usize;
         return format!("{v:.digits$}");
     }
@@ -540,7 +541,7 @@ fn lighter(c: RGBColor, f: f64) -> RGBColor {
 const INK: RGBColor = RGBColor(30, 30, 30);
 const GREY: RGBColor = RGBColor(100, 100, 100);
 
-/// Sizes scaled with the picture (1 at 1200x800).
+/// Sizes scaled with the picture (1 at 1200x800, more slowly below).
 #[derive(Clone, Copy, Debug)]
 struct Look {
     s: f64,
@@ -548,8 +549,10 @@ struct Look {
 
 impl Look {
     fn new(opts: &PlotOptions) -> Self {
-        let s = (f64::from(opts.width) / 1200.0).min(f64::from(opts.height) / 800.0).clamp(0.5, 4.0);
-        Look { s }
+        let s = (f64::from(opts.width) / 1200.0).min(f64::from(opts.height) / 800.0).clamp(0.3, 8.0);
+        // Larger pictures scale as a whole (the same figure at a higher resolution); smaller ones keep their
+        // text readable.
+        Look { s: if s >= 1.0 { s } else { s.powf(0.6) } }
     }
 
     fn px(&self, v: f64) -> i32 {
@@ -944,8 +947,9 @@ fn frame<'a, DB: DrawingBackend>(
 // ---------------------------------------------------------------------------------------------------------------
 // The ADEV plot
 
-/// A term is drawn where its ADEV is at least this fraction of the model's.
-const TERM_SHARE: f64 = 0.1;
+/// A term is drawn where its ADEV is at least this fraction of the model's (about a decade of tau past where it
+/// stops dominating, for the +-1/2 slopes).
+const TERM_SHARE: f64 = 0.25;
 
 fn draw_adev<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
@@ -1046,6 +1050,7 @@ fn adev_legend(series: &[Prepared<'_>], opts: &PlotOptions) -> Legend {
 const BEFORE: RGBColor = RGBColor(213, 94, 0);
 const AFTER: RGBColor = RGBColor(0, 114, 178);
 const HIGHLIGHT: RGBColor = RGBColor(240, 228, 66);
+const HIGHLIGHT_EDGE: RGBColor = RGBColor(175, 150, 0);
 
 fn draw_gap<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
@@ -1072,25 +1077,21 @@ fn draw_gap<DB: DrawingBackend>(
         entries.push(Entry::main(Sample::Swatch(AFTER.mix(0.25), AFTER), gap.after_label.as_str()));
     }
     if band.is_some() {
-        entries.push(Entry::main(Sample::Swatch(HIGHLIGHT.mix(0.45), lighter(HIGHLIGHT, 0.0)), gap.band_label.as_str()));
+        entries.push(Entry::main(Sample::Swatch(HIGHLIGHT.mix(0.3), HIGHLIGHT_EDGE), gap.band_label.as_str()));
     }
     let legend = Legend { entries };
     let (plot_area, legend_area) = frame(&body, &legend, &look)?;
     let mut chart = axes(&plot_area, &xa, &ya, &opts.unit, &look)?;
 
+    let band = band.map(|(a, b)| (a.max(xa.lo), b.min(xa.hi))).filter(|(a, b)| a < b);
     if let Some((a, b)) = band {
-        let (a, b) = (a.max(xa.lo), b.min(xa.hi));
-        if a < b {
+        chart
+            .draw_series(std::iter::once(Rectangle::new([(a, ya.lo), (b, ya.hi)], HIGHLIGHT.mix(0.3).filled())))
+            .map_err(err)?;
+        let edge = HIGHLIGHT_EDGE.stroke_width(look.px(1.5).max(1) as u32);
+        for t in [a, b].into_iter().filter(|&t| t > xa.lo && t < xa.hi) {
             chart
-                .draw_series(std::iter::once(Rectangle::new([(a, ya.lo), (b, ya.hi)], HIGHLIGHT.mix(0.45).filled())))
-                .map_err(err)?;
-            let mid = (a * b).sqrt();
-            let style = (FAMILY, 16.0 * look.s, FontStyle::Bold).into_font().color(&INK);
-            chart
-                .draw_series(std::iter::once(
-                    EmptyElement::at((mid, ya.hi))
-                        + Text::new(gap.band_label.clone(), (0, look.px(8.0)), style.pos(Pos::new(HPos::Center, VPos::Top))),
-                ))
+                .draw_series(DashedLineSeries::new([(t, ya.lo), (t, ya.hi)], look.px(6.0), look.px(4.0), edge))
                 .map_err(err)?;
         }
     }
@@ -1113,6 +1114,17 @@ fn draw_gap<DB: DrawingBackend>(
             chart.draw_series(LineSeries::new(piece, INK.mix(0.6).stroke_width(look.px(1.2).max(1) as u32))).map_err(err)?;
         }
         draw_points(&mut chart, real, &ya, 0, INK, &look)?;
+    }
+    if let Some((a, b)) = band.filter(|_| !gap.band_label.is_empty()) {
+        // The label at the top of the band, kept inside the frame.
+        let style = (FAMILY, 16.0 * look.s, FontStyle::Bold).into_font().color(&INK);
+        let (w, _) = root.estimate_text_size(&gap.band_label, &style).map_err(err)?;
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let (mid, _) = chart.backend_coord(&((a * b).sqrt(), ya.hi));
+        let half = w as i32 / 2 + look.px(6.0);
+        let x = if xr.end - xr.start > 2 * half { mid.clamp(xr.start + half, xr.end - half) } else { mid };
+        let at = (x, yr.start + look.px(8.0));
+        root.draw(&Text::new(gap.band_label.clone(), at, style.pos(Pos::new(HPos::Center, VPos::Top)))).map_err(err)?;
     }
     legend.draw(&legend_area, 0, look.px(8.0), &look)
 }
@@ -1297,7 +1309,9 @@ mod tests {
         assert_eq!(tick_label(1.0), "10⁰");
         assert_eq!(tick_label(2e4), "2×10⁴");
         assert_eq!(value_label(4.0e-4), "4.00×10⁻⁴");
-        assert_eq!(value_label(0.013), "0.0130");
+        assert_eq!(value_label(0.013), "1.30×10⁻²");
+        assert_eq!(value_label(0.26), "0.260");
+        assert_eq!(value_label(26.0), "26.0");
         let narrow = LogAxis::new((3e-3, 4e-3));
         assert!(narrow.major.len() >= 2, "{narrow:?}");
         let runs = clip(&[(0.1, 0.1), (10.0, 10.0), (1000.0, 1000.0)], (1.0, 100.0), (1e-3, 1e3));
