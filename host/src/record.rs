@@ -266,7 +266,9 @@ pub struct LiveStats {
     pub disconnects: u64,
     /// The device is gone right now (waiting for it).
     pub waiting: bool,
-    /// The last connection error.
+    /// Why the connection was last lost.
+    pub lost_because: Option<String>,
+    /// The last error reopening the port (cleared on connect).
     pub last_error: Option<String>,
     /// Time since the start.
     pub elapsed_s: f64,
@@ -409,6 +411,7 @@ pub fn record<S: Source, W: CaptureSink>(
         let Some(mut link) = next_link.take() else { unreachable!("the loop continues only with a link") };
         live.stats.connects += 1;
         live.stats.waiting = false;
+        live.stats.last_error = None;
         if source.can_send() {
             let sent = send(&mut link, &mut enc, Command::Hello).and_then(|()| match opts.raw_mask {
                 Some(mask) => send(&mut link, &mut enc, Command::StartRaw { channel_mask: mask }),
@@ -452,7 +455,7 @@ pub fn record<S: Source, W: CaptureSink>(
         capture.sync()?;
         live.stats.disconnects += 1;
         live.stats.waiting = true;
-        live.stats.last_error = Some(lost.to_string());
+        live.stats.lost_because = Some(lost.to_string());
         progress(live.refresh(start, capture.written()));
         if opts.once {
             break EndReason::Disconnected;
@@ -503,5 +506,205 @@ fn sleep_checking(d: Duration, stop: &AtomicBool) {
             break;
         }
         std::thread::sleep((end - now).min(Duration::from_millis(50)));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device_sim::{device_frames, DeviceConfig};
+    use octavar_shared::proto::Decoder;
+    use std::collections::VecDeque;
+    use std::path::Path;
+    use std::sync::{Arc, Mutex};
+
+    /// One step of a fake connection.
+    #[derive(Clone, Debug)]
+    enum Step {
+        Data(Vec<u8>),
+        Fail(io::ErrorKind),
+    }
+
+    /// A port whose connections follow a script: each connect attempt takes the next entry (`None`: the port is
+    /// not there). A connection that has played its steps stays idle.
+    struct FakePort {
+        script: VecDeque<Option<Vec<Step>>>,
+        sent: Arc<Mutex<Vec<u8>>>,
+        attempts: u32,
+    }
+
+    struct FakeLink {
+        steps: VecDeque<Step>,
+        sent: Arc<Mutex<Vec<u8>>>,
+    }
+
+    impl Link for FakeLink {
+        fn read(&mut self, buf: &mut [u8]) -> io::Result<ReadOutcome> {
+            match self.steps.pop_front() {
+                Some(Step::Data(mut d)) => {
+                    let n = d.len().min(buf.len());
+                    buf[..n].copy_from_slice(&d[..n]);
+                    if n < d.len() {
+                        self.steps.push_front(Step::Data(d.split_off(n)));
+                    }
+                    Ok(ReadOutcome::Data(n))
+                }
+                Some(Step::Fail(kind)) => Err(io::Error::new(kind, "device unplugged")),
+                None => {
+                    std::thread::sleep(Duration::from_millis(1));
+                    Ok(ReadOutcome::Idle)
+                }
+            }
+        }
+
+        fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
+            self.sent.lock().unwrap().extend_from_slice(bytes);
+            Ok(())
+        }
+    }
+
+    impl Source for FakePort {
+        type Link = FakeLink;
+        fn name(&self) -> String {
+            "/dev/ttyFAKE0".into()
+        }
+        fn connect(&mut self) -> io::Result<FakeLink> {
+            self.attempts += 1;
+            match self.script.pop_front().flatten() {
+                Some(steps) => Ok(FakeLink { steps: steps.into(), sent: self.sent.clone() }),
+                None => Err(io::Error::new(io::ErrorKind::NotFound, "No such file or directory")),
+            }
+        }
+        fn can_reconnect(&self) -> bool {
+            true
+        }
+    }
+
+    fn port(script: Vec<Option<Vec<Step>>>) -> FakePort {
+        FakePort { script: script.into(), sent: Arc::default(), attempts: 0 }
+    }
+
+    fn opts() -> RecordOptions {
+        RecordOptions {
+            raw_mask: Some(0x1f),
+            retry_every: Duration::from_millis(2),
+            progress_every: Duration::from_millis(1),
+            ..Default::default()
+        }
+    }
+
+    fn wire() -> Vec<u8> {
+        let scans = (0..6100u32).map(|i| [2000 + (i % 17) as u16, 2010, 2020 + (i % 3) as u16, 2047, 1900]);
+        device_frames(DeviceConfig::firmware(), 0x1f, scans)
+    }
+
+    fn commands(bytes: &[u8]) -> Vec<Command> {
+        Decoder::<Command>::new().feed(bytes).map(|r| r.unwrap().msg).collect()
+    }
+
+    #[test]
+    fn an_unplugged_device_is_waited_for_and_nothing_received_is_lost() {
+        let w = wire();
+        let cut = w.len() / 3 + 7; // mid-frame
+                                   // The device comes back later: the bytes sent while it was away never arrive; it resumes at a frame start.
+        let resume = cut + 500 + w[cut + 500..].iter().position(|&b| b == 0).unwrap() + 1;
+        let mut p = port(vec![
+            Some(vec![
+                Step::Data(w[..100].to_vec()),
+                Step::Data(w[100..cut].to_vec()),
+                Step::Fail(io::ErrorKind::BrokenPipe),
+            ]),
+            None,
+            None,
+            Some(vec![Step::Data(w[resume..].to_vec())]),
+        ]);
+        let expected: Vec<u8> = [&w[..cut], &w[resume..]].concat();
+        let mut cap = CaptureWriter::new(Vec::new(), Path::new("mem.cap"));
+        let stop = AtomicBool::new(false);
+        let mut saw_waiting = false;
+        let total = expected.len() as u64;
+        let summary = record(&mut p, &mut cap, &opts(), &stop, &mut |s| {
+            saw_waiting |= s.waiting;
+            if s.bytes == total {
+                stop.store(true, Ordering::Relaxed);
+            }
+        })
+        .unwrap();
+        assert_eq!(summary.ended, EndReason::Stopped);
+        assert!(saw_waiting);
+        assert_eq!(cap.get_ref(), &expected, "the capture is exactly the bytes received");
+        let s = &summary.stats;
+        assert_eq!((s.connects, s.disconnects, p.attempts), (2, 1, 4));
+        assert_eq!(s.lost_because.as_deref(), Some("device unplugged"));
+        assert_eq!(s.last_error, None);
+        // The live counts are those of decoding the capture afterwards: the cut frame and the one it runs into
+        // are one bad frame; the frames in between are counted as lost.
+        let mut offline = crate::decode::CaptureReader::new(&expected[..], "mem.cap");
+        let offline_sets: u64 = offline
+            .by_ref()
+            .filter_map(|d| match d.unwrap().record {
+                Record::Samples(x) => Some(x.sets() as u64),
+                _ => None,
+            })
+            .sum();
+        assert_eq!(s.sample_sets, offline_sets);
+        assert!(s.sample_sets < 6100);
+        assert_eq!(s.decode.bad_frame_count(), 1);
+        assert_eq!(s.decode.lost_frames, offline.stats().lost_frames);
+        assert!(s.decode.lost_frames >= 2);
+        assert_eq!(s.adev_1s.len(), 4);
+        assert!(s.adev_1s.iter().all(|a| a.samples == 6000 && a.adev_codes.is_some() && a.adev_dps.is_some()));
+        assert_eq!(s.adev_1s[0].name.as_deref(), Some("IDG1215 X"));
+        let sent = commands(&p.sent.lock().unwrap());
+        let start = Command::StartRaw { channel_mask: 0x1f };
+        assert_eq!(sent, [Command::Hello, start, Command::Hello, start, Command::StopRaw]);
+    }
+
+    #[test]
+    fn once_and_give_up_end_the_wait() {
+        let fail = || Some(vec![Step::Data(vec![1, 2, 3]), Step::Fail(io::ErrorKind::Other)]);
+        let stop = AtomicBool::new(false);
+        let mut cap = CaptureWriter::new(Vec::new(), Path::new("mem.cap"));
+        let o = RecordOptions { once: true, ..opts() };
+        let s = record(&mut port(vec![fail()]), &mut cap, &o, &stop, &mut |_| {}).unwrap();
+        assert_eq!(s.ended, EndReason::Disconnected);
+        assert_eq!(cap.get_ref(), &[1, 2, 3]);
+
+        let mut p = port(vec![fail()]);
+        let o = RecordOptions { give_up_after: Some(Duration::from_millis(30)), ..opts() };
+        let t = Instant::now();
+        let s = record(&mut p, &mut cap, &o, &stop, &mut |_| {}).unwrap();
+        assert_eq!(s.ended, EndReason::GaveUp);
+        assert!(t.elapsed() >= Duration::from_millis(30));
+        assert!(p.attempts >= 3, "kept trying: {}", p.attempts);
+        assert_eq!(cap.get_ref(), &[1, 2, 3, 1, 2, 3]);
+    }
+
+    #[test]
+    fn a_missing_port_at_start_is_an_error_naming_it() {
+        let stop = AtomicBool::new(false);
+        let mut cap = CaptureWriter::new(Vec::new(), Path::new("mem.cap"));
+        let e = record(&mut port(vec![None]), &mut cap, &opts(), &stop, &mut |_| {}).unwrap_err();
+        assert_eq!(e.to_string(), "cannot open /dev/ttyFAKE0: No such file or directory");
+    }
+
+    #[test]
+    fn a_file_is_read_to_its_end_and_a_full_disk_stops_with_the_count() {
+        let w = wire();
+        let stop = AtomicBool::new(false);
+        let mut src = ReaderSource::new("in.cap", Box::new(io::Cursor::new(w.clone())), Duration::from_millis(5));
+        let mut cap = CaptureWriter::new(Vec::new(), Path::new("mem.cap"));
+        let s = record(&mut src, &mut cap, &opts(), &stop, &mut |_| {}).unwrap();
+        assert_eq!(s.ended, EndReason::SourceEnded);
+        assert_eq!(cap.get_ref(), &w);
+        assert_eq!(s.stats.decode.bad_frame_count(), 0);
+        assert_eq!(s.stats.connects, 1);
+
+        if Path::new("/dev/full").exists() {
+            let mut src = ReaderSource::new("in.cap", Box::new(io::Cursor::new(w)), Duration::from_millis(5));
+            let mut full = CaptureWriter::create(Path::new("/dev/full"), true).unwrap();
+            let e = record(&mut src, &mut full, &opts(), &stop, &mut |_| {}).unwrap_err();
+            assert!(matches!(e, RecordError::Capture(CaptureError::DiskFull { written: 0, .. })), "{e:?}");
+        }
     }
 }
