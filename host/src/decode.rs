@@ -711,6 +711,9 @@ pub struct SnapshotSummary {
     pub stride: u8,
     /// Samples accumulated.
     pub samples: u64,
+    /// Allan deviation at tau = 1 s, codes (interpolated between octaves; `None` without a rate or so long a
+    /// record).
+    pub adev_1s_codes: Option<f64>,
     /// Levels with n > 0.
     pub levels: Vec<LevelRow>,
 }
@@ -1004,6 +1007,7 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
                 name: name_of(channel),
                 stride: s.stride,
                 samples: s.samples,
+                adev_1s_codes: rate.and_then(|r| adev_codes_at(&s, r, 1.0)),
                 levels: level_rows(&s, rate),
             })
             .collect()

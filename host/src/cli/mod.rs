@@ -5,9 +5,12 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub mod accumulate;
+pub mod decode;
 pub mod demo;
 pub mod progress;
+pub mod record;
 pub mod simulate;
+pub mod verify;
 
 /// octavar: how good is this gyroscope? Allan variance, noise terms, simulation and the sim-to-real gap.
 #[derive(Debug, Parser)]
@@ -25,6 +28,12 @@ pub enum Command {
     Accumulate(accumulate::Args),
     /// Simulate a gyro bench from a model (flags or model.toml): CSV of rates in deg/s, or raw ADC codes.
     Simulate(simulate::Args),
+    /// Record a device's frames (serial port, file or stdin) into a capture file, with live counts; survives unplugging.
+    Record(record::Args),
+    /// Decode a capture: summary, CSV (samples, snapshots, status, estimates) and JSON; damaged frames are counted.
+    Decode(decode::Args),
+    /// Replay a capture's raw samples through the accumulator and check every device snapshot bit for bit.
+    Verify(verify::Args),
 }
 
 impl Command {
@@ -33,6 +42,9 @@ impl Command {
             Command::Demo(a) => a.run(),
             Command::Accumulate(a) => a.run(),
             Command::Simulate(a) => a.run(),
+            Command::Record(a) => a.run(),
+            Command::Decode(a) => a.run(),
+            Command::Verify(a) => a.run(),
         }
     }
 }
