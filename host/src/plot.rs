@@ -9,7 +9,7 @@
 //! [`adev_plot`] draws several channels on one log-log plot, each with its own colour (Okabe-Ito, safe for
 //! colour-blind readers) and marker: the points with their confidence intervals as error bars, the fitted
 //! IEEE 952 model as a solid line and each identifiable fitted term (Q, N, B, K, R) as a dashed, lighter line
-//! where it matters (within a factor of four of the model). The legend sits to the right of the axes, names each
+//! where it matters (within a factor of four of the model), both over the channel's own tau span. The legend sits to the right of the axes, names each
 //! channel with its fitted values, and explains the line styles once.
 //!
 //! [`gap_plot`] draws a measured ADEV curve against one or two ensembles of simulated curves, each as a shaded
@@ -275,7 +275,6 @@ fn register_fonts() {
     });
 }
 
-
 // ---------------------------------------------------------------------------------------------------------------
 // Data
 
@@ -419,17 +418,13 @@ impl LogAxis {
         // At most about 12 labels.
         let step = decades.len().div_ceil(12).max(1);
         let mut major: Vec<f64> = decades.iter().copied().step_by(step).collect();
-        let mut minor: Vec<f64> = (e0..=e1)
-            .flat_map(|e| (2..=9).map(move |m| f64::from(m) * 10f64.powi(e)))
-            .filter(|&v| inside(v))
-            .collect();
+        let mut minor: Vec<f64> =
+            (e0..=e1).flat_map(|e| (2..=9).map(move |m| f64::from(m) * 10f64.powi(e))).filter(|&v| inside(v)).collect();
         minor.extend(decades.iter().copied().filter(|d| !major.contains(d)));
         if major.len() < 3 {
             // Two decades or less: label the 2s and 5s too.
-            major = (e0..=e1)
-                .flat_map(|e| STEPS.iter().map(move |s| s * 10f64.powi(e)))
-                .filter(|&v| inside(v))
-                .collect();
+            major =
+                (e0..=e1).flat_map(|e| STEPS.iter().map(move |s| s * 10f64.powi(e))).filter(|&v| inside(v)).collect();
             minor.retain(|v| !major.iter().any(|m| (m / v - 1.0).abs() < 1e-9));
         }
         LogAxis { lo, hi, major, minor }
@@ -570,6 +565,7 @@ fn err<E: std::fmt::Display>(e: E) -> String {
 
 type LogAx = plotters::coord::combinators::WithKeyPoints<LogCoord<f64>>;
 type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<LogAx, LogAx>>;
+type Area<DB> = DrawingArea<DB, Shift>;
 
 /// The title strip; returns the area below it.
 fn title<DB: DrawingBackend>(
@@ -696,7 +692,15 @@ fn clip_segment(
     if t0 > t1 {
         return None;
     }
-    let at = |t: f64| if t == 0.0 { a } else if t == 1.0 { b } else { (a.0 + t * dx, a.1 + t * dy) };
+    let at = |t: f64| {
+        if t == 0.0 {
+            a
+        } else if t == 1.0 {
+            b
+        } else {
+            (a.0 + t * dx, a.1 + t * dy)
+        }
+    };
     Some((at(t0), at(t1)))
 }
 
@@ -725,7 +729,7 @@ fn draw_marker<DB: DrawingBackend>(
     r: i32,
     style: ShapeStyle,
 ) -> Result<(), String> {
-    if shape % 5 == 0 {
+    if shape.is_multiple_of(5) {
         area.draw(&Circle::new(at, r, style)).map_err(err)
     } else {
         area.draw(&(EmptyElement::at(at) + Polygon::new(marker_polygon(shape, r), style))).map_err(err)
@@ -748,7 +752,9 @@ fn draw_points<DB: DrawingBackend>(
             let lo = if lo > ya.lo { lo } else { ya.lo };
             let hi = hi.min(ya.hi);
             if lo < hi {
-                chart.draw_series(std::iter::once(PathElement::new(vec![(m.tau, lo), (m.tau, hi)], bar))).map_err(err)?;
+                chart
+                    .draw_series(std::iter::once(PathElement::new(vec![(m.tau, lo), (m.tau, hi)], bar)))
+                    .map_err(err)?;
                 for (v, open) in [(lo, lo == ya.lo), (hi, hi == ya.hi)] {
                     if !open {
                         chart
@@ -765,7 +771,7 @@ fn draw_points<DB: DrawingBackend>(
     let fill = c.filled();
     let edge = WHITE.stroke_width(1);
     let pts = marks.iter().filter(|m| m.dev >= ya.lo && m.dev <= ya.hi).map(|m| (m.tau, m.dev));
-    if shape % 5 == 0 {
+    if shape.is_multiple_of(5) {
         chart
             .draw_series(pts.map(|p| EmptyElement::at(p) + Circle::new((0, 0), r, fill) + Circle::new((0, 0), r, edge)))
             .map_err(err)?;
@@ -889,7 +895,8 @@ impl Legend {
         for e in &entries {
             let h = e.height(look);
             let mid = cy + h / 2;
-            let line = |c: RGBColor| PathElement::new(vec![(sx, mid), (sx + sw, mid)], c.stroke_width(look.px(2.2) as u32));
+            let line =
+                |c: RGBColor| PathElement::new(vec![(sx, mid), (sx + sw, mid)], c.stroke_width(look.px(2.2) as u32));
             match e.sample {
                 Sample::None => {}
                 Sample::Channel(c, shape) => {
@@ -934,12 +941,16 @@ impl Legend {
 }
 
 /// Lay out title, axes and a legend to the right; returns the axes and the legend's area.
-fn frame<'a, DB: DrawingBackend>(
-    body: &'a DrawingArea<DB, Shift>,
-    legend: &Legend,
+/// A legend that would take more than a third of the width loses its detail rows.
+fn frame<DB: DrawingBackend>(
+    body: &DrawingArea<DB, Shift>,
+    legend: &mut Legend,
     look: &Look,
-) -> Result<(DrawingArea<DB, Shift>, DrawingArea<DB, Shift>), String> {
+) -> Result<(Area<DB>, Area<DB>), String> {
     let (w, _) = body.dim_in_pixel();
+    if legend.width(body, look)? > w as i32 / 3 {
+        legend.entries.retain(|e| !e.detail);
+    }
     let lw = legend.width(body, look)?.clamp(look.px(150.0), (w as i32) * 2 / 5);
     Ok(body.split_horizontally(w as i32 - lw - look.px(10.0)))
 }
@@ -961,17 +972,17 @@ fn draw_adev<DB: DrawingBackend>(
     root.fill(&WHITE).map_err(err)?;
     let (xa, ya) = ext.axes();
     let body = title(root, &opts.title, &look)?;
-    let legend = adev_legend(series, opts);
-    let (plot_area, legend_area) = frame(&body, &legend, &look)?;
+    let mut legend = adev_legend(series, opts);
+    let (plot_area, legend_area) = frame(&body, &mut legend, &look)?;
     let mut chart = axes(&plot_area, &xa, &ya, &opts.unit, &look)?;
     let (bx, by) = ((xa.lo, xa.hi), (ya.lo, ya.hi));
 
     if opts.terms {
         for (i, p) in series.iter().enumerate() {
-            let Some(fit) = p.fit else { continue };
+            let (Some(fit), Some((t0, t1))) = (p.fit, p.model_span()) else { continue };
             let style = lighter(colour(i), 0.3).stroke_width(look.px(2.0) as u32);
             for term in p.terms() {
-                let curve: Vec<(f64, f64, bool)> = logspace(xa.lo, xa.hi, 240)
+                let curve: Vec<(f64, f64, bool)> = logspace(t0, t1, 240)
                     .map(|t| {
                         let v = fit.term_avar(term, t);
                         (t, v.sqrt(), v >= TERM_SHARE * TERM_SHARE * fit.model_avar(t))
@@ -992,9 +1003,7 @@ fn draw_adev<DB: DrawingBackend>(
         let (Some(fit), Some((t0, t1))) = (p.fit, p.model_span()) else { continue };
         let pts: Vec<(f64, f64)> = logspace(t0, t1, 400).map(|t| (t, fit.model_avar(t).sqrt())).collect();
         for piece in clip(&pts, bx, by) {
-            chart
-                .draw_series(LineSeries::new(piece, colour(i).stroke_width(look.px(2.2) as u32)))
-                .map_err(err)?;
+            chart.draw_series(LineSeries::new(piece, colour(i).stroke_width(look.px(2.2) as u32))).map_err(err)?;
         }
     }
     for (i, p) in series.iter().enumerate() {
@@ -1036,8 +1045,7 @@ fn adev_legend(series: &[Prepared<'_>], opts: &PlotOptions) -> Legend {
         if opts.terms && !drawn_terms.is_empty() {
             drawn_terms.sort_by_key(|&t| t as usize);
             entries.push(Entry::main(Sample::Dashed(lighter(GREY, 0.3)), "fitted terms"));
-            let slopes: Vec<String> =
-                drawn_terms.iter().map(|&t| format!("{} {}", t.name(), term_slope(t))).collect();
+            let slopes: Vec<String> = drawn_terms.iter().map(|&t| format!("{} {}", t.name(), term_slope(t))).collect();
             entries.push(Entry::detail(format!("slopes: {}", slopes.join(", "))));
         }
     }
@@ -1079,8 +1087,8 @@ fn draw_gap<DB: DrawingBackend>(
     if band.is_some() {
         entries.push(Entry::main(Sample::Swatch(HIGHLIGHT.mix(0.3), HIGHLIGHT_EDGE), gap.band_label.as_str()));
     }
-    let legend = Legend { entries };
-    let (plot_area, legend_area) = frame(&body, &legend, &look)?;
+    let mut legend = Legend { entries };
+    let (plot_area, legend_area) = frame(&body, &mut legend, &look)?;
     let mut chart = axes(&plot_area, &xa, &ya, &opts.unit, &look)?;
 
     let band = band.map(|(a, b)| (a.max(xa.lo), b.min(xa.hi))).filter(|(a, b)| a < b);
@@ -1101,17 +1109,22 @@ fn draw_gap<DB: DrawingBackend>(
         let mut poly: Vec<(f64, f64)> = data.iter().map(|b| (b.tau_s, clamp(b.lo))).collect();
         poly.extend(data.iter().rev().map(|b| (b.tau_s, clamp(b.hi))));
         chart.draw_series(std::iter::once(Polygon::new(poly, c.mix(0.25).filled()))).map_err(err)?;
-        for edge in [data.iter().map(|b| (b.tau_s, b.lo)).collect::<Vec<_>>(), data.iter().map(|b| (b.tau_s, b.hi)).collect()]
+        for edge in
+            [data.iter().map(|b| (b.tau_s, b.lo)).collect::<Vec<_>>(), data.iter().map(|b| (b.tau_s, b.hi)).collect()]
         {
             for piece in clip(&edge, (xa.lo, xa.hi), (ya.lo, ya.hi)) {
-                chart.draw_series(LineSeries::new(piece, c.mix(0.8).stroke_width(look.px(1.2).max(1) as u32))).map_err(err)?;
+                chart
+                    .draw_series(LineSeries::new(piece, c.mix(0.8).stroke_width(look.px(1.2).max(1) as u32)))
+                    .map_err(err)?;
             }
         }
     }
     if !real.is_empty() {
         let line: Vec<(f64, f64)> = real.iter().map(|m| (m.tau, m.dev)).collect();
         for piece in clip(&line, (xa.lo, xa.hi), (ya.lo, ya.hi)) {
-            chart.draw_series(LineSeries::new(piece, INK.mix(0.6).stroke_width(look.px(1.2).max(1) as u32))).map_err(err)?;
+            chart
+                .draw_series(LineSeries::new(piece, INK.mix(0.6).stroke_width(look.px(1.2).max(1) as u32)))
+                .map_err(err)?;
         }
         draw_points(&mut chart, real, &ya, 0, INK, &look)?;
     }
@@ -1207,7 +1220,8 @@ mod tests {
         let dir = out_dir(&tmp);
         let series = figure5();
         assert!(series.iter().all(|s| s.fit.is_some()));
-        let opts = PlotOptions { title: "Allan deviation of the four gyros, 72 h at 2 kS/s".into(), ..Default::default() };
+        let opts =
+            PlotOptions { title: "Allan deviation of the four gyros, 72 h at 2 kS/s".into(), ..Default::default() };
         let svg = dir.join("figure5.svg");
         adev_plot(&series, &opts, &svg).unwrap();
         let text = std::fs::read_to_string(&svg).unwrap();

@@ -8,6 +8,7 @@ use std::time::Instant;
 use anyhow::Context;
 use octavar::demo::{self, BENCH_RATE_HZ};
 use octavar::fit::Term;
+use octavar::plot;
 
 use super::progress::Progress;
 
@@ -19,7 +20,7 @@ pub struct Args {
     /// Hours of recording to simulate.
     #[arg(long, default_value_t = 72.0)]
     pub hours: f64,
-    /// Folder for the files (table1.json, adev.csv).
+    /// Folder for the files (table1.json, adev.csv, figure5.png, figure5.svg).
     #[arg(long, default_value = "octavar-demo")]
     pub out: PathBuf,
     /// Seed of the bench.
@@ -87,7 +88,26 @@ impl Args {
             }
         }
         std::fs::write(&path, csv).with_context(|| format!("writing {}", path.display()))?;
-        writeln!(out, "\nwrote {}/table1.json and adev.csv", self.out.display())?;
+        let series: Vec<plot::AdevSeries> = results
+            .iter()
+            .map(|r| plot::AdevSeries {
+                name: r.paper.label.to_string(),
+                points: r.points.clone(),
+                fit: Some(r.fit.clone()),
+            })
+            .collect();
+        let opts = plot::PlotOptions {
+            title: format!(
+                "Allan deviation of the four gyros, {} h at {} kS/s (the paper's Figure 5)",
+                self.hours,
+                BENCH_RATE_HZ / 1000.0
+            ),
+            ..Default::default()
+        };
+        for name in ["figure5.png", "figure5.svg"] {
+            plot::adev_plot(&series, &opts, &self.out.join(name))?;
+        }
+        writeln!(out, "\nwrote {}/table1.json, adev.csv, figure5.png and figure5.svg", self.out.display())?;
         Ok(ExitCode::SUCCESS)
     }
 }
