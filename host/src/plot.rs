@@ -1231,6 +1231,15 @@ mod tests {
         let png = dir.join("figure5.png");
         adev_plot(&series, &opts, &png).unwrap();
         assert_eq!(png_size(&std::fs::read(&png).unwrap()), (1200, 800));
+        let img = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (1200, 800));
+        // Every channel's colour is there, and the text is (dark pixels).
+        for i in 0..series.len() {
+            let RGBColor(r, g, b) = colour(i);
+            let n = img.pixels().filter(|p| p.0 == [r, g, b]).count();
+            assert!(n > 200, "channel {i}: {n} pixels of its colour");
+        }
+        assert!(img.pixels().filter(|p| p.0.iter().all(|&v| v < 60)).count() > 2000);
 
         let small = PlotOptions { width: 600, height: 400, ..opts.clone() };
         let png = dir.join("figure5-small.PNG");
