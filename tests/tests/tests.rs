@@ -1,6 +1,8 @@
 //! octavar's end-to-end tests, built as one binary (one module per claim area).
 
 mod acc_allantools;
+mod corruption;
+mod pipeline;
 mod reference_nbs14;
 mod reference_stable32;
 mod sim_closed_form;
