@@ -55,8 +55,9 @@ pub const LEVELS: usize = 32;
 const LOW_LEVELS: usize = 16;
 /// The largest stride the accumulator accepts.
 pub const MAX_STRIDE: usize = 64;
-/// Levels that can take a difference at every sample: 0..=log2 MAX_STRIDE.
-const FAST_LEVELS: usize = 7;
+/// Levels with u64 partial sums: 0..=log2 S (every sample) and the next two (steps of 2 and 4 samples), so
+/// 0..=log2 MAX_STRIDE + 2.
+const FAST_LEVELS: usize = 9;
 /// The every-sample levels' u64 partial sums are folded into u128 every 2^16 samples.
 const FLUSH_LOG2: u32 = 16;
 const FLUSH_MASK: u64 = (1 << FLUSH_LOG2) - 1;
@@ -105,8 +106,9 @@ pub struct OctaveAllan<const S: usize> {
     high_ring: [[[u64; S]; 2]; LEVELS - LOW_LEVELS],
     /// Per level: the exact sum of the squared second differences (for levels 0..=log2 S, less `fast`).
     sum_sq: [u128; LEVELS],
-    /// Partial sums of the every-sample levels 0..=log2 S, folded into `sum_sq` every 2^FLUSH_LOG2 samples.
-    /// Bound: at most 2^16 terms of D^2 < (2^6 * 65535)^2 < 2^44 each, so < 2^60.
+    /// Partial sums of levels 0..=log2 S + 2, folded into `sum_sq` every 2^FLUSH_LOG2 samples. Bound: level
+    /// k = log2 S + r (r <= 2; levels below log2 S count as r = 0) takes at most 2^(16 - r) terms of
+    /// D^2 < 2^(32 + 2k) between folds, so its sum stays below 2^(48 + 2 log2 S + r) <= 2^62 for S <= 64.
     fast: [u64; FAST_LEVELS],
 }
 
@@ -161,25 +163,24 @@ impl<const S: usize> OctaveAllan<S> {
         Ok(())
     }
 
-    /// Push a block of codes: the fast path. Count, phase and the every-sample levels' partial sums stay in
-    /// registers across the block; the indices of the every-sample levels are 32-bit.
+    /// Push a block of codes. Count, phase and the partial sums stay in registers across the block, the
+    /// every-sample levels and the next two are straight-line code with 32-bit indices, and only one sample in
+    /// eight calls out for the higher levels.
     pub fn push_slice(&mut self, codes: &[u16]) {
-        let mut rest = codes;
-        while self.count < Self::WARM && !rest.is_empty() {
-            self.push(rest[0]);
-            rest = &rest[1..];
-        }
         let (mut t, mut x, mut fast) = (self.count, self.phase, self.fast);
+        let mut rest = codes;
+        while t + 1 < Self::WARM && !rest.is_empty() {
+            t += 1;
+            x = x.wrapping_add(u64::from(rest[0]));
+            rest = &rest[1..];
+            Self::warm_levels(&mut self.low_ring[Self::SHIFT as usize], &mut fast, t, x as u32);
+            self.strided_levels(t, x, &mut fast);
+        }
         for &c in rest {
             t += 1;
             x = x.wrapping_add(u64::from(c));
             Self::every_sample_levels(&mut self.low_ring[Self::SHIFT as usize], &mut fast, t as u32, x as u32);
-            if t & 1 == 0 {
-                self.push_upper(t, x);
-                if t & FLUSH_MASK == 0 {
-                    Self::flush(&mut self.sum_sq, &mut fast);
-                }
-            }
+            self.strided_levels(t, x, &mut fast);
         }
         (self.count, self.phase, self.fast) = (t, x, fast);
     }
@@ -187,21 +188,7 @@ impl<const S: usize> OctaveAllan<S> {
     /// Push one ADC code: integer work only.
     #[inline]
     pub fn push(&mut self, code: u16) {
-        let t = self.count + 1;
-        self.count = t;
-        let x = self.phase.wrapping_add(u64::from(code));
-        self.phase = x;
-        if t < Self::WARM {
-            self.push_warm(t, x as u32);
-        } else {
-            Self::every_sample_levels(&mut self.low_ring[Self::SHIFT as usize], &mut self.fast, t as u32, x as u32);
-        }
-        if t & 1 == 0 {
-            self.push_upper(t, x);
-            if t & FLUSH_MASK == 0 {
-                Self::flush(&mut self.sum_sq, &mut self.fast);
-            }
-        }
+        self.push_slice(core::slice::from_ref(&code));
     }
 
     /// Samples after which every level 0..=log2 S takes a difference at each sample.
@@ -215,12 +202,24 @@ impl<const S: usize> OctaveAllan<S> {
     fn every_sample_levels(ring: &mut [[u32; S]; 2], fast: &mut [u64; FAST_LEVELS], t: u32, x32: u32) {
         let ring = ring.as_flattened_mut();
         let mask = Self::RING_MASK as u32;
-        for (k, f) in fast.iter_mut().enumerate().take(Self::SHIFT as usize) {
-            let m = 1u32 << k;
-            let mid = ring[(t.wrapping_sub(m) & mask) as usize];
-            let old = ring[(t.wrapping_sub(2 * m) & mask) as usize];
-            *f += square32(x32.wrapping_sub(mid << 1).wrapping_add(old));
+        // Written out per level (the conditions are constants), so that even an opt-level "s" build keeps
+        // straight-line code with constant offsets.
+        macro_rules! below_shift {
+            ($k:literal) => {
+                if $k < Self::SHIFT {
+                    let m = 1u32 << $k;
+                    let mid = ring[(t.wrapping_sub(m) & mask) as usize];
+                    let old = ring[(t.wrapping_sub(2 * m) & mask) as usize];
+                    fast[$k] += square32(x32.wrapping_sub(mid << 1).wrapping_add(old));
+                }
+            };
         }
+        below_shift!(0);
+        below_shift!(1);
+        below_shift!(2);
+        below_shift!(3);
+        below_shift!(4);
+        below_shift!(5);
         let j = (t & mask) as usize;
         let old = ring[j]; // x_{t - 2S}
         let mid = ring[j ^ S]; // x_{t - S}
@@ -229,60 +228,96 @@ impl<const S: usize> OctaveAllan<S> {
     }
 
     /// The first 2S samples: a level takes its first difference only once 2m samples are in.
-    fn push_warm(&mut self, t: u64, x32: u32) {
+    fn warm_levels(ring: &mut [[u32; S]; 2], fast: &mut [u64; FAST_LEVELS], t: u64, x32: u32) {
         let shift = Self::SHIFT as usize;
-        let ring = self.low_ring[shift].as_flattened_mut();
+        let ring = ring.as_flattened_mut();
         let mask = Self::RING_MASK;
-        for k in 0..shift {
+        for (k, f) in fast.iter_mut().enumerate().take(shift) {
             let m = 1u64 << k;
             if t >= 2 * m {
                 let mid = ring[((t - m) & mask) as usize];
                 let old = ring[((t - 2 * m) & mask) as usize];
-                self.fast[k] += square32(x32.wrapping_sub(mid << 1).wrapping_add(old));
+                *f += square32(x32.wrapping_sub(mid << 1).wrapping_add(old));
             }
         }
         ring[(t & mask) as usize] = x32;
     }
 
-    /// Levels above log2 S: level k takes a phase every d = 2^(k - log2 S) samples, so this runs for every
-    /// second sample and, amortised, touches one level per sample.
-    #[inline]
-    fn push_upper(&mut self, t: u64, x: u64) {
+    /// Levels log2 S + 1 and + 2 (steps of 2 and 4 samples) inline, into partial sums; every eighth sample the
+    /// higher levels, and every 2^16 samples the fold of the partial sums.
+    #[inline(always)]
+    fn strided_levels(&mut self, t: u64, x: u64, fast: &mut [u64; FAST_LEVELS]) {
+        if t & 1 != 0 {
+            return;
+        }
         let shift = Self::SHIFT as usize;
-        let x32 = x as u32;
-        let top = (shift + t.trailing_zeros() as usize).min(LEVELS - 1);
-        for k in shift + 1..=top {
-            let j = t >> (k - shift); // index of this phase in the level's own step
-            let half = ((j >> shift) & 1) as usize;
-            let i = (j & (S as u64 - 1)) as usize;
-            let counted = j >= 2 * S as u64;
-            if k < LOW_LEVELS {
-                let ring = &mut self.low_ring[k];
-                let old = ring[half][i]; // x_{t - 2m}
-                let mid = ring[half ^ 1][i]; // x_{t - m}
-                if counted {
-                    let d2 = square32(x32.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old));
-                    self.sum_sq[k] += u128::from(d2);
-                }
-                ring[half][i] = x32;
-            } else {
-                let ring = &mut self.high_ring[k - LOW_LEVELS];
-                let old = ring[half][i];
-                let mid = ring[half ^ 1][i];
-                if counted {
-                    let d = x.wrapping_sub(mid.wrapping_mul(2)).wrapping_add(old) as i64;
-                    let a = u128::from(d.unsigned_abs());
-                    self.sum_sq[k] += a * a;
-                }
-                ring[half][i] = x;
+        Self::near_level::<1>(&mut self.low_ring[shift + 1], &mut fast[shift + 1], t, x as u32);
+        if t & 2 != 0 {
+            return;
+        }
+        Self::near_level::<2>(&mut self.low_ring[shift + 2], &mut fast[shift + 2], t, x as u32);
+        if t & 4 != 0 {
+            return;
+        }
+        self.push_upper(t, x);
+        if t & FLUSH_MASK == 0 {
+            for k in 0..=shift + 2 {
+                self.sum_sq[k] += u128::from(core::mem::take(&mut fast[k]));
             }
         }
     }
 
-    /// Fold the u64 partial sums of the every-sample levels into their u128 sums.
-    fn flush(sum_sq: &mut [u128; LEVELS], fast: &mut [u64; FAST_LEVELS]) {
-        for k in 0..=Self::SHIFT as usize {
-            sum_sq[k] += u128::from(core::mem::take(&mut fast[k]));
+    /// Level log2 S + R, whose step is 2^R samples, at a multiple of 2^R.
+    #[inline(always)]
+    fn near_level<const R: u32>(ring: &mut [[u32; S]; 2], fast: &mut u64, t: u64, x32: u32) {
+        let ring = ring.as_flattened_mut();
+        let j = (t as u32) >> R;
+        let slot = (j & Self::RING_MASK as u32) as usize;
+        let old = ring[slot]; // x_{t - 2m}
+        let mid = ring[slot ^ S]; // x_{t - m}
+        if t >= (2 * S as u64) << R {
+            *fast += square32(x32.wrapping_sub(mid << 1).wrapping_add(old));
+        }
+        ring[slot] = x32;
+    }
+
+    /// Levels log2 S + 3 and up: level k takes a phase every d = 2^(k - log2 S) samples, so this runs every
+    /// eighth sample and, amortised, touches one level per eight samples.
+    #[inline]
+    fn push_upper(&mut self, t: u64, x: u64) {
+        let shift = Self::SHIFT as usize;
+        let t_lo = t as u32;
+        let beyond_32_bits = t >> 32 != 0;
+        let tz = if t_lo != 0 { t_lo.trailing_zeros() } else { 32 + (t >> 32).trailing_zeros() };
+        let top = (shift + tz as usize).min(LEVELS - 1);
+        let mask = Self::RING_MASK as u32;
+        let x32 = x as u32;
+        // Levels below 16: 32-bit phases. The slot (t >> (k - log2 S)) mod 2S needs bits up to k + 1 <= 16 of
+        // t, so the low word of t gives it exactly; the level counts once t >= 2m.
+        for k in shift + 3..=top.min(LOW_LEVELS - 1) {
+            let j = t_lo >> (k - shift);
+            let slot = (j & mask) as usize;
+            let ring = self.low_ring[k].as_flattened_mut();
+            let old = ring[slot]; // x_{t - 2m}
+            let mid = ring[slot ^ S]; // x_{t - m}
+            if beyond_32_bits || j >= 2 * S as u32 {
+                self.sum_sq[k] += u128::from(square32(x32.wrapping_sub(mid << 1).wrapping_add(old)));
+            }
+            ring[slot] = x32;
+        }
+        // Levels 16 and up: 64-bit phases, a 128-bit square; reached once every 2^(16 - log2 S) samples at most.
+        for k in (shift + 3).max(LOW_LEVELS)..=top {
+            let j = t >> (k - shift);
+            let slot = (j & Self::RING_MASK) as usize;
+            let ring = self.high_ring[k - LOW_LEVELS].as_flattened_mut();
+            let old = ring[slot];
+            let mid = ring[slot ^ S];
+            if j >= 2 * S as u64 {
+                let d = x.wrapping_sub(mid << 1).wrapping_add(old) as i64;
+                let a = u128::from(d.unsigned_abs());
+                self.sum_sq[k] += a * a;
+            }
+            ring[slot] = x;
         }
     }
 
