@@ -41,6 +41,8 @@ use serde::Serialize;
 
 /// Bad frames listed by offset in [`DecodeStats::bad_frames`]; the rest are only counted.
 pub const MAX_BAD_FRAMES_LISTED: usize = 100;
+/// Field-log snapshots waiting for their parts at most (beyond, the waiting ones are dropped and counted).
+pub const MAX_PENDING_FIELD_LOG: usize = 64;
 /// Statuses and estimates kept in a [`DecodeSummary`]: long captures are thinned evenly to this many (the CSV
 /// files have them all).
 pub const MAX_SERIES: usize = 4096;
@@ -432,6 +434,11 @@ impl StreamDecoder {
             }
             Frame::FieldLog(rec) => {
                 let key = (rec.checkpoint, rec.part.channel);
+                if !self.field_log.contains_key(&key) && self.field_log.len() >= MAX_PENDING_FIELD_LOG {
+                    // Bounded memory: a stream of first parts that never complete is dropped, counted.
+                    self.stats.incomplete_snapshots += self.field_log.len() as u64;
+                    self.field_log.clear();
+                }
                 let (slot, _) = self.field_log.entry(key).or_insert_with(|| (Pending::default(), rec.clone()));
                 let head = rec.clone();
                 let result = add_part(slot, rec.part, meta.offset);
@@ -1087,6 +1094,24 @@ mod tests {
         assert_eq!((stats.snapshots, stats.snapshot_parts, stats.incomplete_snapshots), (1, 3, 1));
         assert_eq!(stats.lost_frames, 1);
         assert_eq!(stats.bad_frames, [BadFrame { offset: second_at, len: 0, reason: BadReason::SnapshotParts }]);
+    }
+
+    #[test]
+    fn field_log_parts_join_with_their_checkpoint() {
+        let snap = snapshot(300_000);
+        let mut enc = Encoder::new();
+        let mut bytes = Vec::new();
+        for part in SnapshotPart::split(1, &snap) {
+            let rec = FieldLogRecord { checkpoint: 3, time_s: 600, sessions: 2, adc_overruns: 1, part };
+            bytes.extend_from_slice(&enc.encode_to_vec(&Frame::FieldLog(rec)).unwrap());
+        }
+        bytes.extend_from_slice(&enc.encode_to_vec(&Frame::FieldLogEnd(FieldLogEnd { checkpoints: 1 })).unwrap());
+        let (recs, stats) = records(&bytes);
+        let want =
+            FieldLogSnapshot { checkpoint: 3, time_s: 600, sessions: 2, adc_overruns: 1, channel: 1, snapshot: snap };
+        assert_eq!(recs[0].record, Record::FieldLog(want));
+        assert_eq!(recs[1].record, Record::FieldLogEnd(FieldLogEnd { checkpoints: 1 }));
+        assert_eq!((stats.field_log_snapshots, stats.field_log_ends, stats.incomplete_snapshots), (1, 1, 0));
     }
 
     #[test]
