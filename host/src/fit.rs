@@ -128,6 +128,10 @@ pub struct FitOptions {
     /// low-passed white noise, `N^2/tau [1 - T/(2 tau) (3 - 4 e^(-tau/T) + e^(-2 tau/T))]`, T = 1/(2 pi f3dB),
     /// instead of bending the fit at short tau.
     pub bandwidth_hz: Option<f64>,
+    /// Relative model error added to every point's own uncertainty (in AVAR, so 0.03 is 3%): real sensors are
+    /// never exactly the five-term model, and without a floor the first octaves, with their enormous EDF, would
+    /// let a small misfit there decide the whole curve.
+    pub model_error: f64,
 }
 
 impl Default for FitOptions {
@@ -138,6 +142,7 @@ impl Default for FitOptions {
             tau_max_s: f64::INFINITY,
             confidence: 0.95,
             bandwidth_hz: None,
+            model_error: 0.03,
         }
     }
 }
@@ -151,7 +156,7 @@ pub fn lowpass_white_factor(x: f64) -> f64 {
 }
 
 /// What went wrong.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum FitError {
     /// Fewer usable points than one.
     #[error("the fit needs at least 2 Allan variance points with positive values and degrees of freedom; it has {0}")]
@@ -275,7 +280,8 @@ pub fn fit(points: &[FitPoint], opts: &FitOptions) -> Result<NoiseFit, FitError>
     let allowed: Vec<usize> = opts.terms.iter().map(|&t| t as usize).collect();
 
     // IRLS: variances from the model, starting from the measured values.
-    let mut var_of: Vec<f64> = pts.iter().map(|p| 2.0 * p.avar * p.avar / p.edf).collect();
+    let e2 = opts.model_error * opts.model_error;
+    let mut var_of: Vec<f64> = pts.iter().map(|p| p.avar * p.avar * (2.0 / p.edf + e2)).collect();
     let bw = opts.bandwidth_hz;
     let mut best = solve_nonnegative(&pts, &var_of, &allowed, bw);
     for _ in 0..8 {
@@ -285,7 +291,7 @@ pub fn fit(points: &[FitPoint], opts: &FitOptions) -> Result<NoiseFit, FitError>
             .zip(&model)
             .map(|(p, &m)| {
                 let m = if m > 0.0 { m } else { p.avar };
-                2.0 * m * m / p.edf
+                m * m * (2.0 / p.edf + e2)
             })
             .collect();
         let next = solve_nonnegative(&pts, &var_of, &allowed, bw);
@@ -298,6 +304,14 @@ pub fn fit(points: &[FitPoint], opts: &FitOptions) -> Result<NoiseFit, FitError>
         if converged {
             break;
         }
+    }
+
+    // The linear IRLS above takes its variances from the model, which lets a model that overshoots a noisy
+    // tail look good. The estimate proper is the log-domain fit: ln AVAR has standard deviation sqrt(2 / edf)
+    // whichever way it errs (plus the model-error floor), so chi2 = sum (ln avar - ln model)^2 / (2/edf + e^2), over every subset of terms, the subset
+    // chosen by AIC (chi2 + 2 p). The linear solution only seeds it.
+    if let Some(refined) = log_domain_fit(&pts, &allowed, bw, &best.theta, e2) {
+        best = refined;
     }
 
     let p_active = best.active.len();
@@ -365,6 +379,126 @@ struct Solution {
     /// Covariance of the active parameters (in `active` order).
     cov: Vec<Vec<f64>>,
     chi2: f64,
+}
+
+/// The log-domain weighted fit over every subset of the allowed terms (see [`fit`]); `None` if none converges.
+fn log_domain_fit(pts: &[FitPoint], allowed: &[usize], bw: Option<f64>, seed: &[f64; 5], e2: f64) -> Option<Solution> {
+    // A positive start for each term: the linear solution where it has one, else a third of the largest value
+    // the term could take without exceeding the data anywhere.
+    let mut start = [0.0f64; 5];
+    for (j, st) in start.iter_mut().enumerate() {
+        let cap = pts
+            .iter()
+            .map(|p| p.avar / Term::ALL[j].basis_with(p.tau_s, bw))
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        *st = if seed[j] > 0.0 { seed[j] } else { cap / 3.0 };
+    }
+    let n_allowed = allowed.len();
+    let mut best: Option<(f64, Solution)> = None;
+    for mask in 1u32..(1 << n_allowed) {
+        let active: Vec<usize> = (0..n_allowed).filter(|i| mask & (1 << i) != 0).map(|i| allowed[i]).collect();
+        if active.len() >= pts.len() || active.iter().any(|&j| !(start[j].is_finite() && start[j] > 0.0)) {
+            continue;
+        }
+        let Some(sol) = log_fit_subset(pts, &active, bw, &start, e2) else { continue };
+        let aic = sol.chi2 + 2.0 * active.len() as f64;
+        if best.as_ref().is_none_or(|(a, _)| aic < *a) {
+            best = Some((aic, sol));
+        }
+    }
+    best.map(|(_, s)| s)
+}
+
+/// Levenberg-Marquardt in u = ln(theta) on the residuals sqrt(edf/2) (ln avar - ln model).
+fn log_fit_subset(
+    pts: &[FitPoint],
+    active: &[usize],
+    bw: Option<f64>,
+    start: &[f64; 5],
+    e2: f64,
+) -> Option<Solution> {
+    let p = active.len();
+    let w: Vec<f64> = pts.iter().map(|q| 1.0 / (2.0 / q.edf + e2).sqrt()).collect();
+    let basis: Vec<Vec<f64>> =
+        pts.iter().map(|q| active.iter().map(|&j| Term::ALL[j].basis_with(q.tau_s, bw)).collect()).collect();
+    let eval = |u: &[f64]| -> (Vec<f64>, Vec<f64>, f64) {
+        let theta: Vec<f64> = u.iter().map(|v| v.exp()).collect();
+        let model: Vec<f64> = basis.iter().map(|b| b.iter().zip(&theta).map(|(x, t)| x * t).sum()).collect();
+        let r: Vec<f64> = pts.iter().zip(&model).zip(&w).map(|((q, m), wk)| wk * (q.avar.ln() - m.ln())).collect();
+        let chi2 = r.iter().map(|v| v * v).sum();
+        (model, r, chi2)
+    };
+    let mut u: Vec<f64> = active.iter().map(|&j| start[j].ln()).collect();
+    let (mut model, mut r, mut chi2) = eval(&u);
+    let mut lambda = 1e-3;
+    let jacobian = |u: &[f64], model: &[f64]| -> Vec<Vec<f64>> {
+        basis
+            .iter()
+            .zip(model)
+            .zip(&w)
+            .map(|((b, m), wk)| (0..p).map(|c| -wk * u[c].exp() * b[c] / m).collect())
+            .collect()
+    };
+    for _ in 0..200 {
+        let jac = jacobian(&u, &model);
+        let mut a = vec![vec![0.0; p]; p];
+        let mut g = vec![0.0; p];
+        for (row, rk) in jac.iter().zip(&r) {
+            for i in 0..p {
+                g[i] += row[i] * rk;
+                for k in 0..p {
+                    a[i][k] += row[i] * row[k];
+                }
+            }
+        }
+        let mut improved = false;
+        for _ in 0..30 {
+            let mut damped = a.clone();
+            for (i, row) in damped.iter_mut().enumerate() {
+                row[i] += lambda * a[i][i].max(1e-12);
+            }
+            let Some(inv) = invert(&damped) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let step: Vec<f64> = (0..p).map(|i| -(0..p).map(|k| inv[i][k] * g[k]).sum::<f64>()).collect();
+            let trial: Vec<f64> = u.iter().zip(&step).map(|(v, d)| (v + d.clamp(-20.0, 20.0)).max(-700.0)).collect();
+            let (m2, r2, c2) = eval(&trial);
+            if c2.is_finite() && c2 <= chi2 {
+                let done = chi2 - c2 <= 1e-12 * chi2.max(1e-300);
+                u = trial;
+                model = m2;
+                r = r2;
+                chi2 = c2;
+                lambda = (lambda / 3.0).max(1e-12);
+                improved = !done;
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    let jac = jacobian(&u, &model);
+    let mut a = vec![vec![0.0; p]; p];
+    for row in &jac {
+        for i in 0..p {
+            for k in 0..p {
+                a[i][k] += row[i] * row[k];
+            }
+        }
+    }
+    let cov_u = invert(&a)?;
+    let mut theta = [0.0; 5];
+    for (&j, v) in active.iter().zip(&u) {
+        theta[j] = v.exp();
+    }
+    let cov: Vec<Vec<f64>> = (0..p)
+        .map(|i| (0..p).map(|k| cov_u[i][k] * theta[active[i]] * theta[active[k]]).collect())
+        .collect();
+    chi2.is_finite().then(|| Solution { theta, active: active.to_vec(), cov, chi2 })
 }
 
 /// Exact NNLS for at most five parameters: the feasible subset of least chi-square.

@@ -4,6 +4,7 @@
 //! clap, no stdout and no `process::exit`; errors are typed per module and locate the fault (file, line, column).
 
 pub mod accumulate;
+pub mod analyze;
 pub mod capture;
 pub mod decode;
 pub mod device_sim;

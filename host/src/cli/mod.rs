@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub mod accumulate;
+pub mod analyze;
 pub mod decode;
 pub mod demo;
 pub mod progress;
@@ -26,6 +27,8 @@ pub enum Command {
     Demo(demo::Args),
     /// Run the exact octave Allan accumulator over integer ADC codes and print every octave.
     Accumulate(accumulate::Args),
+    /// Analyse a rate recording: the Allan deviation family with confidence intervals, the IEEE 952 noise terms.
+    Analyze(analyze::Args),
     /// Simulate a gyro bench from a model (flags or model.toml): CSV of rates in deg/s, or raw ADC codes.
     Simulate(simulate::Args),
     /// Record a device's frames (serial port, file or stdin) into a capture file, with live counts; survives unplugging.
@@ -41,6 +44,7 @@ impl Command {
         match self {
             Command::Demo(a) => a.run(),
             Command::Accumulate(a) => a.run(),
+            Command::Analyze(a) => a.run(),
             Command::Simulate(a) => a.run(),
             Command::Record(a) => a.run(),
             Command::Decode(a) => a.run(),

@@ -1,0 +1,189 @@
+//! `octavar analyze`: flags -> recording -> Allan family, fit -> table, JSON, CSV, plot, model.toml, imu.yaml.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{bail, Context};
+use octavar::analyze::{self, AnalyzeOptions, ChannelAnalysis};
+use octavar::fit::FitOptions;
+use octavar::plot;
+use octavar::recording::{self, CsvOptions, RateUnit, RowFilter};
+use octavar::stats::{Statistic, TauSpec};
+
+/// Analyse a rate recording (CSV, CSV.gz or stdin): the Allan deviation family with confidence intervals
+/// (Stable32's table), the IEEE 952 noise terms N, B, K, R, Q with intervals, and the files to go on with.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The recording: CSV with a header (.gz is read as such); - is stdin.
+    pub input: PathBuf,
+    /// A rate column to analyse (repeat for several channels).
+    #[arg(long = "column", required = true, value_name = "NAME")]
+    pub columns: Vec<String>,
+    /// Sample rate in Hz (or give --time-column).
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// A time column in seconds: the rate is its median step; missing samples become gaps.
+    #[arg(long, value_name = "NAME")]
+    pub time_column: Option<String>,
+    /// Unit of the rate columns: deg/s, rad/s, mrad/s, deg/h.
+    #[arg(long, default_value = "deg/s")]
+    pub unit: String,
+    /// Lines to skip before the header.
+    #[arg(long, default_value_t = 0)]
+    pub skip_rows: usize,
+    /// Keep only rows where COLUMN equals VALUE (repeatable), e.g. --where period=1.
+    #[arg(long = "where", value_name = "COLUMN=VALUE")]
+    pub filters: Vec<String>,
+    /// Statistics, comma-separated: adev, oadev, mdev, hdev, ohdev, tdev, totdev, or all.
+    #[arg(long, default_value = "oadev", value_delimiter = ',')]
+    pub stats: Vec<String>,
+    /// Taus: octave, decade, all, N (per decade), or explicit seconds separated by commas.
+    #[arg(long, default_value = "octave")]
+    pub taus: String,
+    /// Confidence of the deviation intervals (Stable32's 0.683).
+    #[arg(long, default_value_t = 0.683)]
+    pub confidence: f64,
+    /// Fit only taus from this value up, s (for example above an anti-alias filter's corner).
+    #[arg(long, value_name = "S")]
+    pub fit_min_tau: Option<f64>,
+    /// Fit only taus up to this value, s.
+    #[arg(long, value_name = "S")]
+    pub fit_max_tau: Option<f64>,
+    /// A known first-order bandwidth of the sensor, Hz: shapes the white-noise term of the fit.
+    #[arg(long, value_name = "HZ")]
+    pub bandwidth: Option<f64>,
+    /// Write the JSON document here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write every point as CSV here.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Draw the Allan deviation plot (.png or .svg).
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+    /// Write the fitted model as a model.toml (for simulate and gap).
+    #[arg(long, value_name = "FILE")]
+    pub model_out: Option<PathBuf>,
+    /// Write a Kalibr imu.yaml (gyroscope_noise_density and gyroscope_random_walk) for the first channel.
+    #[arg(long, value_name = "FILE")]
+    pub kalibr: Option<PathBuf>,
+}
+
+/// Parse `--stats`.
+pub fn parse_stats(names: &[String]) -> anyhow::Result<Vec<Statistic>> {
+    let mut out = Vec::new();
+    for n in names {
+        let n = n.trim().to_ascii_lowercase();
+        if n == "all" {
+            return Ok(Statistic::ALL.to_vec());
+        }
+        match Statistic::ALL.iter().find(|s| s.name().eq_ignore_ascii_case(&n)) {
+            Some(s) => out.push(*s),
+            None => bail!("unknown statistic {n:?}: use adev, oadev, mdev, hdev, ohdev, tdev, totdev or all"),
+        }
+    }
+    Ok(out)
+}
+
+/// Parse `--taus`.
+pub fn parse_taus(text: &str) -> anyhow::Result<TauSpec> {
+    Ok(match text.trim() {
+        "octave" => TauSpec::Octave,
+        "decade" => TauSpec::Decade,
+        "all" => TauSpec::All,
+        t if t.contains(',') => TauSpec::Explicit(
+            t.split(',')
+                .map(|v| v.trim().parse::<f64>().with_context(|| format!("--taus: {v:?} is not a number")))
+                .collect::<anyhow::Result<_>>()?,
+        ),
+        t => match t.parse::<u32>() {
+            Ok(n) if n > 0 => TauSpec::PerDecade(n),
+            _ => bail!("--taus {t:?}: use octave, decade, all, a count per decade, or seconds separated by commas"),
+        },
+    })
+}
+
+impl Args {
+    pub fn run(self) -> anyhow::Result<ExitCode> {
+        let unit = RateUnit::parse(&self.unit)?;
+        let filters = self.filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?;
+        let stats = parse_stats(&self.stats)?;
+        let taus = parse_taus(&self.taus)?;
+        let csv_opts = CsvOptions {
+            columns: self.columns.clone(),
+            temp_column: None,
+            rate_hz: self.rate,
+            time_column: self.time_column.clone(),
+            unit,
+            skip_rows: self.skip_rows,
+            filters,
+        };
+        let input = octavar::input::open(&self.input)?;
+        let rec = recording::read_csv(input.reader, &input.name, &csv_opts)?;
+        let opts = AnalyzeOptions {
+            stats,
+            taus,
+            confidence: self.confidence,
+            fit: FitOptions {
+                tau_min_s: self.fit_min_tau.unwrap_or(0.0),
+                tau_max_s: self.fit_max_tau.unwrap_or(f64::INFINITY),
+                bandwidth_hz: self.bandwidth,
+                ..Default::default()
+            },
+            no_fit: false,
+        };
+        let mut results: Vec<ChannelAnalysis> = Vec::new();
+        for (name, data) in rec.names.iter().zip(&rec.channels) {
+            results.push(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?);
+        }
+
+        let mut out = std::io::stdout().lock();
+        writeln!(out, "# {}: {} samples at {} Hz", rec.source, rec.info.samples, rec.rate_hz)?;
+        for c in &results {
+            writeln!(out, "\n== {} ({}; {} samples, {} gaps)", c.name, c.unit, c.n_samples, c.n_gaps)?;
+            for (stat, pts) in &c.stats {
+                write!(out, "{}", analyze::table(*stat, pts))?;
+            }
+            match &c.fit {
+                Ok(f) => write!(out, "{}", analyze::fit_report(f))?,
+                Err(e) => writeln!(out, "no fit: {e}")?,
+            }
+        }
+        if let Some(path) = &self.json {
+            let doc = analyze::to_json(&results);
+            std::fs::write(path, serde_json::to_string_pretty(&doc)?)
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        if let Some(path) = &self.csv {
+            std::fs::write(path, analyze::to_csv(&results)).with_context(|| format!("writing {}", path.display()))?;
+        }
+        if let Some(path) = &self.model_out {
+            let range = rec
+                .channels
+                .iter()
+                .flat_map(|c| c.iter().copied().filter(|v| v.is_finite()))
+                .fold(0.0f64, |a, v| a.max(v.abs()));
+            let model = analyze::model_from_fits(&results, rec.rate_hz, 4.0 * range.max(1e-3));
+            std::fs::write(path, octavar::simulate::model_to_toml(&model))
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        if let Some(path) = &self.kalibr {
+            let yaml = results
+                .first()
+                .and_then(|c| analyze::kalibr_yaml(c, rec.rate_hz))
+                .context("no fit to write a Kalibr file from")?;
+            std::fs::write(path, yaml).with_context(|| format!("writing {}", path.display()))?;
+        }
+        if let Some(path) = &self.plot {
+            let series: Vec<plot::AdevSeries> = results
+                .iter()
+                .map(|c| plot::AdevSeries { name: c.name.clone(), points: c.fit_points.clone(), fit: c.fit.clone().ok() })
+                .collect();
+            let title = format!("Overlapping Allan deviation: {}", rec.source);
+            let opts = plot::PlotOptions { title, ..Default::default() };
+            plot::adev_plot(&series, &opts, path).with_context(|| format!("drawing {}", path.display()))?;
+        }
+        Ok(ExitCode::SUCCESS)
+    }
+}
