@@ -114,8 +114,9 @@ pub fn paper_bench(seed: u64) -> BenchSim {
     BenchSim { fs_hz: BENCH_RATE_HZ, seed, temperature: lab_temperature(), channels }
 }
 
-/// Run a bench for `samples` scans and accumulate each channel's codes as the firmware does (S = 8).
-/// `progress` receives the number of scans done so far (summed over channels / channel count).
+/// Run a bench for `samples` scans and accumulate each channel's codes as the firmware does (S = 8). Channels
+/// run in parallel (rayon, one per core), each with [`Bench::only_channel`], which gives exactly the samples the
+/// whole bench would. `progress` receives the scans done so far (averaged over channels).
 ///
 /// # Errors
 /// The model's own errors ([`octavar_shared::sim::SimError`]).
@@ -124,26 +125,29 @@ pub fn accumulate_bench(
     samples: u64,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Vec<Snapshot>, octavar_shared::sim::SimError> {
-    let mut bench = Bench::new(model)?;
-    let n_ch = model.channels.len();
-    let mut accs: Vec<Box<OctaveAllan<STRIDE>>> = (0..n_ch).map(|_| Box::default()).collect();
-    const BLOCK: usize = 4096;
-    let mut blocks = vec![[0u16; BLOCK]; n_ch];
+    let n_ch = model.channels.len() as u64;
     let done = AtomicU64::new(0);
-    let mut left = samples;
-    while left > 0 {
-        let n = (left as usize).min(BLOCK);
-        for i in 0..n {
-            let s = bench.next_sample();
-            for (c, block) in blocks.iter_mut().enumerate() {
-                block[i] = s.codes[c];
+    (0..model.channels.len())
+        .into_par_iter()
+        .map(|i| {
+            let mut bench = Bench::only_channel(model, i)?;
+            let mut acc = Box::new(OctaveAllan::<STRIDE>::new());
+            const BLOCK: usize = 8192;
+            let mut block = [0u16; BLOCK];
+            let mut left = samples;
+            while left > 0 {
+                let n = (left as usize).min(BLOCK);
+                for c in block.iter_mut().take(n) {
+                    *c = bench.next_sample().codes[0];
+                }
+                acc.push_slice(&block[..n]);
+                left -= n as u64;
+                let total = done.fetch_add(n as u64, Ordering::Relaxed) + n as u64;
+                progress(total / n_ch);
             }
-        }
-        accs.par_iter_mut().zip(blocks.par_iter()).for_each(|(acc, block)| acc.push_slice(&block[..n]));
-        left -= n as u64;
-        progress(done.fetch_add(n as u64, Ordering::Relaxed) + n as u64);
-    }
-    Ok(accs.iter().map(|a| a.snapshot()).collect())
+            Ok(acc.snapshot())
+        })
+        .collect()
 }
 
 /// One channel's outcome.

@@ -95,6 +95,26 @@ impl Bench {
         })
     }
 
+    /// A bench that runs only channel `index` of `model`, with the same seeds and the same temperature: its
+    /// scans carry, in channel 0, exactly the samples channel `index` has in the full bench. Channels can so
+    /// run in parallel, one per core.
+    ///
+    /// # Errors
+    /// As [`Bench::new`]; [`SimError::InvalidParameter`] for an index past the last channel.
+    pub fn only_channel(model: &BenchSim, index: usize) -> Result<Self, SimError> {
+        let mut full = Bench::new(model)?;
+        if index >= full.gyros.len() {
+            return Err(SimError::InvalidParameter("channel index"));
+        }
+        let g = full.gyros.swap_remove(index);
+        let c = full.channels.swap_remove(index);
+        full.gyros.clear();
+        full.channels.clear();
+        let _ = full.gyros.push(g);
+        let _ = full.channels.push(c);
+        Ok(full)
+    }
+
     /// The next scan (the bench is also an endless [`Iterator`] of scans).
     #[inline]
     pub fn next_sample(&mut self) -> BenchSample {
@@ -137,6 +157,39 @@ impl Iterator for Bench {
     /// Never `None`: the bench runs until dropped.
     fn next(&mut self) -> Option<BenchSample> {
         Some(self.next_sample())
+    }
+}
+
+#[cfg(test)]
+mod only_channel_tests {
+    use super::*;
+    use crate::sim::model::{ChannelSim, GyroSim, TemperatureProfile, Wander};
+    use crate::sensor::SensorKind;
+
+    #[test]
+    fn one_channel_alone_equals_that_channel_of_the_bench() {
+        let mut channels = heapless::Vec::new();
+        for (kind, n) in [(SensorKind::Adxrs300, 0.05), (SensorKind::Idg1215Y, 0.003), (SensorKind::Env05h, 4e-4)] {
+            let gyro = GyroSim { n_deg_per_rt_s: n, b_dps: n, ..Default::default() };
+            let _ = channels.push(ChannelSim { sensor: kind, channel: None, gyro });
+        }
+        let temperature = TemperatureProfile {
+            min_c: 22.0,
+            max_c: 25.0,
+            period_s: 60.0,
+            phase_rad: 0.0,
+            wander: Some(Wander { sigma_c: 0.1, tau_s: 5.0 }),
+        };
+        let model = BenchSim { fs_hz: 100.0, seed: 9, temperature, channels };
+        let full: heapless::Vec<BenchSample, 512> = Bench::new(&model).unwrap().take(512).collect();
+        for i in 0..3 {
+            let alone = Bench::only_channel(&model, i).unwrap();
+            for (a, f) in alone.take(512).zip(&full) {
+                assert_eq!(a.codes[0], f.codes[i]);
+                assert_eq!(a.temp_c, f.temp_c);
+            }
+        }
+        assert!(Bench::only_channel(&model, 3).is_err());
     }
 }
 
