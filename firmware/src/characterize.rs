@@ -26,7 +26,8 @@ use crate::frames;
 
 /// One block of scans from the sampler: `codes[set * CHANNELS + channel]`.
 pub struct SampleBlock {
-    /// Index of the first scan since boot (jumps over lost samples).
+    /// Index of the first scan since boot (jumps over lost samples). The raw `Samples` frames count from the last
+    /// reset instead (see [`Characterizer`]).
     pub first_sample: u64,
     /// Samples were lost just before this block.
     pub gap_before: bool,
@@ -77,12 +78,19 @@ pub fn hello() -> Frame {
 }
 
 /// The characterize task's state: accumulators, pooled bases, raw streaming.
+///
+/// A reset (`Command::Reset`) starts a new session: empty accumulators, and the raw sample index
+/// (`Samples::first_sample`) back to 0 at the first block after the reset, so that the host lines the raw
+/// samples up with the new accumulators as after a boot. Gaps after that still show as jumps in the index.
 pub struct Characterizer {
     accs: [OctaveAllan<STRIDE>; GYROS],
     /// Snapshots pooled before the last gap (or reset).
     base: [Snapshot; GYROS],
     /// Scans accumulated since boot or reset.
     samples: u64,
+    /// The sampler's index (since boot) of this session's first scan: raw samples are numbered from it. `None`
+    /// until the first block of the session.
+    origin: Option<u64>,
     /// Scans until the next snapshot round.
     until_round: u64,
     /// Channels streamed raw (0: off).
@@ -100,6 +108,7 @@ impl Characterizer {
             accs: [const { OctaveAllan::new() }; GYROS],
             base: [empty; GYROS],
             samples: 0,
+            origin: None,
             until_round: SNAPSHOT_EVERY_SETS,
             raw_mask: raw_mask & ALL_CHANNELS_MASK,
             temp_sum: 0,
@@ -130,6 +139,7 @@ impl Characterizer {
 
     /// Feed one block: accumulate, stream raw codes, and send a snapshot round on each second boundary.
     pub fn feed(&mut self, block: &SampleBlock) {
+        let origin = *self.origin.get_or_insert(block.first_sample);
         if block.gap_before {
             for g in 0..GYROS {
                 let _ = self.base[g].merge(&self.accs[g].snapshot());
@@ -137,7 +147,7 @@ impl Characterizer {
             }
         }
         if self.raw_mask != 0 {
-            self.stream_raw(block);
+            self.stream_raw(block, block.first_sample.saturating_sub(origin));
         }
         let mut at = 0;
         while at < BLOCK_SETS {
@@ -162,10 +172,11 @@ impl Characterizer {
         }
     }
 
-    fn stream_raw(&self, block: &SampleBlock) {
+    /// Send the block's codes of the streamed channels; `first` is its first scan's index in this session.
+    fn stream_raw(&self, block: &SampleBlock, first: u64) {
         let mask = self.raw_mask;
         for (i, chunk) in block.codes.chunks(RAW_SETS_PER_FRAME * CHANNELS).enumerate() {
-            let mut frame = Samples::new(block.first_sample + (i * RAW_SETS_PER_FRAME) as u64, mask);
+            let mut frame = Samples::new(first + (i * RAW_SETS_PER_FRAME) as u64, mask);
             let mut set = [0u16; CHANNELS];
             for scan in chunk.chunks_exact(CHANNELS) {
                 let mut k = 0;

@@ -8,6 +8,8 @@
 //! - the link: frames written byte by byte to USART1's data register (QEMU writes them to `-serial`);
 //! - the field log in a RAM flash model (QEMU's flash is read-only);
 //! - an accumulator benchmark at start-up, printed through semihosting;
+//! - optionally, a host `Command::Reset` after [`RESET_AT_SECONDS`] of samples (at a block boundary), so a run
+//!   shows what a host sees at a reset;
 //! - a semihosting exit (code 0) after [`RUN_SECONDS`] of samples, once every frame has been written.
 //!
 //! The application (characterize, store, frames) is the same code as on the board.
@@ -17,12 +19,13 @@ use core::sync::atomic::Ordering;
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_time::{Duration, Ticker, Timer};
 use octavar_shared::acc::OctaveAllan;
+use octavar_shared::proto::Command;
 use octavar_shared::fieldlog::{LogFlash, RamFlash, RamFlashError};
 use static_cell::StaticCell;
 use octavar_shared::sensor::{Channel, ADXRS300};
 use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim};
 
-use crate::characterize::BlockSender;
+use crate::characterize::{BlockSender, COMMANDS};
 use crate::config::*;
 use crate::frames::FRAMES_OUT;
 
@@ -30,6 +33,10 @@ use crate::frames::FRAMES_OUT;
 pub const RUN_SECONDS: u64 = parse_u64(option_env!("OCTAVAR_QEMU_SECONDS"), 5);
 /// Seed of the simulated bench: `OCTAVAR_QEMU_SEED` at build time, 1 by default.
 pub const SEED: u64 = parse_u64(option_env!("OCTAVAR_QEMU_SEED"), 1);
+/// Seconds of samples after which the simulated host sends `Command::Reset`: `OCTAVAR_QEMU_RESET_AT` at build
+/// time, 0 (the default) for never. The reset comes at the first block boundary at or after that time, once
+/// characterize has taken every block before it, so the run stays deterministic.
+pub const RESET_AT_SECONDS: u64 = parse_u64(option_env!("OCTAVAR_QEMU_RESET_AT"), 0);
 /// The core clock QEMU's netduinoplus2 gives SysTick, Hz.
 pub const SYSCLK_HZ: u32 = 168_000_000;
 
@@ -165,9 +172,24 @@ pub async fn sim_sampler_task(mut blocks: BlockSender) {
     };
     let total_blocks = (RUN_SECONDS * u64::from(SAMPLE_RATE_HZ)).div_ceil(BLOCK_SETS as u64);
     let mut ticker = Ticker::every(Duration::from_micros(BLOCK_SETS as u64 * 1_000_000 / u64::from(SAMPLE_RATE_HZ)));
+    let reset_block = match RESET_AT_SECONDS {
+        0 => None,
+        s => Some((s * u64::from(SAMPLE_RATE_HZ)).div_ceil(BLOCK_SETS as u64)),
+    };
     let mut next_index = 0u64;
-    for _ in 0..total_blocks {
+    for b in 0..total_blocks {
         ticker.next().await;
+        if reset_block == Some(b) {
+            // As a host would: characterize takes every earlier block, then the reset, then the next block.
+            while !blocks.is_empty() {
+                Timer::after_millis(1).await;
+            }
+            COMMANDS.send(Command::Reset).await;
+            while !COMMANDS.is_empty() {
+                Timer::after_millis(1).await;
+            }
+            hprintln!("octavar-qemu: reset after {} samples", next_index);
+        }
         // Wait rather than drop: the simulation may run slower than real time, and every code must arrive.
         let block = blocks.send().await;
         block.first_sample = next_index;
