@@ -1,0 +1,3 @@
+//! The sim-to-real gap diagnosis (`octavar gap`).
+
+pub mod effects;
