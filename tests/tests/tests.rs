@@ -1,8 +1,10 @@
 //! octavar's end-to-end tests, built as one binary (one module per claim area).
 
 mod acc_allantools;
+mod fit_coverage;
 mod corruption;
 mod pipeline;
+mod qemu;
 mod reference_nbs14;
 mod reference_stable32;
 mod sim_closed_form;
