@@ -420,9 +420,10 @@ fn normal_sf(z: f64) -> f64 {
 /// lag (`y = T + a (y - T)`, `a = exp(-dt/lag)`, started settled, as shared::sim's `ThermalLag`), and ordinary
 /// least squares gives `rate = c0 + k T_lag`. The lag minimising the residual sum of squares is found on a log
 /// grid from the block length to three record lengths, refined by golden-section search, and compared with no
-/// lag. The coefficient must be significant with the sample size reduced for the residual's lag-1
-/// autocorrelation, `n_eff = n (1 - rho)/(1 + rho)` (Bretherton et al. 1999, J. Climate 12), at |t| > 5: slow
-/// bias wander that happens to correlate with a slow temperature is not taken for coupling.
+/// lag. The coefficient must be significant at |t| > 5 against its spread under the base model's own noise
+/// (generalised least squares' variance `w' C w` of the estimator, computed in the frequency domain from the
+/// fitted N, B and K): slow bias wander (flicker, random walk) that happens to correlate with a slow temperature
+/// is not taken for coupling, as a white-noise t-test or an AR(1) effective sample size would.
 fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let temp = d.temp_c?;
     let n = d.rate_dps.len().min(temp.len());
@@ -476,15 +477,12 @@ fn temperature(d: &TrainingData) -> Option<EffectFit> {
     if !(k.is_finite() && k != 0.0 && rss.is_finite()) {
         return None;
     }
-    // Significance with an AR(1) effective sample size.
-    let res: Vec<f64> = x.iter().zip(&r).map(|(xi, yi)| yi - c0 - k * xi).collect();
-    let s2: f64 = res.iter().map(|v| v * v).sum();
-    let s11: f64 = res.windows(2).map(|w| w[0] * w[1]).sum();
-    let rho = if s2 > 0.0 { (s11 / s2).clamp(-0.99, 0.999) } else { 0.0 };
-    let n_eff = (nb as f64 * (1.0 - rho) / (1.0 + rho)).max(3.0);
+    // Significance against the base model's own noise: k = sum w_n r_n with w = (x - mean x)/Sxx, whose variance
+    // under the base model (white N, flicker B, random walk K) is the integral of |W(f)|^2 S(f).
     let mx = mean(&x);
     let sxx: f64 = x.iter().map(|v| (v - mx) * (v - mx)).sum();
-    let se = (rss / (nb as f64 - 2.0) / sxx).sqrt() * (nb as f64 / n_eff).sqrt();
+    let w: Vec<f64> = x.iter().map(|v| (v - mx) / sxx).collect();
+    let se = null_var(&w, dt, &d.base_fit.squares).sqrt();
     if !(k.abs() > 5.0 * se) {
         return None;
     }
@@ -501,6 +499,27 @@ fn temperature(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
     })
+}
+
+/// `Var(sum w_n r_n)` for block means r every `dt` of the base noise (fit squares Q, N, B, K, R): the sum over
+/// frequencies of `|W(f)|^2 S(f) df` with the two-sided PSD `S(f) = N^2 + B^2/(2 pi |f|) + K^2/(4 pi^2 f^2)`
+/// (IEEE 952 Annex C; `sum w = 0` keeps the low-frequency terms finite).
+fn null_var(w: &[f64], dt: f64, sq: &[f64; 5]) -> f64 {
+    let nfft = (2 * w.len()).next_power_of_two();
+    let mut re = vec![0.0; nfft];
+    let mut im = vec![0.0; nfft];
+    re[..w.len()].copy_from_slice(w);
+    fft(&mut re, &mut im);
+    let df = 1.0 / (nfft as f64 * dt);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    (1..=nfft / 2)
+        .map(|k| {
+            let f = k as f64 * df;
+            let s = sq[1] + sq[2] / (two_pi * f) + sq[3] / (two_pi * two_pi * f * f);
+            let mult = if k == nfft / 2 { 1.0 } else { 2.0 };
+            mult * (re[k] * re[k] + im[k] * im[k]) * s * df
+        })
+        .sum()
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -679,8 +698,9 @@ fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             f
         })
         .collect();
-    // Joint least squares: constant + (cos, sin) per frequency, one pass with rotating phasors.
-    let p = 1 + 2 * freqs.len();
+    // Joint least squares: a quadratic trend (so slow wander does not leak into long periods) + (cos, sin) per
+    // frequency, one pass with rotating phasors.
+    let p = 3 + 2 * freqs.len();
     let mut ata = vec![vec![0.0; p]; p];
     let mut atb = vec![0.0; p];
     let rot: Vec<(f64, f64)> = freqs.iter().map(|f| {
@@ -693,10 +713,13 @@ fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     }).collect();
     let mut row = vec![0.0; p];
     for (i, &v) in y.iter().enumerate() {
+        let u = 2.0 * i as f64 / n as f64 - 1.0;
         row[0] = 1.0;
+        row[1] = u;
+        row[2] = u * u - 1.0 / 3.0;
         for (j, (c, s)) in ph.iter().enumerate() {
-            row[1 + 2 * j] = *c;
-            row[2 + 2 * j] = *s;
+            row[3 + 2 * j] = *c;
+            row[4 + 2 * j] = *s;
         }
         for r in 0..p {
             atb[r] += row[r] * v;
@@ -724,7 +747,7 @@ fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     let sol = solve(ata, atb)?;
     let mut list: Vec<Sinusoid> = Vec::new();
     for (j, &f) in freqs.iter().enumerate() {
-        let (a, b) = (sol[1 + 2 * j], sol[2 + 2 * j]);
+        let (a, b) = (sol[3 + 2 * j], sol[4 + 2 * j]);
         // Block averaging scales a sinusoid by sin(pi f D/fs) / (D sin(pi f/fs)).
         let g = if dec > 1 {
             let u = std::f64::consts::PI * f / d.fs_hz;
@@ -939,19 +962,16 @@ fn quantized_var(sigma: f64, q: f64) -> f64 {
 /// Method: the distinct sample values of (up to 200 000 of) the samples; when they are few, the step is the
 /// common smallest gap between them, and the lattice `offset + k q` is confirmed on 99% of the samples (robust
 /// to a few off-lattice ones). It counts when the quantisation noise is not negligible, `q > 0.1 sigma` (sigma the
-/// per-sample sd of the white noise, from N). The white noise of the base fit contains the quantisation noise;
-/// the analog N is recovered by inverting the variance of a quantised Gaussian with a uniformly wandering
+/// per-sample sd of the white noise, half the mean square first difference). That white noise contains the
+/// quantisation noise; the analog N is recovered by inverting the variance of a quantised Gaussian with a uniformly wandering
 /// offset (Sheppard's `sigma^2 + q^2/12` when sigma > 2q, computed exactly below).
 fn quantization(d: &TrainingData) -> Option<EffectFit> {
     let (q, point) = lattice(d.rate_dps)?;
     let fs = d.fs_hz;
     let x = d.rate_dps;
-    let v_white = if d.base.n_deg_per_rt_s > 0.0 {
-        d.base.n_deg_per_rt_s.powi(2) * fs
-    } else {
-        // First differences: twice the white variance.
-        x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (x.len() - 1) as f64)
-    };
+    // The per-sample white variance from the first differences (half their mean square): below one step the
+    // quantised noise is not white at longer tau, so N from the Allan curve would not do.
+    let v_white = x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (x.len() - 1) as f64);
     if !(q > 0.1 * v_white.sqrt()) {
         return None;
     }
@@ -1089,15 +1109,16 @@ fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
 /// Sigmas beyond which an isolated sample is an outlier.
 const OUTLIER_SIGMAS: f64 = 6.0;
 
-fn median5(mut v: [f64; 5]) -> f64 {
+/// The median of four: the mean of the middle two.
+fn median4(mut v: [f64; 4]) -> f64 {
     v.sort_unstable_by(f64::total_cmp);
-    v[2]
+    0.5 * (v[1] + v[2])
 }
 
 /// Isolated spikes.
 ///
-/// Method: the residual of each sample from the running median of the 5 samples around it (a spike does not
-/// move a median; steps, drifts and sinusoids slower than a few samples do not leave a residual), its robust
+/// Method: the residual of each sample from the median of its four neighbours (two each side; a spike does not
+/// move a median and is not shrunk by its own sample in it; steps, drifts and sinusoids slower than a few samples do not leave a residual), its robust
 /// scale 1.4826 MAD (the mean absolute residual times 1.2533 when the MAD is 0 on coarse quantisation); a
 /// sample is a spike when its residual exceeds [`OUTLIER_SIGMAS`] scales while its neighbours' do not. A
 /// Gaussian record of 1e6 samples leaves about 0.002 such samples. Parameters: the fraction of samples and the
@@ -1107,7 +1128,7 @@ fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let n = x.len();
     let mut r = vec![0.0; n];
     for i in 2..n - 2 {
-        r[i] = x[i] - median5([x[i - 2], x[i - 1], x[i], x[i + 1], x[i + 2]]);
+        r[i] = x[i] - median4([x[i - 2], x[i - 1], x[i + 1], x[i + 2]]);
     }
     let abs: Vec<f64> = r[2..n - 2].iter().map(|v| v.abs()).collect();
     let mut scale = 1.4826 * median(&abs);
@@ -1215,11 +1236,14 @@ mod tests {
             let fs: f64 = 100.0;
             let temp = TemperatureProfile { min_c: 22.0, max_c: 25.0, period_s: 3600.0, wander: Some(Wander { sigma_c: 0.2, tau_s: 600.0 }), ..Default::default() };
             let (x, t) = simulate(&base_model(), fs, 500_000, seed, Some(&temp));
+            let mut alarms = Vec::new();
             for e in Effect::ALL {
                 let tc = (e == Effect::Temperature).then_some(&t[..]);
-                let r = run(e, &x, tc, fs);
-                assert!(r.is_none(), "seed {seed}: false {e}: {:?}", r.map(|r| r.params));
+                if let Some(r) = run(e, &x, tc, fs) {
+                    alarms.push((e, r.params));
+                }
             }
+            assert!(alarms.is_empty(), "seed {seed}: false alarms {alarms:?}");
         }
     }
 
@@ -1257,11 +1281,12 @@ mod tests {
         // A day-long period in a 10-day record at 5 Hz (4.3 M samples: the periodogram is block-averaged).
         let fs = 5.0;
         let mut m = base_model();
-        m.sinusoids.push(Sinusoid { amplitude_dps: 0.01, period_s: 86_400.0, phase_rad: 1.0 }).unwrap();
+        m.sinusoids.push(Sinusoid { amplitude_dps: 0.03, period_s: 86_400.0, phase_rad: 1.0 }).unwrap();
         let (x, _) = simulate(&m, fs, 4_320_000, 5, None);
         let e = run(Effect::Sinusoid, &x, None, fs).unwrap();
         let s = e.gyro.sinusoids[0];
-        assert!(rel(s.amplitude_dps, 0.01) < 0.1 && rel(s.period_s, 86_400.0) < 0.02, "{s:?}");
+        // Flicker (B = 0.005) at 1/day leaves an amplitude error of about 0.0015 deg/s (1 sigma): 15%.
+        assert!(rel(s.amplitude_dps, 0.03) < 0.15 && rel(s.period_s, 86_400.0) < 0.02, "{s:?}");
     }
 
     #[test]
@@ -1294,9 +1319,11 @@ mod tests {
         let ch = Channel::bench(ADXRS300);
         let q = ch.dps_per_code();
         let fs: f64 = 500.0;
-        let m = GyroSim { n_deg_per_rt_s: 0.3 * q / fs.sqrt(), b_dps: 0.002, bias_dps: 0.1, ..Default::default() };
+        // Half a step of white noise, and a random walk that moves the offset over a few steps (the inversion
+        // assumes the offset wanders over the lattice).
+        let m = GyroSim { n_deg_per_rt_s: 0.5 * q / fs.sqrt(), k_dps_per_rt_s: 0.01, bias_dps: 0.1, ..Default::default() };
         let mut g = VirtualGyro::new(&m, ch, fs, 8).unwrap();
-        let x: Vec<f64> = (0..300_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+        let x: Vec<f64> = (0..1_000_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
         let e = run(Effect::Quantization, &x, None, fs).unwrap();
         assert!(rel(e.params["step_dps"].as_f64().unwrap(), q) < 1e-6, "{:?}", e.params);
         // The channel puts codes on the data's lattice.
