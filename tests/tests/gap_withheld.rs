@@ -1,0 +1,281 @@
+//! The gap diagnosis on recordings whose effect is withheld from it (issue 5, Deliver 2).
+//!
+//! Each case is a recording made by shared::sim: a base gyro (N, B and a small K, drawn at random) plus one
+//! effect with parameters drawn at random over the ranges a real bench produces, or none (the controls). The
+//! diagnosis sees only the samples (and the temperature column in the temperature cases and in half the
+//! controls). It must name the injected effect, place the gap's band over the effect's signature in tau, shrink
+//! the held-out gap by at least 70%, and answer `none` for the controls.
+//!
+//! Ranges, and why each record is as long as it is (2^19 samples, the rate chosen so the effect fits in it):
+//! - sinusoid: period 1 s to a day (log-uniform), amplitude 3-6 times the base Allan deviation at 0.37 P (where
+//!   a sinusoid's Allan deviation peaks); the rate is chosen so the record holds 16 periods (at most 200 Hz): a
+//!   day-long period needs days of record to be a period at all.
+//! - gauss_markov: T from 0.1 s to an hour, the hump 3-6 times the base at 2T; the record holds 100 T.
+//! - bandwidth: f3dB from a tenth to 0.4 of the 200 Hz sample rate (below fs/10 the corner is a plain
+//!   Gauss-Markov of the white noise; above fs/2.5 the sampled filter no longer bends the curve).
+//! - temperature: a cycle of 5 min to a day (1-5 degC peak to peak, with a slow wander), a thermal lag of
+//!   10 s to half the cycle, the coupled bias 3-6 times the base at a third of the cycle; the record holds
+//!   8 cycles.
+//! - quantization: a 12-bit-like step of 1 to 3 times the white noise's per-sample sd, the offset wandering
+//!   over the lattice.
+//! - bias_steps: 1-6 per hour, sd 4-8 times the Allan deviation floor, 10 Hz for 14.5 h.
+//! - outliers: 1e-5 to 1e-3 per sample, 8-30 white sigmas (below ~6 sigma a spike is not an outlier in a
+//!   million Gaussian samples, and it adds under 1% to the variance).
+//!
+//! The default run checks two seeds per effect and two controls; the full sweep (`full_sweep`, 10 seeds each)
+//! is `#[ignore]`d: run in CI with `cargo test -p octavar-tests --release gap_withheld -- --ignored`.
+
+use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport};
+use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
+use octavar_shared::sim::rng::SimRng;
+use octavar_shared::sim::temperature::Thermal;
+use octavar_shared::sim::{
+    BiasSteps, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling, TemperatureProfile, VirtualGyro, Wander,
+};
+
+const N_SAMPLES: usize = 1 << 19;
+
+/// One recording to diagnose.
+struct Case {
+    model: GyroSim,
+    fs: f64,
+    temp: Option<TemperatureProfile>,
+    /// A coarse ADC for the quantisation case; else the analog rate is recorded.
+    channel: Option<Channel>,
+    /// The tau range, s, where the effect shows.
+    signature_s: [f64; 2],
+    what: String,
+}
+
+fn log_uniform(rng: &mut SimRng, lo: f64, hi: f64) -> f64 {
+    (lo.ln() + (hi / lo).ln() * rng.uniform()).exp()
+}
+
+fn uniform(rng: &mut SimRng, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.uniform()
+}
+
+/// Allan deviation of the base terms at tau.
+fn base_adev(m: &GyroSim, tau: f64) -> f64 {
+    let f = 2.0 * std::f64::consts::LN_2 / std::f64::consts::PI;
+    (m.n_deg_per_rt_s.powi(2) / tau + f * m.b_dps.powi(2) + m.k_dps_per_rt_s.powi(2) * tau / 3.0).sqrt()
+}
+
+/// A generic 16-bit channel whose step is `q` deg/s.
+fn coarse_channel(q: f64) -> Channel {
+    let adc = Adc { bits: 16, vref_mv: 3300.0 };
+    let sens = adc.mv_per_code() / q;
+    let gyro = GyroModel { sensitivity_mv_per_dps: sens, null_mv: 1650.0, range_dps: 30000.0 * q, ..GENERIC };
+    Channel { gyro, front: FrontEnd::WIRE, adc }
+}
+
+fn draw(effect: Option<Effect>, seed: u64) -> Case {
+    let mut rng = SimRng::new(0x9a9_0000 + seed * 31 + effect.map_or(99, |e| e as u64));
+    let n = log_uniform(&mut rng, 0.002, 0.02);
+    let b = n * log_uniform(&mut rng, 0.2, 1.0);
+    let mut model = GyroSim {
+        bias_dps: uniform(&mut rng, -0.5, 0.5),
+        n_deg_per_rt_s: n,
+        b_dps: b,
+        k_dps_per_rt_s: b * 1e-3,
+        ..Default::default()
+    };
+    let mut fs = 100.0;
+    let mut temp = None;
+    let mut channel = None;
+    let (signature_s, what);
+    match effect {
+        None => {
+            if seed % 2 == 0 {
+                temp = Some(TemperatureProfile {
+                    min_c: 22.0,
+                    max_c: 25.0,
+                    period_s: 3600.0,
+                    wander: Some(Wander { sigma_c: 0.2, tau_s: 900.0 }),
+                    ..Default::default()
+                });
+            }
+            signature_s = [0.0, 0.0];
+            what = "control".to_string();
+        }
+        Some(Effect::Sinusoid) => {
+            let p = log_uniform(&mut rng, 1.0, 86_400.0);
+            fs = (N_SAMPLES as f64 / (16.0 * p)).min(200.0);
+            let a = uniform(&mut rng, 3.0, 6.0) * base_adev(&model, 0.37 * p);
+            let _ = model.sinusoids.push(Sinusoid { amplitude_dps: a, period_s: p, phase_rad: uniform(&mut rng, -3.0, 3.0) });
+            signature_s = [0.1 * p, 3.0 * p];
+            what = format!("A {a:.3e} P {p:.3e}");
+        }
+        Some(Effect::GaussMarkov) => {
+            let t = log_uniform(&mut rng, 0.1, 3600.0);
+            fs = (N_SAMPLES as f64 / (100.0 * t)).min(200.0);
+            let sigma = uniform(&mut rng, 3.0, 6.0) * base_adev(&model, 2.0 * t) / 0.62;
+            model.gauss_markov = Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t });
+            signature_s = [0.2 * t, 20.0 * t];
+            what = format!("sigma {sigma:.3e} T {t:.3e}");
+        }
+        Some(Effect::Bandwidth) => {
+            fs = 200.0;
+            let f = uniform(&mut rng, 0.1, 0.4) * fs;
+            model.bandwidth_hz = Some(f);
+            signature_s = [0.0, 20.0 / (2.0 * std::f64::consts::PI * f)];
+            what = format!("f3dB {f:.3e}");
+        }
+        Some(Effect::Temperature) => {
+            let p = log_uniform(&mut rng, 300.0, 86_400.0);
+            fs = (N_SAMPLES as f64 / (8.0 * p)).min(100.0);
+            let swing = uniform(&mut rng, 1.0, 5.0);
+            let lag = log_uniform(&mut rng, 10.0, 0.5 * p);
+            let h = 1.0 / (1.0 + (2.0 * std::f64::consts::PI * lag / p).powi(2)).sqrt();
+            let k = uniform(&mut rng, 3.0, 6.0) * base_adev(&model, p / 3.0) / (0.5 * swing * h);
+            temp = Some(TemperatureProfile {
+                min_c: 22.0,
+                max_c: 22.0 + swing,
+                period_s: p,
+                phase_rad: uniform(&mut rng, -3.0, 3.0),
+                wander: Some(Wander { sigma_c: 0.05 * swing, tau_s: p / 4.0 }),
+            });
+            model.temperature = Some(TempCoupling { dps_per_c: k, ref_c: 23.5, lag_s: lag });
+            signature_s = [0.03 * p, f64::INFINITY];
+            what = format!("k {k:.3e} lag {lag:.3e} P {p:.3e} swing {swing:.2}");
+        }
+        Some(Effect::Quantization) => {
+            let q = uniform(&mut rng, 1.0, 3.0) * n * fs.sqrt();
+            // A random walk moves the offset over a few steps within the record.
+            model.k_dps_per_rt_s = model.k_dps_per_rt_s.max(q / (N_SAMPLES as f64 / fs).sqrt());
+            channel = Some(coarse_channel(q));
+            signature_s = [0.0, 100.0 / fs];
+            what = format!("q {q:.3e} sigma {:.3e}", n * fs.sqrt());
+        }
+        Some(Effect::BiasSteps) => {
+            fs = 10.0;
+            let rate = uniform(&mut rng, 1.0, 6.0);
+            // The Allan deviation floor of the base.
+            let floor = (0..40).map(|i| base_adev(&model, 0.1 * 1.5f64.powi(i))).fold(f64::INFINITY, f64::min);
+            let sd = uniform(&mut rng, 4.0, 8.0) * floor;
+            model.bias_steps = Some(BiasSteps { per_hour: rate, sigma_dps: sd });
+            signature_s = [10.0, f64::INFINITY];
+            what = format!("{rate:.2}/h sd {sd:.3e}");
+        }
+        Some(Effect::Outliers) => {
+            let p = log_uniform(&mut rng, 1e-5, 1e-3);
+            let size = uniform(&mut rng, 8.0, 30.0);
+            model.outliers = Some(Outliers { per_sample: p, size_dps: 0.0, size_sigma: size });
+            signature_s = [0.0, 100.0 / fs];
+            what = format!("p {p:.2e} size {size:.1} sigma");
+        }
+    }
+    Case { model, fs, temp, channel, signature_s, what }
+}
+
+/// The samples (deg/s) and, where the case has one, the temperature column.
+fn record(c: &Case, seed: u64) -> (Vec<f64>, Option<Vec<f64>>) {
+    let ch = c.channel.unwrap_or_else(|| coarse_channel(1e-6));
+    let mut g = VirtualGyro::new(&c.model, ch, c.fs, 7_000 + seed).unwrap();
+    let mut rng = SimRng::new(8_000 + seed);
+    let profile = c.temp.unwrap_or_default();
+    let mut th = Thermal::new(&profile, c.fs, &mut rng);
+    let mut x = Vec::with_capacity(N_SAMPLES);
+    let mut t = Vec::with_capacity(N_SAMPLES);
+    for _ in 0..N_SAMPLES {
+        let tc = th.next(&mut rng);
+        let s = g.next(tc);
+        x.push(if c.channel.is_some() { ch.code_to_dps(s.code) } else { s.rate_dps });
+        t.push(tc);
+    }
+    (x, c.temp.is_some().then_some(t))
+}
+
+/// What the diagnosis said about one case.
+#[derive(Debug)]
+struct Outcome {
+    named: Option<Effect>,
+    band_s: Option<[f64; 2]>,
+    view: String,
+    shrink: f64,
+    band_ok: bool,
+}
+
+fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
+    let c = draw(effect, seed);
+    let (x, t) = record(&c, seed);
+    let input = GapInput::split(x, t, c.fs, 0.5).unwrap();
+    let r: GapReport = diagnose(&input, &GapOptions::default(), &|_, _, _| {}).unwrap();
+    let loc = r.location.as_ref();
+    let band_s = loc.map(|l| l.band_s);
+    let view = loc.map_or("-".to_string(), |l| format!("{:?}", l.view));
+    let band_ok = match band_s {
+        // The band overlaps the signature (a distribution view has no tau band: accepted for the effects that
+        // show there).
+        Some([lo, hi]) => {
+            (lo <= c.signature_s[1] && hi >= c.signature_s[0])
+                || (view.to_lowercase().contains("dist")
+                    && matches!(effect, Some(Effect::Quantization | Effect::Outliers)))
+        }
+        None => effect.is_none(),
+    };
+    let shrink = r.holdout.as_ref().map_or(f64::NAN, |h| h.shrink);
+    (c, Outcome { named: r.effect, band_s, view, shrink, band_ok })
+}
+
+fn passes(effect: Option<Effect>, o: &Outcome) -> bool {
+    match effect {
+        None => o.named.is_none(),
+        Some(e) => o.named == Some(e) && o.band_ok && o.shrink >= 0.7,
+    }
+}
+
+/// Run `seeds` seeds of every effect and the controls; print one line per case and a summary; return failures.
+fn sweep(seeds: std::ops::Range<u64>) -> Vec<String> {
+    let mut cases: Vec<Option<Effect>> = Effect::ALL.iter().map(|&e| Some(e)).collect();
+    cases.push(None);
+    let mut failures = Vec::new();
+    for effect in cases {
+        let (mut ok, mut total, mut min_shrink) = (0, 0, f64::INFINITY);
+        for seed in seeds.clone() {
+            let t0 = std::time::Instant::now();
+            let (c, o) = run_case(effect, seed);
+            let pass = passes(effect, &o);
+            total += 1;
+            ok += usize::from(pass);
+            if effect.is_some() {
+                min_shrink = min_shrink.min(o.shrink);
+            }
+            let line = format!(
+                "{:<13} seed {seed:>2} [{}] fs {:.3e}: named {:<13} view {:<12} band {:?} shrink {:.3} {} ({:.1?})",
+                effect.map_or("none", Effect::name),
+                c.what,
+                c.fs,
+                o.named.map_or("none", Effect::name),
+                o.view,
+                o.band_s,
+                o.shrink,
+                if pass { "ok" } else { "FAIL" },
+                t0.elapsed()
+            );
+            eprintln!("{line}");
+            if !pass {
+                failures.push(line);
+            }
+        }
+        eprintln!(
+            "== {}: {ok}/{total} pass, min held-out shrink {min_shrink:.3}",
+            effect.map_or("none (controls)", Effect::name)
+        );
+    }
+    failures
+}
+
+#[test]
+fn withheld_effects_are_found() {
+    let failures = sweep(0..2);
+    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// The full seed sweep (10 seeds per effect and 10 controls); run in CI with `--ignored`.
+#[test]
+#[ignore = "full sweep: run in CI with --ignored"]
+fn full_sweep() {
+    let failures = sweep(0..10);
+    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+}
