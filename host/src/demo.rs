@@ -114,39 +114,107 @@ pub fn paper_bench(seed: u64) -> BenchSim {
     BenchSim { fs_hz: BENCH_RATE_HZ, seed, temperature: lab_temperature(), channels }
 }
 
-/// Run a bench for `samples` scans and accumulate each channel's codes as the firmware does (S = 8). Channels
-/// run in parallel (rayon, one per core), each with [`Bench::only_channel`], which gives exactly the samples the
-/// whole bench would. `progress` receives the scans done so far (averaged over channels).
+/// Run a bench for `samples` scans and accumulate each channel's codes as the firmware does (S = 8), keeping a
+/// snapshot every `snapshot_every` samples and the last one. Channels run in parallel (rayon, one per core), each
+/// with [`Bench::only_channel`], which gives exactly the samples the whole bench would. `progress` receives the
+/// scans done so far (averaged over channels). Returns, per channel, its snapshots in time order.
 ///
 /// # Errors
 /// The model's own errors ([`octavar_shared::sim::SimError`]).
 pub fn accumulate_bench(
     model: &BenchSim,
     samples: u64,
+    snapshot_every: u64,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<Vec<Snapshot>, octavar_shared::sim::SimError> {
+) -> Result<Vec<Vec<Snapshot>>, octavar_shared::sim::SimError> {
     let n_ch = model.channels.len() as u64;
     let done = AtomicU64::new(0);
+    let every = snapshot_every.max(1);
     (0..model.channels.len())
         .into_par_iter()
         .map(|i| {
             let mut bench = Bench::only_channel(model, i)?;
             let mut acc = Box::new(OctaveAllan::<STRIDE>::new());
-            const BLOCK: usize = 8192;
-            let mut block = [0u16; BLOCK];
-            let mut left = samples;
-            while left > 0 {
-                let n = (left as usize).min(BLOCK);
+            let mut snaps = Vec::new();
+            const BLOCK: u64 = 8000;
+            let mut block = [0u16; BLOCK as usize];
+            while acc.count() < samples {
+                // Blocks end on snapshot instants, as the firmware's rounds do.
+                let to_snap = every - acc.count() % every;
+                let n = BLOCK.min(samples - acc.count()).min(to_snap) as usize;
                 for c in block.iter_mut().take(n) {
                     *c = bench.next_sample().codes[0];
                 }
                 acc.push_slice(&block[..n]);
-                left -= n as u64;
+                if acc.count() % every == 0 || acc.count() == samples {
+                    snaps.push(acc.snapshot());
+                }
                 let total = done.fetch_add(n as u64, Ordering::Relaxed) + n as u64;
                 progress(total / n_ch);
             }
-            Ok(acc.snapshot())
+            Ok(snaps)
         })
+        .collect()
+}
+
+/// The device's frames for the snapshots of every channel: a hello (the demo's channels in bench order, its
+/// sample rate and the firmware's stride), then, round after round, each channel's snapshot parts, as
+/// `characterize.rs` sends them. This is the capture the host would have recorded.
+pub fn snapshot_capture(snapshots: &[Vec<Snapshot>]) -> Vec<u8> {
+    use octavar_shared::proto::{Encoder, Frame, SnapshotPart};
+    let base = crate::device_sim::DeviceConfig::firmware();
+    let channels = TABLE1.iter().map(|p| octavar_shared::proto::ChannelInfo::new(p.sensor, p.label)).collect();
+    let cfg = crate::device_sim::DeviceConfig {
+        channels,
+        gyros: TABLE1.len(),
+        temp_channel: None,
+        sample_rate_hz: BENCH_RATE_HZ as u32,
+        firmware: format!("octavar demo {}", env!("CARGO_PKG_VERSION")),
+        ..base
+    };
+    let mut enc = Encoder::new();
+    let mut out = Vec::new();
+    let mut put = |enc: &mut Encoder, f: &Frame| {
+        let bytes = enc.encode_to_vec(f).expect("every frame fits its buffer");
+        out.extend_from_slice(&bytes);
+    };
+    put(&mut enc, &cfg.hello());
+    let rounds = snapshots.iter().map(Vec::len).max().unwrap_or(0);
+    for r in 0..rounds {
+        for (ch, snaps) in snapshots.iter().enumerate() {
+            if let Some(snap) = snaps.get(r) {
+                for part in SnapshotPart::split(ch as u8, snap) {
+                    put(&mut enc, &Frame::AllanSnapshot(part));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Decode a capture and keep the last snapshot of each channel (the host side of the pipeline).
+///
+/// # Errors
+/// A capture with damaged frames or no snapshot for a channel (the demo's own capture has neither).
+pub fn last_snapshots(capture: &[u8], channels: usize) -> Result<Vec<Snapshot>, String> {
+    use crate::decode::{CaptureReader, Record};
+    let mut last: Vec<Option<Snapshot>> = vec![None; channels];
+    let mut reader = CaptureReader::new(capture, "demo capture");
+    for item in reader.by_ref() {
+        let d = item.map_err(|e| e.to_string())?;
+        if let Record::Snapshot(cs) = d.record {
+            if let Some(slot) = last.get_mut(usize::from(cs.channel)) {
+                *slot = Some(cs.snapshot);
+            }
+        }
+    }
+    let stats = reader.stats();
+    if stats.bad_frame_count() > 0 || stats.lost_frames > 0 {
+        return Err(format!("the demo capture decoded with {} bad and {} lost frames", stats.bad_frame_count(), stats.lost_frames));
+    }
+    last.into_iter()
+        .enumerate()
+        .map(|(i, s)| s.ok_or_else(|| format!("no snapshot of channel {i} in the capture")))
         .collect()
 }
 
@@ -224,6 +292,24 @@ pub fn table1(results: &[ChannelResult]) -> Vec<Table1Row> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn snapshots_survive_the_frame_pipeline_bit_for_bit() {
+        let mut model = paper_bench(3);
+        model.fs_hz = 200.0;
+        let snaps = accumulate_bench(&model, 20_000, 2_000, &|_| {}).unwrap();
+        assert!(snaps.iter().all(|s| s.len() == 10));
+        let capture = snapshot_capture(&snaps);
+        let last = last_snapshots(&capture, 4).unwrap();
+        for (decoded, sent) in last.iter().zip(&snaps) {
+            assert_eq!(decoded, sent.last().unwrap());
+        }
+        // A damaged capture is refused, not analysed.
+        let mut bad = capture.clone();
+        let mid = bad.len() / 2;
+        bad[mid] ^= 0x40;
+        assert!(last_snapshots(&bad, 4).is_err());
+    }
 
     #[test]
     fn bench_model_is_valid_and_has_the_papers_channels() {

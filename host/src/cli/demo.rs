@@ -38,7 +38,14 @@ impl Args {
         let samples = (self.hours * 3600.0 * BENCH_RATE_HZ).round() as u64;
         let started = Instant::now();
         let bar = Progress::new(samples, "bench");
-        let snaps = demo::accumulate_bench(&model, samples, &|n| bar.set(n))?;
+        // The firmware's pipeline: S = 8 accumulators on the ADC codes, a snapshot round every 10 minutes of
+        // samples (the field-log interval; the device sends one every second), frames, a capture, the host decoder.
+        let every = (600.0 * BENCH_RATE_HZ) as u64;
+        let rounds = demo::accumulate_bench(&model, samples, every, &|n| bar.set(n))?;
+        let capture = demo::snapshot_capture(&rounds);
+        let capture_path = self.out.join("demo.capture");
+        std::fs::write(&capture_path, &capture).with_context(|| format!("writing {}", capture_path.display()))?;
+        let snaps = demo::last_snapshots(&capture, rounds.len()).map_err(anyhow::Error::msg)?;
         bar.finish();
         let results = demo::analyse(&snaps, &model);
         let rows = demo::table1(&results);
