@@ -17,4 +17,5 @@ pub mod recording;
 pub mod simulate;
 pub mod snapshot_stats;
 pub mod stats;
+pub mod streaming;
 pub mod verify;

@@ -33,21 +33,76 @@ pub enum NoiseMethod {
     Default,
 }
 
+/// Records with more averages than this at an averaging factor are identified on [`ACF_RUNS`] runs of
+/// [`ACF_RUN`] consecutive averages spread evenly over the record (the standard error of r1 is then about 0.004,
+/// far inside the decision margins); every record of the Stable32 tables is below it and uses all its points.
+pub const ACF_FULL_MAX: usize = 1 << 18;
+/// Runs of the subsampled lag-1 autocorrelation.
+pub const ACF_RUNS: usize = 16;
+/// Averages per run of the subsampled lag-1 autocorrelation.
+pub const ACF_RUN: usize = 4096;
+
 /// The lag-1 autocorrelation estimate: integer alpha (rounded), the continuous estimate, and the differences taken.
+///
+/// Above [`ACF_FULL_MAX`] averages, the runs are detrended and differenced each on its own, and r1 pools their
+/// lag products and squares.
 pub fn acf_noise_id(series: &Series, m: usize, dmax: u32) -> Option<(i32, f64)> {
     let m = m.max(1);
     let x = &series.x;
-    let mut v: Vec<f64> = match series.kind {
-        // Phase decimated by m (a missing point stays missing).
-        DataKind::Phase => {
-            (0..x.len()).step_by(m).map(|k| if series.is_gap(k) { f64::NAN } else { x[k] }).collect()
+    let total = match series.kind {
+        DataKind::Phase => x.len().div_ceil(m),
+        DataKind::Frequency => (x.len() - 1) / m,
+    };
+    if total < ACF_MIN_POINTS {
+        return None;
+    }
+    let runs: Vec<(usize, usize)> = if total <= ACF_FULL_MAX {
+        vec![(0, total)]
+    } else {
+        (0..ACF_RUNS).map(|r| (r * (total - ACF_RUN) / (ACF_RUNS - 1), ACF_RUN)).map(|(a, n)| (a, a + n)).collect()
+    };
+    let deg = if series.kind == DataKind::Phase { 2 } else { 1 };
+    let mut vs: Vec<Vec<f64>> = runs
+        .iter()
+        .map(|&(j0, j1)| {
+            let mut v = averages(series, m, j0, j1);
+            detrend(&mut v, deg);
+            v
+        })
+        .collect();
+    let mut d = 0u32;
+    loop {
+        let r1 = pooled_lag1_acf(&vs);
+        let rho = r1 / (1.0 + r1);
+        if rho < 0.25 || d >= dmax || vs.iter().any(|v| v.len() < 3) {
+            let add = if series.kind == DataKind::Phase { 2.0 } else { 0.0 };
+            let p = -2.0 * (rho + d as f64);
+            let alpha_int = (-(2.0 * rho).round_ties_even() - 2.0 * d as f64 + add) as i32;
+            return Some((alpha_int, p + add));
         }
-        // Frequency averaged over blocks of m samples (cut to whole blocks); a block touching a gap is missing.
+        // Difference in place.
+        for v in &mut vs {
+            for k in 0..v.len() - 1 {
+                v[k] = v[k + 1] - v[k];
+            }
+            v.pop();
+        }
+        d += 1;
+    }
+}
+
+/// Points j0..j1 of the series the ACF method looks at, at averaging factor m: phase decimated by m (a missing
+/// point stays missing), or frequency averaged over blocks of m samples (a block touching a gap is missing).
+fn averages(series: &Series, m: usize, j0: usize, j1: usize) -> Vec<f64> {
+    let x = &series.x;
+    match series.kind {
+        DataKind::Phase => {
+            (j0..j1).map(|j| j * m).map(|k| if series.is_gap(k) { f64::NAN } else { x[k] }).collect()
+        }
         DataKind::Frequency => {
             let scale = 1.0 / (m as f64 * series.tau0_s);
-            let blocks = (x.len() - 1) / m;
             let bad = series.bad.as_deref();
-            (0..blocks)
+            (j0..j1)
                 .map(|b| {
                     let (k0, k1) = (b * m, b * m + m);
                     if bad.is_some_and(|bb| !Series::valid(bb, series.kind, k0, k1)) {
@@ -58,33 +113,24 @@ pub fn acf_noise_id(series: &Series, m: usize, dmax: u32) -> Option<(i32, f64)> 
                 })
                 .collect()
         }
-    };
-    if v.len() < ACF_MIN_POINTS {
-        return None;
-    }
-    let deg = if series.kind == DataKind::Phase { 2 } else { 1 };
-    detrend(&mut v, deg);
-    let mut d = 0u32;
-    loop {
-        let r1 = lag1_acf(&v);
-        let rho = r1 / (1.0 + r1);
-        if rho < 0.25 || d >= dmax {
-            let add = if series.kind == DataKind::Phase { 2.0 } else { 0.0 };
-            let p = -2.0 * (rho + d as f64);
-            let alpha_int = (-(2.0 * rho).round_ties_even() - 2.0 * d as f64 + add) as i32;
-            return Some((alpha_int, p + add));
-        }
-        // Difference in place.
-        for k in 0..v.len() - 1 {
-            v[k] = v[k + 1] - v[k];
-        }
-        v.pop();
-        d += 1;
     }
 }
 
-/// Lag-1 autocorrelation with the mean removed (Riley & Greenhall 2004 eq. 2); NaNs skipped.
-fn lag1_acf(x: &[f64]) -> f64 {
+/// Lag-1 autocorrelation pooled over runs (each with its own mean): the sum of their lag products over the sum
+/// of their squares. One run: the plain lag-1 autocorrelation.
+fn pooled_lag1_acf(vs: &[Vec<f64>]) -> f64 {
+    let (mut a, mut b) = (0.0, 0.0);
+    for v in vs {
+        let (x, y) = lag1_sums(v);
+        a += x;
+        b += y;
+    }
+    a / b
+}
+
+/// The lag-1 product sum and the sum of squares of `x` less its mean (Riley & Greenhall 2004 eq. 2: their ratio is
+/// the lag-1 autocorrelation); NaNs skipped.
+fn lag1_sums(x: &[f64]) -> (f64, f64) {
     let (s, n) = x.iter().filter(|v| !v.is_nan()).fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
     let mu = s / n as f64;
     let (mut a, mut b) = (0.0, 0.0);
@@ -99,7 +145,7 @@ fn lag1_acf(x: &[f64]) -> f64 {
         }
         prev = c;
     }
-    a / b
+    (a, b)
 }
 
 /// Remove the least-squares polynomial of degree `deg` (1 or 2) in the index, fitted to the non-NaN points.
@@ -195,6 +241,18 @@ fn rn_theory(m: f64, b: i32) -> f64 {
 /// B1 / R(n) noise identification at averaging factor m; `avar_stat` is the Allan-type statistic whose variance
 /// is the denominator (non-overlapping or overlapping), `min_alpha` the most divergent alpha allowed.
 pub fn b1_noise_id(series: &Series, m: usize, avar_stat: Statistic, min_alpha: i32) -> Option<i32> {
+    b1_noise_id_with(series, m, avar_stat, min_alpha, None)
+}
+
+/// As [`b1_noise_id`], given the deviation of `avar_stat` at m when the caller already has it (it is not
+/// computed again).
+pub fn b1_noise_id_with(
+    series: &Series,
+    m: usize,
+    avar_stat: Statistic,
+    min_alpha: i32,
+    known_dev: Option<f64>,
+) -> Option<i32> {
     // Standard variance of the frequency averages over m.
     let x = &series.x;
     let tau = m as f64 * series.tau0_s;
@@ -213,7 +271,11 @@ pub fn b1_noise_id(series: &Series, m: usize, avar_stat: Statistic, min_alpha: i
     }
     let mean = ybar.iter().sum::<f64>() / nb as f64;
     let var = ybar.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (nb as f64 - 1.0);
-    let avar = estimate(series, avar_stat, m)?.dev.powi(2);
+    let avar_dev = match known_dev {
+        Some(d) => d,
+        None => estimate(series, avar_stat, m)?.dev,
+    };
+    let avar = avar_dev.powi(2);
     if !(avar > 0.0) {
         return None;
     }
@@ -235,9 +297,20 @@ pub fn b1_noise_id(series: &Series, m: usize, avar_stat: Statistic, min_alpha: i
     if m == 1 {
         return Some(2);
     }
-    let mvar = estimate(series, Statistic::Mdev, m)?.dev.powi(2);
-    let oavar = estimate(series, Statistic::Oadev, m)?.dev.powi(2);
-    let rn = mvar / oavar;
+    let oavar = match (avar_stat, known_dev) {
+        (Statistic::Oadev, Some(d)) => d * d,
+        _ => estimate(series, Statistic::Oadev, m)?.dev.powi(2),
+    };
     let boundary = (rn_theory(m as f64, 0) * rn_theory(m as f64, -1)).sqrt();
+    // A long record first tries MVAR from its coarse window sums (strided, cheap); only a ratio within 10% of the
+    // boundary takes the exact MVAR.
+    if let Some(mvar) = series.mvar_coarse(m) {
+        let rn = mvar / oavar;
+        if (rn / boundary).ln().abs() > 0.1 {
+            return Some(if rn > boundary { 1 } else { 2 });
+        }
+    }
+    let mvar = estimate(series, Statistic::Mdev, m)?.dev.powi(2);
+    let rn = mvar / oavar;
     Some(if rn > boundary { 1 } else { 2 })
 }
