@@ -10,6 +10,7 @@ pub mod decode;
 pub mod device_sim;
 pub mod demo;
 pub mod fit;
+pub mod gap;
 pub mod input;
 pub mod plot;
 pub mod record;

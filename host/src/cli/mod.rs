@@ -8,6 +8,7 @@ pub mod accumulate;
 pub mod analyze;
 pub mod decode;
 pub mod demo;
+pub mod gap;
 pub mod progress;
 pub mod record;
 pub mod simulate;
@@ -37,6 +38,8 @@ pub enum Command {
     Decode(decode::Args),
     /// Replay a capture's raw samples through the accumulator and check every device snapshot bit for bit.
     Verify(verify::Args),
+    /// Diagnose the sim-to-real gap: where the fitted model's simulation and the record part, which effect, and the held-out check.
+    Gap(gap::Args),
 }
 
 impl Command {
@@ -49,6 +52,7 @@ impl Command {
             Command::Record(a) => a.run(),
             Command::Decode(a) => a.run(),
             Command::Verify(a) => a.run(),
+            Command::Gap(a) => a.run(),
         }
     }
 }

@@ -1,3 +1,406 @@
-//! The sim-to-real gap diagnosis (`octavar gap`).
+//! The sim-to-real gap diagnosis (`octavar gap`): where a gyro and its fitted simulation part, which unmodelled
+//! effect causes it, and how far the gap shrinks on data the fit never saw.
+//!
+//! 1. **Split**: training is the first part of the record, the holdout the rest ([`GapInput::split`]), or a
+//!    second record ([`GapInput::joined`]).
+//! 2. **Base model**: the IEEE 952 fit ([`crate::fit::fit`], default options) on the training OADEV at octave tau;
+//!    its identifiable N, B, K, R and the training mean as the bias, on the record's ADC when it is known
+//!    ([`GapOptions::channel`]), else on a fine 16-bit ADC that adds no visible quantisation
+//!    ([`crate::analyze::fine_channel`]).
+//! 3. **Ensemble** ([`ensemble`]): the model simulated with [`GapOptions::seeds`] seeds over the whole record,
+//!    driven by the real temperature; measured on each part.
+//! 4. **Views** ([`views`]): ADEV, PSD, distribution, temperature; z-scores of the real values against the
+//!    ensemble.
+//! 5. **Gap and location** ([`rank`]): the worst view's RMS z, the band in tau where it lies, its sign and size.
+//! 6. **Candidates** ([`effects`]): each effect of the vocabulary fitted on the training data, re-simulated with the
+//!    same seeds, re-measured; ranked by total gap with a penalty per parameter; the best is named, or `none` when
+//!    the base gap is not significant.
+//! 7. **Holdout**: every parameter frozen from training, the gap on the holdout before and after each candidate.
+//!
+//! [`report`] turns the result into text, the JSON document and the plot's data.
+//!
+//! # Examples
+//! ```
+//! use octavar::gap::{diagnose, GapInput, GapOptions};
+//! // White noise of 0.01 deg/sqrt(s) at 10 Hz: the fitted model explains it; no gap.
+//! let mut s: u64 = 7;
+//! let x: Vec<f64> = (0..40_000).map(|_| {
+//!     let mut a = 0.0;
+//!     for _ in 0..12 { s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407); a += (s >> 11) as f64 / (1u64 << 53) as f64; }
+//!     (a - 6.0) * 0.01 * 10f64.sqrt()
+//! }).collect();
+//! let input = GapInput::split(x, None, 10.0, 0.5).unwrap();
+//! let r = diagnose(&input, &GapOptions { seeds: 20, ..Default::default() }, &|_, _, _| {}).unwrap();
+//! assert_eq!(r.effect_name(), "none");
+//! ```
 
 pub mod effects;
+pub mod ensemble;
+pub mod rank;
+pub mod report;
+pub mod views;
+
+use octavar_shared::sensor::Channel;
+use octavar_shared::sim::GyroSim;
+use rayon::prelude::*;
+
+use crate::analyze::fine_channel;
+use crate::fit::{fit, FitError, FitOptions, FitPoint, NoiseFit, Term};
+use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
+
+pub use effects::{Effect, EffectFit};
+pub use report::{CandidateResult, GapReport, PartGap};
+pub use views::{ViewGap, ViewKind};
+
+/// Fewest samples a part may have.
+pub const MIN_PART: usize = 256;
+
+/// What went wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum GapError {
+    /// A part of the record is too short.
+    #[error("the {part} part has {n} samples; the gap diagnosis needs at least {needed}")]
+    TooShort {
+        /// `training` or `holdout`.
+        part: &'static str,
+        /// Samples it has.
+        n: usize,
+        /// Samples it needs.
+        needed: usize,
+    },
+    /// The holdout fraction is not in [0, 1).
+    #[error("holdout fraction {0} must be at least 0 and below 1")]
+    BadFraction(f64),
+    /// The temperature column is not as long as the rate column, or has no value at all.
+    #[error("the temperature column has {temp} values for {rate} rate samples, or none that is a number")]
+    BadTemperature {
+        /// Temperature values.
+        temp: usize,
+        /// Rate samples.
+        rate: usize,
+    },
+    /// Fewer than 3 seeds.
+    #[error("the ensemble needs at least 3 seeds (20 or more recommended); got {0}")]
+    TooFewSeeds(usize),
+    /// The training OADEV could not be computed.
+    #[error("training Allan deviation: {0}")]
+    Stats(#[from] StatsError),
+    /// The base fit failed.
+    #[error("base fit on the training data: {0}")]
+    Fit(#[from] FitError),
+    /// A model could not be simulated.
+    #[error("simulating the {model} model: {err}")]
+    Sim {
+        /// `base` or the effect's name.
+        model: String,
+        /// The simulator's reason.
+        err: octavar_shared::sim::SimError,
+    },
+}
+
+/// The record to diagnose: training then holdout, one rate series (deg/s, NaN gaps) and its temperature.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GapInput {
+    /// Rate, deg/s: the training samples, then the held-out ones.
+    pub rate_dps: Vec<f64>,
+    /// Temperature at every sample, degC (NaN gaps allowed), if there is a temperature channel.
+    pub temp_c: Option<Vec<f64>>,
+    /// Sample rate, Hz.
+    pub fs_hz: f64,
+    /// Samples of the training part.
+    pub n_train: usize,
+}
+
+impl GapInput {
+    /// One record split in time: the first `1 - holdout_fraction` trains, the rest is held out.
+    ///
+    /// # Errors
+    /// [`GapError::BadFraction`], [`GapError::BadTemperature`].
+    pub fn split(
+        rate_dps: Vec<f64>,
+        temp_c: Option<Vec<f64>>,
+        fs_hz: f64,
+        holdout_fraction: f64,
+    ) -> Result<GapInput, GapError> {
+        if !(0.0..1.0).contains(&holdout_fraction) {
+            return Err(GapError::BadFraction(holdout_fraction));
+        }
+        let n_train = ((1.0 - holdout_fraction) * rate_dps.len() as f64).round() as usize;
+        let input = GapInput { rate_dps, temp_c, fs_hz, n_train };
+        input.check_temperature()?;
+        Ok(input)
+    }
+
+    /// A training record and a separate holdout record (same columns, same rate), diagnosed as one continuous
+    /// run.
+    ///
+    /// # Errors
+    /// [`GapError::BadTemperature`] when only one has a temperature column or the lengths differ.
+    pub fn joined(
+        training: Vec<f64>,
+        training_temp: Option<Vec<f64>>,
+        holdout: Vec<f64>,
+        holdout_temp: Option<Vec<f64>>,
+        fs_hz: f64,
+    ) -> Result<GapInput, GapError> {
+        let n_train = training.len();
+        let n = n_train + holdout.len();
+        let temp_c = match (training_temp, holdout_temp) {
+            (Some(mut a), Some(b)) => {
+                a.extend(b);
+                Some(a)
+            }
+            (None, None) => None,
+            (Some(a), None) | (None, Some(a)) => return Err(GapError::BadTemperature { temp: a.len(), rate: n }),
+        };
+        let mut rate_dps = training;
+        rate_dps.extend(holdout);
+        let input = GapInput { rate_dps, temp_c, fs_hz, n_train };
+        input.check_temperature()?;
+        Ok(input)
+    }
+
+    fn check_temperature(&self) -> Result<(), GapError> {
+        if let Some(t) = &self.temp_c {
+            if t.len() != self.rate_dps.len() || !t.iter().any(|v| v.is_finite()) {
+                return Err(GapError::BadTemperature { temp: t.len(), rate: self.rate_dps.len() });
+            }
+        }
+        Ok(())
+    }
+
+    /// Held-out samples.
+    pub fn n_holdout(&self) -> usize {
+        self.rate_dps.len() - self.n_train
+    }
+}
+
+/// Options of [`diagnose`].
+#[derive(Clone, Debug)]
+pub struct GapOptions {
+    /// Ensemble size (at least 3; 20 by default).
+    pub seeds: usize,
+    /// The first seed; member i uses `first_seed + i`.
+    pub first_seed: u64,
+    /// The record's ADC, when known (the demo's bench); `None`: a fine 16-bit ADC over four times the data's range.
+    pub channel: Option<Channel>,
+    /// The base fit's options.
+    pub fit: FitOptions,
+    /// Candidates to try (all seven by default).
+    pub effects: Vec<Effect>,
+}
+
+impl Default for GapOptions {
+    fn default() -> Self {
+        GapOptions {
+            seeds: 20,
+            first_seed: 1_000,
+            channel: None,
+            fit: FitOptions::default(),
+            effects: Effect::ALL.to_vec(),
+        }
+    }
+}
+
+/// Progress: `(stage, done, total)`, called after each ensemble.
+pub type ProgressFn<'a> = dyn Fn(&str, usize, usize) + Sync + 'a;
+
+/// Diagnose the gap between a record and the simulation of its fitted model (see the module doc).
+///
+/// # Errors
+/// A part too short, a bad temperature column, too few seeds, a base fit that fails, or a model the simulator
+/// rejects.
+pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> Result<GapReport, GapError> {
+    if opts.seeds < 3 {
+        return Err(GapError::TooFewSeeds(opts.seeds));
+    }
+    input.check_temperature()?;
+    let n_train = input.n_train;
+    let n_hold = input.n_holdout();
+    if n_train < MIN_PART {
+        return Err(GapError::TooShort { part: "training", n: n_train, needed: MIN_PART });
+    }
+    let has_holdout = n_hold > 0;
+    if has_holdout && n_hold < MIN_PART {
+        return Err(GapError::TooShort { part: "holdout", n: n_hold, needed: MIN_PART });
+    }
+    let fs = input.fs_hz;
+    let temp = input.temp_c.as_deref().map(fill_gaps);
+    let rec = ensemble::Record { rate_dps: &input.rate_dps, temp_c: temp.as_deref(), fs_hz: fs, n_train };
+    let total_steps = 2 + opts.effects.len();
+    progress("base fit", 0, total_steps);
+
+    // Base model on the training part.
+    let training = rec.training();
+    let series = Series::new(training, DataKind::Frequency, 1.0 / fs)?;
+    let real_adev = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &Options::default())?;
+    let pts: Vec<FitPoint> = real_adev
+        .iter()
+        .filter(|p| p.edf.is_finite() && p.edf > 0.0)
+        .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
+        .collect();
+    let base_fit = fit(&pts, &opts.fit)?;
+    let base = base_model(&base_fit, training);
+    let channel = opts.channel.unwrap_or_else(|| {
+        let range = input.rate_dps.iter().filter(|v| v.is_finite()).fold(0.0f64, |a, v| a.max(v.abs()));
+        fine_channel(4.0 * range.max(1e-3))
+    });
+    let seeds: Vec<u64> = (0..opts.seeds as u64).map(|i| opts.first_seed + i).collect();
+
+    // Plans and the real measures.
+    let train_plan = views::Plan::new(training, rec.training_temp(), fs);
+    let hold_plan = has_holdout.then(|| views::Plan::new(rec.holdout(), rec.holdout_temp(), fs));
+    let real_train = train_plan.measure(training, rec.training_temp(), true);
+    let real_hold = hold_plan.as_ref().map(|p| p.measure(rec.holdout(), rec.holdout_temp(), true));
+    progress("base fit", 1, total_steps);
+
+    let run = |gyro: &GyroSim, ch: &Channel, name: &str| -> Result<Evaluated, GapError> {
+        let e = ensemble::simulate(gyro, ch, &rec, &train_plan, hold_plan.as_ref(), &seeds)
+            .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
+        Ok(Evaluated::new(&train_plan, &real_train, hold_plan.as_ref(), real_hold.as_ref(), e))
+    };
+    let base_eval = run(&base, &channel, "base")?;
+    progress("base ensemble", 2, total_steps);
+
+    // Candidates: estimate all (in parallel), then simulate each.
+    let filled_train = fill_gaps(training);
+    let data = effects::TrainingData {
+        rate_dps: &filled_train,
+        temp_c: rec.training_temp(),
+        fs_hz: fs,
+        base: &base,
+        base_fit: &base_fit,
+    };
+    let fits: Vec<(Effect, Option<EffectFit>)> =
+        opts.effects.par_iter().map(|&e| (e, effects::estimate(e, &data))).collect();
+    let mut candidates = Vec::new();
+    for (i, (effect, f)) in fits.into_iter().enumerate() {
+        let eval = match &f {
+            Some(f) => {
+                let ch = f.channel.unwrap_or(channel);
+                Some(run(&f.gyro, &ch, effect.name())?)
+            }
+            None => None,
+        };
+        candidates.push((effect, f, eval));
+        progress(effect.name(), 3 + i, total_steps);
+    }
+    Ok(report::assemble(report::Parts {
+        fs_hz: fs,
+        n_train,
+        n_holdout: n_hold,
+        seeds: opts.seeds,
+        has_temperature: temp.is_some(),
+        channel,
+        base,
+        base_fit,
+        real_adev,
+        base_eval,
+        candidates,
+    }))
+}
+
+/// One model's ensemble, compared with the real record on both parts.
+#[derive(Clone, Debug)]
+pub struct Evaluated {
+    /// Views on the training part.
+    pub training: Vec<ViewGap>,
+    /// Views on the holdout part (empty without a holdout).
+    pub holdout: Vec<ViewGap>,
+    /// The ensemble's OADEV band on the training part: (tau, min, max).
+    pub adev_band: Vec<(f64, f64, f64)>,
+}
+
+impl Evaluated {
+    fn new(
+        train_plan: &views::Plan,
+        real_train: &views::Measure,
+        hold_plan: Option<&views::Plan>,
+        real_hold: Option<&views::Measure>,
+        e: ensemble::Ensemble,
+    ) -> Evaluated {
+        let training = views::compare(train_plan, real_train, &e.training);
+        let holdout = match (hold_plan, real_hold) {
+            (Some(p), Some(r)) => views::compare(p, r, &e.holdout),
+            _ => Vec::new(),
+        };
+        let adev_band = train_plan.points[0]
+            .iter()
+            .enumerate()
+            .filter_map(|(i, info)| {
+                let v: Vec<f64> = e.training.iter().map(|m| m.adev[i]).filter(|x| x.is_finite() && *x > 0.0).collect();
+                (!v.is_empty()).then(|| {
+                    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+                    let hi = v.iter().copied().fold(0.0, f64::max);
+                    (info.tau_s, lo, hi)
+                })
+            })
+            .collect();
+        Evaluated { training, holdout, adev_band }
+    }
+}
+
+/// The base simulation model of a fit: its identifiable N, B, K, R (Q has no rate-domain simulation and is left
+/// out), with the mean of `training` as the bias.
+pub fn base_model(f: &NoiseFit, training: &[f64]) -> GyroSim {
+    let v = |t: Term| f.term(t).value.unwrap_or(0.0);
+    let (sum, n) = training.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    GyroSim {
+        bias_dps: if n > 0 { sum / n as f64 } else { 0.0 },
+        n_deg_per_rt_s: v(Term::N),
+        b_dps: v(Term::B),
+        k_dps_per_rt_s: v(Term::K),
+        r_dps_per_s: v(Term::R),
+        ..Default::default()
+    }
+}
+
+/// A copy with NaN runs filled by linear interpolation between their neighbours (the ends by the nearest value);
+/// the estimators want gap-free samples, and the few gaps of a real record hardly move them.
+pub fn fill_gaps(x: &[f64]) -> Vec<f64> {
+    let mut out = x.to_vec();
+    let Some(first) = x.iter().position(|v| v.is_finite()) else { return out };
+    for v in out.iter_mut().take(first) {
+        *v = x[first];
+    }
+    let mut last = first;
+    for i in first + 1..x.len() {
+        if x[i].is_finite() {
+            if i > last + 1 {
+                let (a, b) = (x[last], x[i]);
+                for (j, v) in out.iter_mut().enumerate().take(i).skip(last + 1) {
+                    *v = a + (b - a) * (j - last) as f64 / (i - last) as f64;
+                }
+            }
+            last = i;
+        }
+    }
+    for v in out.iter_mut().skip(last + 1) {
+        *v = x[last];
+    }
+    out
+}
+
+/// The real OADEV points of the training part (kept for the plot).
+pub type RealAdev = Vec<DevPoint>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gaps_are_filled_linearly() {
+        let x = [f64::NAN, 1.0, f64::NAN, f64::NAN, 4.0, f64::NAN];
+        assert_eq!(fill_gaps(&x), vec![1.0, 1.0, 2.0, 3.0, 4.0, 4.0]);
+    }
+
+    #[test]
+    fn split_and_join() {
+        let i = GapInput::split(vec![0.0; 1000], None, 1.0, 0.25).unwrap();
+        assert_eq!((i.n_train, i.n_holdout()), (750, 250));
+        assert!(GapInput::split(vec![0.0; 10], None, 1.0, 1.0).is_err());
+        let j = GapInput::joined(vec![0.0; 3], Some(vec![1.0; 3]), vec![0.0; 2], Some(vec![2.0; 2]), 1.0).unwrap();
+        assert_eq!(j.temp_c.unwrap(), vec![1.0, 1.0, 1.0, 2.0, 2.0]);
+        assert!(GapInput::joined(vec![0.0; 3], Some(vec![1.0; 3]), vec![0.0; 2], None, 1.0).is_err());
+    }
+}

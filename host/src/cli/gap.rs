@@ -1,0 +1,124 @@
+//! `octavar gap`: flags -> recording (training, holdout) -> diagnosis -> report, JSON, plot.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Mutex;
+
+use anyhow::{bail, Context};
+use octavar::gap::{self, GapInput, GapOptions};
+use octavar::plot;
+use octavar::recording::{self, CsvOptions, RateUnit, Recording, RowFilter};
+
+use super::progress::Progress;
+
+/// Diagnose the sim-to-real gap: fit the IEEE 952 terms on the training part, simulate an ensemble of the fitted
+/// model, find where real and simulation part (ADEV, PSD, distribution, temperature), try each candidate effect
+/// (temperature, sinusoid, bandwidth, gauss_markov, quantization, bias_steps, outliers), and check the best on
+/// held-out data with every parameter frozen.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The recording: CSV with a header (.gz is read as such); - is stdin.
+    pub input: PathBuf,
+    /// The rate column to diagnose.
+    #[arg(long, value_name = "NAME")]
+    pub column: String,
+    /// Sample rate in Hz (or give --time-column).
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// A time column in seconds: the rate is its median step; missing samples become gaps.
+    #[arg(long, value_name = "NAME")]
+    pub time_column: Option<String>,
+    /// Unit of the rate column: deg/s, rad/s, mrad/s, deg/h.
+    #[arg(long, default_value = "deg/s")]
+    pub unit: String,
+    /// Lines to skip before the header.
+    #[arg(long, default_value_t = 0)]
+    pub skip_rows: usize,
+    /// Keep only rows where COLUMN equals VALUE (repeatable), e.g. --where period=1.
+    #[arg(long = "where", value_name = "COLUMN=VALUE")]
+    pub filters: Vec<String>,
+    /// A temperature column (degC): the ensemble is driven by it and the temperature view compares correlations.
+    #[arg(long, value_name = "NAME")]
+    pub temp_column: Option<String>,
+    /// A separate held-out recording with the same columns (default: the later part of INPUT).
+    #[arg(long, value_name = "FILE", conflicts_with = "holdout_fraction")]
+    pub holdout: Option<PathBuf>,
+    /// Row filters for the held-out recording instead of --where (repeatable); without --holdout they select the
+    /// holdout from INPUT itself, e.g. --where period=1 --holdout-where period=2.
+    #[arg(long = "holdout-where", value_name = "COLUMN=VALUE")]
+    pub holdout_filters: Vec<String>,
+    /// Fraction of INPUT held out at its end.
+    #[arg(long, value_name = "F", default_value_t = 0.5)]
+    pub holdout_fraction: f64,
+    /// Ensemble size.
+    #[arg(long, value_name = "N", default_value_t = 20)]
+    pub seeds: usize,
+    /// Write the JSON document here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Draw the gap plot (.png or .svg): real, the ensemble band before and after, the gap's band.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+}
+
+impl Args {
+    fn csv_options(&self, filters: &[String]) -> anyhow::Result<CsvOptions> {
+        Ok(CsvOptions {
+            columns: vec![self.column.clone()],
+            temp_column: self.temp_column.clone(),
+            rate_hz: self.rate,
+            time_column: self.time_column.clone(),
+            unit: RateUnit::parse(&self.unit)?,
+            skip_rows: self.skip_rows,
+            filters: filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?,
+        })
+    }
+
+    fn read(&self, path: &PathBuf, filters: &[String]) -> anyhow::Result<Recording> {
+        let input = octavar::input::open(path)?;
+        Ok(recording::read_csv(input.reader, &input.name, &self.csv_options(filters)?)?)
+    }
+
+    pub fn run(self) -> anyhow::Result<ExitCode> {
+        let mut rec = self.read(&self.input, &self.filters)?;
+        let fs = rec.rate_hz;
+        let separate = self.holdout.is_some() || !self.holdout_filters.is_empty();
+        let input = if separate {
+            let path = self.holdout.clone().unwrap_or_else(|| self.input.clone());
+            let filters = if self.holdout_filters.is_empty() { &self.filters } else { &self.holdout_filters };
+            let mut hold = self.read(&path, filters)?;
+            if (hold.rate_hz - fs).abs() > 1e-6 * fs {
+                bail!("the holdout is sampled at {} Hz, the training at {} Hz", hold.rate_hz, fs);
+            }
+            GapInput::joined(rec.channels.remove(0), rec.temp_c.take(), hold.channels.remove(0), hold.temp_c.take(), fs)?
+        } else {
+            GapInput::split(rec.channels.remove(0), rec.temp_c.take(), fs, self.holdout_fraction)?
+        };
+        let opts = GapOptions { seeds: self.seeds, ..Default::default() };
+        let bar = Mutex::new(None::<Progress>);
+        let progress = |_stage: &str, done: usize, total: usize| {
+            let mut b = bar.lock().expect("progress lock");
+            let p = b.get_or_insert_with(|| Progress::new(total as u64, "gap"));
+            p.set(done as u64);
+        };
+        let t0 = std::time::Instant::now();
+        let report = gap::diagnose(&input, &opts, &progress)?;
+        if let Some(b) = bar.lock().expect("progress lock").as_ref() {
+            b.finish();
+        }
+        let mut out = std::io::stdout().lock();
+        writeln!(out, "# {} column {}: {:.1} s", rec.source, self.column, t0.elapsed().as_secs_f64())?;
+        write!(out, "{}", report.text())?;
+        if let Some(path) = &self.json {
+            std::fs::write(path, serde_json::to_string_pretty(&report.to_json())?)
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        if let Some(path) = &self.plot {
+            let title = format!("Sim-to-real gap: {} {} ({})", rec.source, self.column, report.effect_name());
+            let opts = plot::PlotOptions { title, ..Default::default() };
+            plot::gap_plot(&report.plot_data(), &opts, path).with_context(|| format!("drawing {}", path.display()))?;
+        }
+        Ok(ExitCode::SUCCESS)
+    }
+}

@@ -1,0 +1,138 @@
+//! The simulated ensemble: one model, many seeds, the whole record (training then holdout) per seed.
+//!
+//! Each member is a [`VirtualGyro`] run for as many samples as the record has, at its rate, through the model's
+//! ADC (the measured rate is `channel.code_to_dps(code)`, looked up in a table of every code), driven by the real
+//! temperature sequence when there is one, so a temperature coupling acts through the temperature the sensor saw.
+//! Simulating training and holdout as one run keeps sinusoid phases and drifts continuous across the split; the
+//! real record's gaps are copied into each member, then each part is measured on its own [`Plan`]. Members run in
+//! parallel (rayon) and only their measures are kept, so memory is two records per core, not one per seed.
+
+use octavar_shared::sensor::Channel;
+use octavar_shared::sim::{GyroSim, SimError, VirtualGyro};
+use rayon::prelude::*;
+
+use super::views::{Measure, Plan};
+
+/// The record the ensemble imitates.
+#[derive(Clone, Copy, Debug)]
+pub struct Record<'a> {
+    /// Rate, deg/s, training then holdout; NaN marks a gap.
+    pub rate_dps: &'a [f64],
+    /// The temperature at every sample (gaps filled), degC, if there is a temperature channel.
+    pub temp_c: Option<&'a [f64]>,
+    /// Sample rate, Hz.
+    pub fs_hz: f64,
+    /// Samples of the training part (the rest is the holdout).
+    pub n_train: usize,
+}
+
+impl Record<'_> {
+    /// The training samples.
+    pub fn training(&self) -> &[f64] {
+        &self.rate_dps[..self.n_train]
+    }
+
+    /// The held-out samples.
+    pub fn holdout(&self) -> &[f64] {
+        &self.rate_dps[self.n_train..]
+    }
+
+    /// The temperature of the training part.
+    pub fn training_temp(&self) -> Option<&[f64]> {
+        self.temp_c.map(|t| &t[..self.n_train])
+    }
+
+    /// The temperature of the holdout part.
+    pub fn holdout_temp(&self) -> Option<&[f64]> {
+        self.temp_c.map(|t| &t[self.n_train..])
+    }
+}
+
+/// Every member's measures on each part.
+#[derive(Clone, Debug)]
+pub struct Ensemble {
+    /// On the training part, one per seed.
+    pub training: Vec<Measure>,
+    /// On the holdout part, one per seed (empty without a holdout plan).
+    pub holdout: Vec<Measure>,
+}
+
+/// Temperature used when the record has none (the model's reference is 25 degC; nothing couples to it).
+const NO_TEMP_C: f64 = 25.0;
+
+/// Simulate `gyro` on `channel` once per seed over the whole record and measure both parts.
+///
+/// # Errors
+/// The model's [`SimError`] (a parameter out of range).
+pub fn simulate(
+    gyro: &GyroSim,
+    channel: &Channel,
+    rec: &Record,
+    train_plan: &Plan,
+    holdout_plan: Option<&Plan>,
+    seeds: &[u64],
+) -> Result<Ensemble, SimError> {
+    // Fail early (and once) on a bad model.
+    VirtualGyro::new(gyro, *channel, rec.fs_hz, 0)?;
+    let table: Vec<f64> = (0..=channel.adc.max_code()).map(|c| channel.code_to_dps(c)).collect();
+    let members: Vec<(Measure, Option<Measure>)> = seeds
+        .par_iter()
+        .map(|&seed| {
+            let mut g = VirtualGyro::new(gyro, *channel, rec.fs_hz, seed).expect("model checked above");
+            let x: Vec<f64> = match rec.temp_c {
+                Some(t) => rec
+                    .rate_dps
+                    .iter()
+                    .zip(t)
+                    .map(|(&r, &tc)| {
+                        let v = table[g.next(tc).code as usize];
+                        if r.is_nan() {
+                            f64::NAN
+                        } else {
+                            v
+                        }
+                    })
+                    .collect(),
+                None => rec
+                    .rate_dps
+                    .iter()
+                    .map(|&r| {
+                        let v = table[g.next(NO_TEMP_C).code as usize];
+                        if r.is_nan() {
+                            f64::NAN
+                        } else {
+                            v
+                        }
+                    })
+                    .collect(),
+            };
+            let train = train_plan.measure(&x[..rec.n_train], rec.training_temp(), false);
+            let hold = holdout_plan.map(|p| p.measure(&x[rec.n_train..], rec.holdout_temp(), false));
+            (train, hold)
+        })
+        .collect();
+    let mut out = Ensemble { training: Vec::with_capacity(seeds.len()), holdout: Vec::new() };
+    for (t, h) in members {
+        out.training.push(t);
+        if let Some(h) = h {
+            out.holdout.push(h);
+        }
+    }
+    Ok(out)
+}
+
+/// One simulated record of `n` samples (for tests and examples): the measured rate of `gyro` on `channel`.
+///
+/// # Errors
+/// The model's [`SimError`].
+pub fn one_record(
+    gyro: &GyroSim,
+    channel: &Channel,
+    fs_hz: f64,
+    n: usize,
+    temp_c: Option<&[f64]>,
+    seed: u64,
+) -> Result<Vec<f64>, SimError> {
+    let mut g = VirtualGyro::new(gyro, *channel, fs_hz, seed)?;
+    Ok((0..n).map(|i| channel.code_to_dps(g.next(temp_c.map_or(NO_TEMP_C, |t| t[i])).code)).collect())
+}

@@ -1,0 +1,405 @@
+//! The diagnosis as a result: the chosen effect, where the gap lies, what each candidate buys on training and
+//! held-out data; as text for a person, as the JSON document scripts read, and as the gap plot's data.
+//!
+//! JSON keys (stable; scripts rely on them): `effect` (a vocabulary name, or `none`), `view`, `band_s` `[lo, hi]`,
+//! `sign` (`above`/`below`), `gap_before`, `gap_after`, `shrink`, `holdout` `{gap_before, gap_after, shrink}`,
+//! `candidates` `[{effect, params, gap_after, shrink, ...}]`, `model` (the base model plus the chosen effect, as a
+//! `model.toml` channel's `gyro`), `effect_params`. Also: `size`, `significant`, `threshold`, `total_before`,
+//! `total_after`, `base_model`, `base_fit`, `views` (every view's RMS on both parts, before and after), `n_train`,
+//! `n_holdout`, `fs_hz`, `seeds`.
+
+use std::fmt::Write as _;
+
+use octavar_shared::sensor::Channel;
+use octavar_shared::sim::GyroSim;
+use serde::Serialize;
+use serde_json::{json, Value};
+
+use super::effects::{Effect, EffectFit};
+use super::rank::{self, Location};
+use super::views::{ViewGap, ViewKind};
+use super::Evaluated;
+use crate::fit::NoiseFit;
+use crate::plot::{Band, GapPlot};
+use crate::stats::DevPoint;
+
+/// A gap before and after, on one part.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PartGap {
+    /// The base model's gap (worst view's RMS z).
+    pub gap_before: f64,
+    /// With the effect.
+    pub gap_after: f64,
+    /// 1 - after / before.
+    pub shrink: f64,
+}
+
+/// One candidate effect's result.
+#[derive(Clone, Debug)]
+pub struct CandidateResult {
+    /// The effect.
+    pub effect: Effect,
+    /// Its fit, or `None` when the data showed no trace of it.
+    pub fit: Option<EffectFit>,
+    /// Its ensemble's comparison.
+    pub eval: Option<Evaluated>,
+    /// Training gap after, total after, and the ranking score (`None` without a fit).
+    pub gap_after: Option<f64>,
+    /// Total (RMS over views) after, training.
+    pub total_after: Option<f64>,
+    /// Ranking score.
+    pub score: Option<f64>,
+    /// Holdout gap after.
+    pub holdout_after: Option<f64>,
+}
+
+/// The diagnosis.
+#[derive(Clone, Debug)]
+pub struct GapReport {
+    /// The chosen effect (`None`: no significant gap, or no candidate reduces it).
+    pub effect: Option<Effect>,
+    /// Whether the base gap is significant ([`rank::SIGNIFICANT_GAP`]).
+    pub significant: bool,
+    /// Where the base gap lies on the training part.
+    pub location: Option<Location>,
+    /// Training gap before/after.
+    pub training: PartGap,
+    /// Holdout gap before/after (`None` without a holdout).
+    pub holdout: Option<PartGap>,
+    /// Totals (RMS over views) before and after, training.
+    pub total: [f64; 2],
+    /// Every candidate, in vocabulary order.
+    pub candidates: Vec<CandidateResult>,
+    /// The base model.
+    pub base: GyroSim,
+    /// Its fit.
+    pub base_fit: NoiseFit,
+    /// The ADC channel of the base ensemble.
+    pub channel: Channel,
+    /// The base model's comparison.
+    pub base_eval: Evaluated,
+    /// Real training OADEV (with intervals), for the plot.
+    pub real_adev: Vec<DevPoint>,
+    /// Sample rate, Hz.
+    pub fs_hz: f64,
+    /// Training samples.
+    pub n_train: usize,
+    /// Held-out samples.
+    pub n_holdout: usize,
+    /// Ensemble size.
+    pub seeds: usize,
+    /// Whether a temperature channel was used.
+    pub has_temperature: bool,
+}
+
+/// What [`assemble`] needs.
+pub(crate) struct Parts {
+    pub fs_hz: f64,
+    pub n_train: usize,
+    pub n_holdout: usize,
+    pub seeds: usize,
+    pub has_temperature: bool,
+    pub channel: Channel,
+    pub base: GyroSim,
+    pub base_fit: NoiseFit,
+    pub real_adev: Vec<DevPoint>,
+    pub base_eval: Evaluated,
+    pub candidates: Vec<(Effect, Option<EffectFit>, Option<Evaluated>)>,
+}
+
+/// Rank the candidates and build the report.
+pub(crate) fn assemble(p: Parts) -> GapReport {
+    let gap_before = rank::gap_of(&p.base_eval.training);
+    let total_before = rank::total_of(&p.base_eval.training);
+    let hold_before = (!p.base_eval.holdout.is_empty()).then(|| rank::gap_of(&p.base_eval.holdout));
+    let candidates: Vec<CandidateResult> = p
+        .candidates
+        .into_iter()
+        .map(|(effect, fit, eval)| {
+            let (gap_after, total_after, score, holdout_after) = match (&fit, &eval) {
+                (Some(f), Some(e)) => {
+                    let t = rank::total_of(&e.training);
+                    (
+                        Some(rank::gap_of(&e.training)),
+                        Some(t),
+                        Some(rank::score(t, f.n_params)),
+                        (!e.holdout.is_empty()).then(|| rank::gap_of(&e.holdout)),
+                    )
+                }
+                _ => (None, None, None, None),
+            };
+            CandidateResult { effect, fit, eval, gap_after, total_after, score, holdout_after }
+        })
+        .collect();
+    let significant = gap_before > rank::SIGNIFICANT_GAP;
+    let best = candidates
+        .iter()
+        .filter(|c| c.score.is_some_and(|s| s < total_before))
+        .min_by(|a, b| a.score.unwrap_or(f64::INFINITY).total_cmp(&b.score.unwrap_or(f64::INFINITY)));
+    let chosen = if significant { best } else { None };
+    let gap_after = chosen.and_then(|c| c.gap_after).unwrap_or(gap_before);
+    let total_after = chosen.and_then(|c| c.total_after).unwrap_or(total_before);
+    let holdout = hold_before.map(|b| {
+        let a = chosen.and_then(|c| c.holdout_after).unwrap_or(b);
+        PartGap { gap_before: b, gap_after: a, shrink: rank::shrink(b, a) }
+    });
+    GapReport {
+        effect: chosen.map(|c| c.effect),
+        significant,
+        location: rank::locate(&p.base_eval.training),
+        training: PartGap { gap_before, gap_after, shrink: rank::shrink(gap_before, gap_after) },
+        holdout,
+        total: [total_before, total_after],
+        candidates,
+        base: p.base,
+        base_fit: p.base_fit,
+        channel: p.channel,
+        base_eval: p.base_eval,
+        real_adev: p.real_adev,
+        fs_hz: p.fs_hz,
+        n_train: p.n_train,
+        n_holdout: p.n_holdout,
+        seeds: p.seeds,
+        has_temperature: p.has_temperature,
+    }
+}
+
+impl GapReport {
+    /// The chosen effect's name, or `none`.
+    pub fn effect_name(&self) -> &'static str {
+        self.effect.map_or("none", Effect::name)
+    }
+
+    /// The chosen candidate.
+    pub fn chosen(&self) -> Option<&CandidateResult> {
+        let e = self.effect?;
+        self.candidates.iter().find(|c| c.effect == e)
+    }
+
+    /// The recommended model: the base, or the chosen effect's model (parameters from training).
+    pub fn model(&self) -> &GyroSim {
+        self.chosen().and_then(|c| c.fit.as_ref()).map_or(&self.base, |f| &f.gyro)
+    }
+
+    /// The JSON document (see the module doc for its keys).
+    pub fn to_json(&self) -> Value {
+        let loc = self.location.as_ref();
+        let candidates: Vec<Value> = self
+            .candidates
+            .iter()
+            .map(|c| {
+                let f = c.fit.as_ref();
+                let h = c.holdout_after;
+                let hb = self.holdout.map(|p| p.gap_before);
+                json!({
+                    "effect": c.effect.name(),
+                    "params": f.map_or(Value::Null, |f| f.params.clone()),
+                    "n_params": f.map(|f| f.n_params),
+                    "gap_after": c.gap_after,
+                    "shrink": c.gap_after.map(|a| rank::shrink(self.training.gap_before, a)),
+                    "total_after": c.total_after,
+                    "score": c.score,
+                    "holdout": {
+                        "gap_after": h,
+                        "shrink": h.zip(hb).map(|(a, b)| rank::shrink(b, a)),
+                    },
+                    "chosen": Some(c.effect) == self.effect,
+                    "note": if f.is_none() { Value::from("no trace of this effect in the training data") } else { Value::Null },
+                })
+            })
+            .collect();
+        let views = self.view_table();
+        json!({
+            "effect": self.effect_name(),
+            "view": loc.map(|l| l.view.name()),
+            "band_s": loc.map(|l| l.band_s),
+            "sign": loc.map(|l| l.sign.name()),
+            "size": loc.map(|l| json!({"z_rms": l.z_rms, "points": l.points, "labels": l.labels,
+                                         "ratio": l.ratio, "correlation_real_sim": l.correlation})),
+            "gap_before": self.training.gap_before,
+            "gap_after": self.training.gap_after,
+            "shrink": self.training.shrink,
+            "holdout": self.holdout.map_or(Value::Null, |h| json!({
+                "gap_before": h.gap_before, "gap_after": h.gap_after, "shrink": h.shrink })),
+            "candidates": candidates,
+            "model": serde_json::to_value(self.model()).unwrap_or(Value::Null),
+            "model_channel": self.chosen().and_then(|c| c.fit.as_ref()).and_then(|f| f.channel)
+                .map(|c| serde_json::to_value(c).unwrap_or(Value::Null)),
+            "effect_params": self.chosen().and_then(|c| c.fit.as_ref()).map_or(Value::Null, |f| f.params.clone()),
+            "significant": self.significant,
+            "threshold": rank::SIGNIFICANT_GAP,
+            "total_before": self.total[0],
+            "total_after": self.total[1],
+            "base_model": serde_json::to_value(&self.base).unwrap_or(Value::Null),
+            "base_fit": serde_json::to_value(&self.base_fit).unwrap_or(Value::Null),
+            "views": views,
+            "n_train": self.n_train,
+            "n_holdout": self.n_holdout,
+            "fs_hz": self.fs_hz,
+            "seeds": self.seeds,
+        })
+    }
+
+    /// Every view's RMS: `{"adev": {"training": [before, after], "holdout": [before, after]}, ...}`.
+    fn view_table(&self) -> Value {
+        let after = self.chosen().and_then(|c| c.eval.as_ref());
+        let rms = |v: &[ViewGap], k: ViewKind| v.iter().find(|g| g.view == k).map(|g| g.rms);
+        let mut m = serde_json::Map::new();
+        for k in ViewKind::ALL {
+            let tb = rms(&self.base_eval.training, k);
+            if tb.is_none() {
+                continue;
+            }
+            let ta = after.map_or(tb, |e| rms(&e.training, k));
+            let hb = rms(&self.base_eval.holdout, k);
+            let ha = after.map_or(hb, |e| rms(&e.holdout, k));
+            m.insert(k.name().into(), json!({"training": [tb, ta], "holdout": [hb, ha]}));
+        }
+        Value::Object(m)
+    }
+
+    /// A short text a person can read: what, where, how big, how sure, what the fix buys on held-out data.
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        let hold = if self.n_holdout > 0 {
+            format!("{} held out", self.n_holdout)
+        } else {
+            "no holdout".to_string()
+        };
+        let _ = writeln!(
+            s,
+            "gap diagnosis: {} training samples at {} Hz, {hold}; ensemble of {} seeds{}",
+            self.n_train,
+            self.fs_hz,
+            self.seeds,
+            if self.has_temperature { ", driven by the recorded temperature" } else { "" }
+        );
+        let b = &self.base;
+        let _ = writeln!(
+            s,
+            "base model (IEEE 952 fit on training): N {:.3e} deg/sqrt(s), B {:.3e} deg/s, K {:.3e} deg/s/sqrt(s), R {:.3e} deg/s^2, bias {:.4e} deg/s",
+            b.n_deg_per_rt_s, b.b_dps, b.k_dps_per_rt_s, b.r_dps_per_s, b.bias_dps
+        );
+        let _ = writeln!(s, "views (RMS z of real against the ensemble; about 1 when they agree):");
+        let after = self.chosen().and_then(|c| c.eval.as_ref());
+        for g in &self.base_eval.training {
+            let a = after.and_then(|e| e.training.iter().find(|x| x.view == g.view)).map(|x| x.rms);
+            let hb = self.base_eval.holdout.iter().find(|x| x.view == g.view).map(|x| x.rms);
+            let ha = after.and_then(|e| e.holdout.iter().find(|x| x.view == g.view)).map(|x| x.rms);
+            let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+            let _ = writeln!(
+                s,
+                "  {:<13} training {:>7.2} -> {:>7}   holdout {:>7} -> {:>7}",
+                g.view.name(),
+                g.rms,
+                f(a.or(Some(g.rms))),
+                f(hb),
+                f(ha.or(hb))
+            );
+        }
+        if let Some(l) = &self.location {
+            let size = match (l.ratio, l.correlation) {
+                (Some(r), _) if l.view == ViewKind::Adev => format!(", real/sim Allan deviation x{r:.3}"),
+                (Some(r), _) => format!(", real/sim power x{r:.3}"),
+                (_, Some([a, b])) => format!(", correlation with temperature {a:.2} real vs {b:.2} simulated"),
+                _ => format!(" ({})", l.labels.join(", ")),
+            };
+            let _ = writeln!(
+                s,
+                "gap {:.2} (threshold {:.1}: {}): worst view {}, tau {:.3e} .. {:.3e} s, real {} the simulation, |z| RMS {:.1} over {} point(s){size}",
+                self.training.gap_before,
+                rank::SIGNIFICANT_GAP,
+                if self.significant { "significant" } else { "not significant" },
+                l.view.name(),
+                l.band_s[0],
+                l.band_s[1],
+                l.sign.name(),
+                l.z_rms,
+                l.points,
+            );
+        }
+        let _ = writeln!(s, "candidates (training gap after, total after, score = total x (1 + 0.05 x params); holdout gap after):");
+        for c in &self.candidates {
+            let mark = if Some(c.effect) == self.effect { "*" } else { " " };
+            match (&c.fit, c.gap_after, c.total_after, c.score) {
+                (Some(f), Some(g), Some(t), Some(sc)) => {
+                    let h = c.holdout_after.map_or("-".to_string(), |h| format!("{h:.2}"));
+                    let _ = writeln!(
+                        s,
+                        " {mark}{:<13} gap {g:>7.2} total {t:>7.2} score {sc:>7.2}  holdout {h:>7}  {}",
+                        c.effect.name(),
+                        compact(&f.params)
+                    );
+                }
+                _ => {
+                    let _ = writeln!(s, " {mark}{:<13} no trace in the training data", c.effect.name());
+                }
+            }
+        }
+        match (self.effect, self.significant) {
+            (Some(e), _) => {
+                let _ = write!(
+                    s,
+                    "diagnosis: {} (gap {:.2} -> {:.2} on training, shrink {:.0}%",
+                    e.name(),
+                    self.training.gap_before,
+                    self.training.gap_after,
+                    100.0 * self.training.shrink
+                );
+                if let Some(h) = self.holdout {
+                    let _ = write!(
+                        s,
+                        "; held out, parameters frozen: {:.2} -> {:.2}, shrink {:.0}%",
+                        h.gap_before,
+                        h.gap_after,
+                        100.0 * h.shrink
+                    );
+                }
+                let _ = writeln!(s, ")");
+            }
+            (None, false) => {
+                let _ = writeln!(s, "diagnosis: none (the simulation of the fitted model agrees with the record)");
+            }
+            (None, true) => {
+                let _ = writeln!(s, "diagnosis: none of the candidates reduces the gap; it is not one of the known effects");
+            }
+        }
+        s
+    }
+
+    /// The gap plot's data: real training OADEV, the ensemble band before and after, and the gap's band when the
+    /// worst view has a tau axis.
+    pub fn plot_data(&self) -> GapPlot {
+        let to_bands = |e: &Evaluated| -> Vec<Band> {
+            e.adev_band.iter().map(|&(tau_s, lo, hi)| Band { tau_s, lo, hi }).collect()
+        };
+        let mut p = GapPlot::new(self.real_adev.clone(), to_bands(&self.base_eval));
+        p.before_label = "simulated, base model".to_string();
+        if let Some(c) = self.chosen() {
+            p.after = c.eval.as_ref().map(to_bands);
+            p.after_label = format!("simulated, + {}", c.effect.name());
+        }
+        if let Some(l) = &self.location {
+            if self.significant && l.view != ViewKind::Distribution {
+                p.band_s = Some((l.band_s[0], l.band_s[1]));
+                p.band_label = format!("gap: {} ({})", l.view.name(), l.sign.name());
+            }
+        }
+        p
+    }
+}
+
+/// `{"a": 1.0, "b": 2.0}` as `a=1.000e0 b=2.000e0`.
+fn compact(v: &Value) -> String {
+    match v {
+        Value::Object(m) => m
+            .iter()
+            .map(|(k, v)| match v {
+                Value::Number(n) => format!("{k}={:.4e}", n.as_f64().unwrap_or(f64::NAN)),
+                other => format!("{k}={}", other),
+            })
+            .collect::<Vec<_>>()
+            .join(" "),
+        other => other.to_string(),
+    }
+}

@@ -1,0 +1,656 @@
+//! The four views in which a record is compared with its simulated ensemble, and their z-scores.
+//!
+//! A [`Plan`] is laid out once per part of the record (training, holdout) from the real samples: which taus, which
+//! frequency bands, which lattice step, which temperature scales. [`Plan::measure`] then reduces any series of that
+//! length (the real one, or each simulated member with the same gaps) to one number per point of each view, in a
+//! domain where the ensemble spread is close to Gaussian:
+//!
+//! | view | points | value |
+//! |------|--------|-------|
+//! | `adev` | octave taus of the overlapping Allan deviation | ln OADEV |
+//! | `psd` | log-spaced frequency bands (5 per decade), low ones through block-mean decimation by 8 | ln of the Welch-averaged periodogram (Hann, 50% overlap) over the band's bins |
+//! | `distribution` | robust scale, skewness, kurtosis, tail share, lattice share | ln (1.4826 MAD); moments; share beyond 5 robust sigma; share of first differences on the lattice step |
+//! | `temperature` | block lengths from 1/4096 of the record up (octaves) | atanh of the correlation of the block-mean rate with the block-mean temperature at the lag (searched, 0 to 1/8 of the record) where it is largest |
+//!
+//! The distribution's points are taken on the local residual `x[i] - (x[i-1] + x[i+1]) / 2`, which removes drifts
+//! (flicker, random walk, temperature) and keeps the sign of a one-sided spike; the lattice share is taken on the
+//! first differences, which keep the ADC step and drop its offset. The lattice point exists only when the real
+//! part is on a lattice (99% of its first differences on multiples of one step) coarse enough to be visible (a step
+//! of at least 1/50 of the differences' robust scale).
+//!
+//! [`compare`] turns the real values and the ensemble's into z-scores, `z = (real - mean) / sd`, with `sd` the
+//! ensemble's standard deviation floored by the statistical spread the point has anyway (from the EDF for ADEV,
+//! the number of averaged periodogram bins for PSD, the sample count for the moments) and widened in quadrature by
+//! a model-error allowance (see [`ViewKind::model_floor`]), so a tight ensemble cannot make z explode.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftPlanner};
+use serde::Serialize;
+
+use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
+
+/// A view of the comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ViewKind {
+    /// Overlapping Allan deviation over tau.
+    Adev,
+    /// Power spectral density over frequency (reported as 1/f, s).
+    Psd,
+    /// The distribution of the sample values.
+    Distribution,
+    /// Correlation with the temperature channel.
+    Temperature,
+}
+
+impl ViewKind {
+    /// Every view, in report order.
+    pub const ALL: [ViewKind; 4] = [ViewKind::Adev, ViewKind::Psd, ViewKind::Distribution, ViewKind::Temperature];
+
+    /// The name in reports and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            ViewKind::Adev => "adev",
+            ViewKind::Psd => "psd",
+            ViewKind::Distribution => "distribution",
+            ViewKind::Temperature => "temperature",
+        }
+    }
+
+    /// The model-error allowance added in quadrature to every point's sd: the base fit allows 3% in Allan
+    /// variance (`FitOptions::model_error`), which is 0.015 in ln ADEV; the PSD, which the fit never saw, gets
+    /// twice that; moments and shares get none (their floors are absolute, see [`Plan::new`]).
+    pub fn model_floor(self) -> f64 {
+        match self {
+            ViewKind::Adev => 0.015,
+            ViewKind::Psd => 0.03,
+            ViewKind::Distribution | ViewKind::Temperature => 0.0,
+        }
+    }
+}
+
+/// One point of a view: what it is and where it lies in tau.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PointInfo {
+    /// Short name (`tau`, `band`, `kurtosis`, ...).
+    pub label: &'static str,
+    /// Representative tau, s (1/f for a band, the block length for temperature, tau0 for the distribution).
+    pub tau_s: f64,
+    /// Lower tau edge, s.
+    pub tau_lo_s: f64,
+    /// Upper tau edge, s.
+    pub tau_hi_s: f64,
+    /// Smallest sd the point's z may use (its own statistical spread).
+    pub floor_sd: f64,
+}
+
+/// The layout of a Welch level: block-mean decimation factor, segment length and its FFT.
+#[derive(Clone)]
+struct Level {
+    decim: usize,
+    seg: usize,
+    fft: Arc<dyn Fft<f64>>,
+    window: Vec<f64>,
+}
+
+#[derive(Clone, Debug)]
+struct PsdBand {
+    level: usize,
+    bin_lo: usize,
+    bin_hi: usize,
+}
+
+/// What to measure on a part of the record; built from the real samples, applied to every series of that part.
+#[derive(Clone)]
+pub struct Plan {
+    fs_hz: f64,
+    n: usize,
+    adev_ms: Vec<u64>,
+    levels: Vec<Level>,
+    bands: Vec<PsdBand>,
+    lattice_step: Option<f64>,
+    temp_scales: Vec<usize>,
+    /// The points of each view, in [`ViewKind::ALL`] order (an empty list: the view does not apply).
+    pub points: [Vec<PointInfo>; 4],
+}
+
+/// One series reduced to its view values (NaN where a point could not be computed), in [`ViewKind::ALL`] order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measure {
+    /// Values per view, aligned with [`Plan::points`].
+    pub values: [Vec<f64>; 4],
+    /// The OADEV itself (deviation, not its log) at the plan's taus, for plots.
+    pub adev: Vec<f64>,
+}
+
+/// Points per decade of the PSD bands.
+const BANDS_PER_DECADE: f64 = 5.0;
+/// Longest Welch segment.
+const MAX_SEG: usize = 1024;
+/// Shortest Welch segment.
+const MIN_SEG: usize = 32;
+/// Decimation factor between Welch levels.
+const DECIM: usize = 8;
+/// Tail threshold of the distribution view, robust sigmas.
+pub const TAIL_SIGMA: f64 = 5.0;
+
+impl Plan {
+    /// Lay out the views for `real` (deg/s, NaN gaps) sampled at `fs_hz`, with the temperature if there is one.
+    pub fn new(real: &[f64], temp_c: Option<&[f64]>, fs_hz: f64) -> Plan {
+        let n = real.len();
+        let tau0 = 1.0 / fs_hz;
+        // ADEV: octave taus with the EDF of the real curve as the floor.
+        let mut adev_ms = Vec::new();
+        let mut adev_pts = Vec::new();
+        if let Ok(series) = Series::new(real, DataKind::Frequency, tau0) {
+            let opts = Options { intervals: true, ..Default::default() };
+            if let Ok(rows) = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &opts) {
+                for r in rows.iter().filter(|r| r.dev > 0.0 && r.n >= 2) {
+                    let edf = if r.edf.is_finite() && r.edf > 0.0 { r.edf } else { r.n as f64 / 2.0 };
+                    adev_ms.push(r.m);
+                    adev_pts.push(PointInfo {
+                        label: "tau",
+                        tau_s: r.tau_s,
+                        tau_lo_s: r.tau_s / std::f64::consts::SQRT_2,
+                        tau_hi_s: r.tau_s * std::f64::consts::SQRT_2,
+                        floor_sd: (0.5 / edf).sqrt(),
+                    });
+                }
+            }
+        }
+        // PSD: levels of block-mean decimation while a few segments fit.
+        let mut planner = FftPlanner::new();
+        let mut levels = Vec::new();
+        let mut decim = 1usize;
+        loop {
+            let nk = n / decim;
+            let mut seg = MAX_SEG;
+            while seg > MIN_SEG && seg * 4 > nk {
+                seg /= 2;
+            }
+            if seg * 4 > nk {
+                break;
+            }
+            let window: Vec<f64> = (0..seg)
+                .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / seg as f64).cos())
+                .collect();
+            levels.push(Level { decim, seg, fft: planner.plan_fft_forward(seg), window });
+            decim *= DECIM;
+        }
+        let mut bands = Vec::new();
+        let mut psd_pts = Vec::new();
+        if !levels.is_empty() {
+            let step = 10f64.powf(1.0 / BANDS_PER_DECADE);
+            let mut f_hi = fs_hz / 2.0;
+            loop {
+                let f_lo = f_hi / step;
+                // The finest level that puts at least 4 bins between DC and the band.
+                let found = levels.iter().enumerate().find_map(|(k, l)| {
+                    let fs_k = fs_hz / l.decim as f64;
+                    let df = fs_k / l.seg as f64;
+                    let lo = (f_lo / df).ceil() as usize;
+                    let hi = ((f_hi / df).floor() as usize).min(l.seg / 2);
+                    let hi = if hi as f64 * df >= f_hi && hi > lo { hi - 1 } else { hi };
+                    (lo >= 4 && hi >= lo).then_some((k, lo, hi))
+                });
+                let Some((k, lo, hi)) = found else { break };
+                let l = &levels[k];
+                let segs = (n / l.decim).saturating_sub(l.seg) / (l.seg / 2) + 1;
+                let bins = (hi - lo + 1) as f64;
+                psd_pts.push(PointInfo {
+                    label: "band",
+                    tau_s: 1.0 / (f_lo * f_hi).sqrt(),
+                    tau_lo_s: 1.0 / f_hi,
+                    tau_hi_s: 1.0 / f_lo,
+                    floor_sd: (1.0 / (bins * segs as f64 * 0.9)).sqrt(),
+                });
+                bands.push(PsdBand { level: k, bin_lo: lo, bin_hi: hi });
+                f_hi = f_lo;
+            }
+        }
+        // Distribution.
+        let valid = real.iter().filter(|v| v.is_finite()).count().max(1) as f64;
+        let dist_pt = |label: &'static str, floor_sd: f64| PointInfo {
+            label,
+            tau_s: tau0,
+            tau_lo_s: tau0,
+            tau_hi_s: tau0,
+            floor_sd,
+        };
+        let mut dist_pts = vec![
+            dist_pt("robust_scale", (1.36 / valid).sqrt()),
+            dist_pt("skewness", 0.02 + (6.0 / valid).sqrt()),
+            dist_pt("kurtosis", 0.05 + (24.0 / valid).sqrt()),
+            dist_pt("tail_share", (3.0 / valid).sqrt() / valid.sqrt()),
+        ];
+        let lattice_step = lattice_of(real);
+        if lattice_step.is_some() {
+            dist_pts.push(dist_pt("lattice_share", 0.02));
+        }
+        // Temperature: octave block lengths with at least 32 blocks.
+        let mut temp_scales = Vec::new();
+        let mut temp_pts = Vec::new();
+        if let Some(t) = temp_c {
+            if t.iter().any(|v| v.is_finite()) && t.len() == n {
+                let mut b = (n / 4096).max(1).next_power_of_two();
+                while n / b >= 32 {
+                    temp_scales.push(b);
+                    let tau = b as f64 * tau0;
+                    temp_pts.push(PointInfo {
+                        label: "block",
+                        tau_s: tau,
+                        tau_lo_s: tau,
+                        tau_hi_s: tau,
+                        floor_sd: 1.0 / ((n / b) as f64 - 3.0).sqrt(),
+                    });
+                    b *= 2;
+                }
+            }
+        }
+        Plan {
+            fs_hz,
+            n,
+            adev_ms,
+            levels,
+            bands,
+            lattice_step,
+            temp_scales,
+            points: [adev_pts, psd_pts, dist_pts, temp_pts],
+        }
+    }
+
+    /// Number of samples this plan is for.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// True for a plan of no samples.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The lattice step of the real part, deg/s, when it has a visible one.
+    pub fn lattice_step(&self) -> Option<f64> {
+        self.lattice_step
+    }
+
+    /// Reduce a series of this part (same length, gaps where the real one has them) to its view values.
+    /// `parallel`: let the Allan deviation use rayon (off when the caller already runs members in parallel).
+    pub fn measure(&self, x: &[f64], temp_c: Option<&[f64]>, parallel: bool) -> Measure {
+        let adev = self.adev(x, parallel);
+        let ln_adev = adev.iter().map(|v| if *v > 0.0 { v.ln() } else { f64::NAN }).collect();
+        let psd = self.psd(x);
+        let dist = self.distribution(x);
+        let temp = match temp_c {
+            Some(t) if !self.temp_scales.is_empty() => self.temperature(x, t),
+            _ => vec![f64::NAN; self.temp_scales.len()],
+        };
+        Measure { values: [ln_adev, psd, dist, temp], adev }
+    }
+
+    fn adev(&self, x: &[f64], parallel: bool) -> Vec<f64> {
+        let mut out = vec![f64::NAN; self.adev_ms.len()];
+        let Ok(series) = Series::new(x, DataKind::Frequency, 1.0 / self.fs_hz) else { return out };
+        let opts = Options { intervals: false, parallel, ..Default::default() };
+        if let Ok(rows) = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &opts) {
+            for r in rows {
+                if let Ok(i) = self.adev_ms.binary_search(&r.m) {
+                    out[i] = r.dev;
+                }
+            }
+        }
+        out
+    }
+
+    fn psd(&self, x: &[f64]) -> Vec<f64> {
+        let mut spectra: Vec<Option<Vec<f64>>> = Vec::with_capacity(self.levels.len());
+        for (k, l) in self.levels.iter().enumerate() {
+            if !self.bands.iter().any(|b| b.level == k) {
+                spectra.push(None);
+                continue;
+            }
+            let dec: Vec<f64>;
+            let data: &[f64] = if l.decim == 1 {
+                x
+            } else {
+                dec = x.chunks_exact(l.decim).map(|c| c.iter().sum::<f64>() / l.decim as f64).collect();
+                &dec
+            };
+            spectra.push(welch(data, l));
+        }
+        self.bands
+            .iter()
+            .map(|b| match &spectra[b.level] {
+                Some(s) => {
+                    let m = s[b.bin_lo..=b.bin_hi].iter().sum::<f64>() / (b.bin_hi - b.bin_lo + 1) as f64;
+                    if m > 0.0 {
+                        m.ln()
+                    } else {
+                        f64::NAN
+                    }
+                }
+                None => f64::NAN,
+            })
+            .collect()
+    }
+
+    fn distribution(&self, x: &[f64]) -> Vec<f64> {
+        let mut r: Vec<f64> = x
+            .windows(3)
+            .map(|w| w[1] - 0.5 * (w[0] + w[2]))
+            .filter(|v| v.is_finite())
+            .collect();
+        let k = if self.lattice_step.is_some() { 5 } else { 4 };
+        if r.len() < 16 {
+            return vec![f64::NAN; k];
+        }
+        let n = r.len() as f64;
+        let mean = r.iter().sum::<f64>() / n;
+        let (mut m2, mut m3, mut m4) = (0.0, 0.0, 0.0);
+        for &v in &r {
+            let d = v - mean;
+            let d2 = d * d;
+            m2 += d2;
+            m3 += d2 * d;
+            m4 += d2 * d2;
+        }
+        let (m2, m3, m4) = (m2 / n, m3 / n, m4 / n);
+        let skew = if m2 > 0.0 { m3 / m2.powf(1.5) } else { f64::NAN };
+        let kurt = if m2 > 0.0 { m4 / (m2 * m2) - 3.0 } else { f64::NAN };
+        let med = median(&mut r);
+        for v in r.iter_mut() {
+            *v = (*v - med).abs();
+        }
+        let mad = median(&mut r);
+        let scale = 1.4826 * mad;
+        let tail = if scale > 0.0 {
+            r.iter().filter(|&&v| v > TAIL_SIGMA * scale).count() as f64 / n
+        } else {
+            // A lattice so coarse that most residuals are zero: the share of non-zero residuals.
+            r.iter().filter(|&&v| v > 0.0).count() as f64 / n
+        };
+        let ln_scale = if scale > 0.0 { scale.ln() } else { f64::NAN };
+        let mut out = vec![ln_scale, skew, kurt, tail];
+        if let Some(q) = self.lattice_step {
+            out.push(lattice_share(x, q));
+        }
+        out
+    }
+
+    fn temperature(&self, x: &[f64], t: &[f64]) -> Vec<f64> {
+        self.temp_scales
+            .iter()
+            .map(|&b| {
+                let rate = block_means(x, b);
+                let temp = block_means(t, b);
+                let max_lag = rate.len() / 8;
+                let mut best: Option<f64> = None;
+                let mut lag = 0usize;
+                while lag <= max_lag {
+                    if let Some(c) = correlation(&rate[lag..], &temp[..temp.len() - lag]) {
+                        if best.is_none_or(|b| c.abs() > b.abs()) {
+                            best = Some(c);
+                        }
+                    }
+                    lag = if lag < 4 { lag + 1 } else { lag + lag / 4 };
+                }
+                best.map_or(f64::NAN, |c| c.clamp(-0.999_999, 0.999_999).atanh())
+            })
+            .collect()
+    }
+}
+
+/// Welch's averaged periodogram of one level (one-sided, (deg/s)^2/Hz up to a constant), `None` without a
+/// complete segment free of gaps.
+fn welch(data: &[f64], l: &Level) -> Option<Vec<f64>> {
+    let seg = l.seg;
+    let hop = seg / 2;
+    if data.len() < seg {
+        return None;
+    }
+    let mut acc = vec![0.0f64; seg / 2 + 1];
+    let mut buf = vec![Complex::new(0.0, 0.0); seg];
+    let mut scratch = vec![Complex::new(0.0, 0.0); l.fft.get_inplace_scratch_len()];
+    let mut count = 0usize;
+    let mut start = 0usize;
+    while start + seg <= data.len() {
+        let s = &data[start..start + seg];
+        start += hop;
+        if s.iter().any(|v| !v.is_finite()) {
+            continue;
+        }
+        let mean = s.iter().sum::<f64>() / seg as f64;
+        for ((b, &v), &w) in buf.iter_mut().zip(s).zip(&l.window) {
+            *b = Complex::new((v - mean) * w, 0.0);
+        }
+        l.fft.process_with_scratch(&mut buf, &mut scratch);
+        for (a, c) in acc.iter_mut().zip(&buf) {
+            *a += c.norm_sqr();
+        }
+        count += 1;
+    }
+    if count == 0 {
+        return None;
+    }
+    let w2: f64 = l.window.iter().map(|w| w * w).sum();
+    let norm = 2.0 / (count as f64 * w2);
+    Some(acc.into_iter().map(|a| a * norm).collect())
+}
+
+/// Block means of `b` samples (NaN for a block with a gap).
+fn block_means(x: &[f64], b: usize) -> Vec<f64> {
+    x.chunks_exact(b).map(|c| c.iter().sum::<f64>() / b as f64).collect()
+}
+
+/// Pearson correlation over the pairs where both are finite (`None` with fewer than 8 pairs or no variance).
+fn correlation(a: &[f64], b: &[f64]) -> Option<f64> {
+    let (mut n, mut sa, mut sb) = (0.0, 0.0, 0.0);
+    for (&x, &y) in a.iter().zip(b) {
+        if x.is_finite() && y.is_finite() {
+            n += 1.0;
+            sa += x;
+            sb += y;
+        }
+    }
+    if n < 8.0 {
+        return None;
+    }
+    let (ma, mb) = (sa / n, sb / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (&x, &y) in a.iter().zip(b) {
+        if x.is_finite() && y.is_finite() {
+            sab += (x - ma) * (y - mb);
+            saa += (x - ma) * (x - ma);
+            sbb += (y - mb) * (y - mb);
+        }
+    }
+    (saa > 0.0 && sbb > 0.0).then(|| sab / (saa * sbb).sqrt())
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
+    *m
+}
+
+/// The lattice step of a record: the smallest non-zero first difference, kept when 99% of the differences are
+/// multiples of it and it is at least 1/50 of their robust scale.
+pub fn lattice_of(x: &[f64]) -> Option<f64> {
+    let mut d: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|v| v.is_finite()).collect();
+    if d.len() < 16 {
+        return None;
+    }
+    let mut tmp = d.clone();
+    let scale = 1.4826 * median(&mut tmp);
+    let big = d.iter().copied().fold(0.0f64, f64::max);
+    if big <= 0.0 {
+        return None;
+    }
+    let tiny = 1e-9 * big;
+    d.retain(|&v| v > tiny);
+    let q = d.iter().copied().fold(f64::INFINITY, f64::min);
+    if !q.is_finite() || (scale > 0.0 && q < scale / 50.0) {
+        return None;
+    }
+    (lattice_share(x, q) >= 0.99).then_some(q)
+}
+
+/// Share of the first differences of `x` that are whole multiples of `q` (within 1% of `q`).
+pub fn lattice_share(x: &[f64], q: f64) -> f64 {
+    let (mut on, mut n) = (0usize, 0usize);
+    for w in x.windows(2) {
+        let d = w[1] - w[0];
+        if d.is_finite() {
+            n += 1;
+            let k = d / q;
+            if (k - k.round()).abs() < 0.01 {
+                on += 1;
+            }
+        }
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        on as f64 / n as f64
+    }
+}
+
+/// One point's comparison.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PointZ {
+    /// What the point is and where.
+    #[serde(flatten)]
+    pub info: PointInfo,
+    /// The real value (in the view's domain: ln, atanh, or plain).
+    pub real: f64,
+    /// The ensemble mean.
+    pub sim_mean: f64,
+    /// The sd used (ensemble sd, floored, with the model allowance).
+    pub sd: f64,
+    /// (real - mean) / sd.
+    pub z: f64,
+}
+
+/// One view's comparison: its points and the RMS of their z.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ViewGap {
+    /// Which view.
+    pub view: ViewKind,
+    /// Its points, in increasing tau (the distribution's in their fixed order).
+    pub points: Vec<PointZ>,
+    /// RMS of the z-scores (0 without points).
+    pub rms: f64,
+}
+
+/// Compare the real measure with the ensemble's, view by view (views without points are left out).
+pub fn compare(plan: &Plan, real: &Measure, sims: &[Measure]) -> Vec<ViewGap> {
+    let mut out = Vec::new();
+    for (v, kind) in ViewKind::ALL.iter().enumerate() {
+        let mut points = Vec::new();
+        for (i, info) in plan.points[v].iter().enumerate() {
+            let r = real.values[v][i];
+            let s: Vec<f64> = sims.iter().map(|m| m.values[v][i]).filter(|x| x.is_finite()).collect();
+            if !r.is_finite() || s.len() < 3 {
+                continue;
+            }
+            let n = s.len() as f64;
+            let mean = s.iter().sum::<f64>() / n;
+            let var = s.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+            let sd0 = var.sqrt().max(info.floor_sd);
+            let m = kind.model_floor();
+            let sd = (sd0 * sd0 + m * m).sqrt();
+            let z = if sd > 0.0 { (r - mean) / sd } else { 0.0 };
+            points.push(PointZ { info: info.clone(), real: r, sim_mean: mean, sd, z });
+        }
+        if points.is_empty() {
+            continue;
+        }
+        if *kind != ViewKind::Distribution {
+            points.sort_by(|a, b| a.info.tau_s.total_cmp(&b.info.tau_s));
+        }
+        let rms = (points.iter().map(|p| p.z * p.z).sum::<f64>() / points.len() as f64).sqrt();
+        out.push(ViewGap { view: *kind, points, rms });
+    }
+    out
+}
+
+/// Measure many series in parallel (rayon), each without inner parallelism.
+pub fn measure_all(plan: &Plan, series: &[Vec<f64>], temp_c: Option<&[f64]>) -> Vec<Measure> {
+    series.par_iter().map(|x| plan.measure(x, temp_c, false)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn white(n: usize, seed: u64) -> Vec<f64> {
+        let mut s = seed;
+        (0..n)
+            .map(|_| {
+                let mut acc = 0.0;
+                for _ in 0..12 {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    acc += (s >> 11) as f64 / (1u64 << 53) as f64;
+                }
+                acc - 6.0
+            })
+            .collect()
+    }
+
+    #[test]
+    fn white_noise_agrees_with_white_noise() {
+        let real = white(50_000, 1);
+        let plan = Plan::new(&real, None, 10.0);
+        assert!(plan.points[0].len() >= 10 && plan.points[1].len() >= 10, "{:?}", plan.points[1].len());
+        assert!(plan.lattice_step().is_none());
+        let m = plan.measure(&real, None, true);
+        let sims: Vec<Vec<f64>> = (2..22).map(|s| white(50_000, s)).collect();
+        let ms = measure_all(&plan, &sims, None);
+        let gaps = compare(&plan, &m, &ms);
+        assert_eq!(gaps.len(), 3);
+        for g in &gaps {
+            assert!(g.rms < 2.0, "{:?} {}", g.view, g.rms);
+        }
+        // Twice the noise: a gap of the right sign in ADEV and PSD.
+        let loud: Vec<f64> = real.iter().map(|v| 2.0 * v).collect();
+        let gaps = compare(&plan, &plan.measure(&loud, None, true), &ms);
+        assert!(gaps[0].rms > 10.0 && gaps[0].points.iter().all(|p| p.z > 0.0));
+        assert!(gaps[1].rms > 10.0);
+    }
+
+    #[test]
+    fn lattice_and_spikes_are_seen() {
+        let q = 0.25;
+        let x: Vec<f64> = white(20_000, 3).iter().map(|v| (v / q).round() * q + 0.1).collect();
+        assert!((lattice_of(&x).unwrap() - q).abs() < 1e-12);
+        assert!(lattice_of(&white(20_000, 3)).is_none());
+        let plan = Plan::new(&x, None, 1.0);
+        let mut spiky = white(20_000, 4);
+        for i in (0..20_000).step_by(200) {
+            spiky[i] += 8.0;
+        }
+        let d = plan.measure(&spiky, None, true).values[2].clone();
+        let c = plan.measure(&white(20_000, 5), None, true).values[2].clone();
+        assert!(d[2] > c[2] + 1.0, "kurtosis {d:?} {c:?}");
+        assert!(d[3] > 0.004 && c[3] < 0.001, "tails {d:?} {c:?}");
+        assert!(d[1] > 0.3, "skewness {d:?}");
+        assert!(d[4] < 0.2 && plan.measure(&x, None, true).values[2][4] > 0.99);
+    }
+
+    #[test]
+    fn temperature_correlation_is_found_at_a_lag() {
+        let n = 40_000;
+        let temp: Vec<f64> = (0..n).map(|i| 20.0 + 3.0 * (i as f64 / 3000.0).sin()).collect();
+        let noise = white(n, 7);
+        let rate: Vec<f64> = (0..n).map(|i| 0.2 * noise[i] + if i >= 500 { 0.5 * temp[i - 500] } else { 0.0 }).collect();
+        let plan = Plan::new(&rate, Some(&temp), 1.0);
+        assert!(!plan.points[3].is_empty());
+        let m = plan.measure(&rate, Some(&temp), true);
+        assert!(m.values[3].iter().all(|v| v.tanh() > 0.9), "{:?}", m.values[3]);
+        let m0 = plan.measure(&noise, Some(&temp), true);
+        assert!(m0.values[3].iter().all(|v| v.tanh().abs() < 0.6), "{:?}", m0.values[3]);
+    }
+}
