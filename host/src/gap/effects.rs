@@ -25,7 +25,7 @@ use octavar_shared::sim::{
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use crate::fit::{FitPoint, NoiseFit, FLICKER_AVAR_FACTOR};
+use crate::fit::{fit, FitOptions, FitPoint, NoiseFit, Term, FLICKER_AVAR_FACTOR};
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
 
 /// A candidate effect: something the IEEE 952 base model does not have.
@@ -405,6 +405,23 @@ fn with_base_terms(base: &GyroSim, theta: &[f64]) -> GyroSim {
     }
 }
 
+/// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component: the
+/// base model with its N, B, K, R replaced by the identifiable terms of that fit, and the fit's squares.
+fn refit_base(base: &GyroSim, cleaned: &[f64], fs: f64) -> Option<(GyroSim, [f64; 5])> {
+    let pts = oadev_points(cleaned, fs);
+    let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, ..Default::default() };
+    let f = fit(&pts, &opts).ok()?;
+    let v = |t: Term| f.term(t).value.unwrap_or(0.0);
+    let g = GyroSim {
+        n_deg_per_rt_s: v(Term::N),
+        b_dps: v(Term::B),
+        k_dps_per_rt_s: v(Term::K),
+        r_dps_per_s: v(Term::R),
+        ..base.clone()
+    };
+    Some((g, f.squares))
+}
+
 /// The standard normal upper tail.
 fn normal_sf(z: f64) -> f64 {
     0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)
@@ -423,7 +440,8 @@ fn normal_sf(z: f64) -> f64 {
 /// lag. The coefficient must be significant at |t| > 5 against its spread under the base model's own noise
 /// (generalised least squares' variance `w' C w` of the estimator, computed in the frequency domain from the
 /// fitted N, B and K): slow bias wander (flicker, random walk) that happens to correlate with a slow temperature
-/// is not taken for coupling, as a white-noise t-test or an AR(1) effective sample size would.
+/// is not taken for coupling, as a white-noise t-test or an AR(1) effective sample size would. That noise, and
+/// the model's base terms, come from the IEEE fit of the record without the fitted coupling.
 fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let temp = d.temp_c?;
     let n = d.rate_dps.len().min(temp.len());
@@ -477,21 +495,32 @@ fn temperature(d: &TrainingData) -> Option<EffectFit> {
     if !(k.is_finite() && k != 0.0 && rss.is_finite()) {
         return None;
     }
-    // Significance against the base model's own noise: k = sum w_n r_n with w = (x - mean x)/Sxx, whose variance
-    // under the base model (white N, flicker B, random walk K) is the integral of |W(f)|^2 S(f).
+    // The record without the fitted coupling (the lag run at the sample rate): its own IEEE fit is the noise the
+    // coupling must stand out from, and the base terms of the model (the base fit took part of the temperature
+    // bump for flicker or random walk).
+    let a_full = if lag > 0.0 { (-1.0 / (d.fs_hz * lag)).exp() } else { 0.0 };
+    let mut y = temp[0];
+    let cleaned: Vec<f64> = d.rate_dps[..n]
+        .iter()
+        .zip(&temp[..n])
+        .map(|(&r, &tc)| {
+            y = tc + a_full * (y - tc);
+            r - k * y
+        })
+        .collect();
+    let (refit, squares) = refit_base(d.base, &cleaned, d.fs_hz)?;
+    // Significance against that noise: k = sum w_n r_n with w = (x - mean x)/Sxx, whose variance under white N,
+    // flicker B and random walk K is the integral of |W(f)|^2 S(f).
     let mx = mean(&x);
     let sxx: f64 = x.iter().map(|v| (v - mx) * (v - mx)).sum();
     let w: Vec<f64> = x.iter().map(|v| (v - mx) / sxx).collect();
-    let se = null_var(&w, dt, &d.base_fit.squares).sqrt();
+    let se = null_var(&w, dt, &squares).sqrt();
     if !(k.abs() > 5.0 * se) {
         return None;
     }
-    // The sim adds base.bias + k (T_lag - ref): ref keeps the fitted intercept with the base bias as it is.
+    // The sim adds bias + k (T_lag - ref): ref keeps the fitted intercept with the base bias as it is.
     let ref_c = (d.base.bias_dps - c0) / k;
-    let gyro = GyroSim {
-        temperature: Some(TempCoupling { dps_per_c: k, ref_c, lag_s: lag }),
-        ..d.base.clone()
-    };
+    let gyro = GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c, lag_s: lag }), ..refit };
     Some(EffectFit {
         effect: Effect::Temperature,
         params: json!({"dps_per_c": k, "lag_s": lag, "ref_c": ref_c, "t_stat": k / se}),
@@ -600,7 +629,8 @@ fn hann_power(y: &[f64], f: f64, dt: f64) -> f64 {
 /// maximum beyond `ln(bins) + 7` times the background mean (the periodogram ordinate is exponential, so about
 /// 1e-3 false peaks per record). Periods from a third of the record to two samples are searched. Each peak's
 /// frequency is refined by golden search on the windowed projection within +-1 bin; amplitudes and phases of up
-/// to four peaks come from one joint least-squares fit of sines and cosines (plus a constant).
+/// to four peaks come from one joint least-squares fit of sines and cosines (plus a quadratic trend). The base
+/// terms are re-fitted on the record without the sinusoids (the base fit covered their Allan bump with B or K).
 fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n0 = x.len();
@@ -759,7 +789,17 @@ fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         list.push(Sinusoid { amplitude_dps: (a * a + b * b).sqrt() / g, period_s: 1.0 / f, phase_rad: a.atan2(b) });
     }
     list.sort_by(|a, b| b.amplitude_dps.total_cmp(&a.amplitude_dps));
-    let mut gyro = d.base.clone();
+    // The base terms re-fitted without the sinusoids (the base fit covered their Allan bump with B or K).
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let cleaned: Vec<f64> = x
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            let t = i as f64 / d.fs_hz;
+            v - list.iter().map(|s| s.amplitude_dps * (two_pi * t / s.period_s + s.phase_rad).sin()).sum::<f64>()
+        })
+        .collect();
+    let mut gyro = refit_base(d.base, &cleaned, d.fs_hz).map_or_else(|| d.base.clone(), |r| r.0);
     gyro.sinusoids.clear();
     for s in &list {
         let _ = gyro.sinusoids.push(*s);
@@ -1023,8 +1063,9 @@ fn lattice_channel(q: f64, m0: f64) -> Channel {
 /// set it and the steps barely do), and a step is a local maximum of |D| beyond `max(5, sqrt(2 ln(N/L)) + 2)`
 /// scales, at least 2L from a larger one; its time and size are refined on a finer grid. Steps are Gaussian and
 /// the small ones go unseen: sigma comes from the truncated-normal likelihood of the sizes seen beyond the
-/// threshold, and the rate from the count divided by the detection probability (at least 0.2). The base K, which
-/// absorbed the steps' random-walk-like Allan variance (`lambda sigma^2 tau / 3`), is reduced by it.
+/// threshold, and the rate from the count divided by the detection probability (at least 0.2). The base terms are
+/// re-fitted on the record without the detected steps (the base fit took their random-walk-like Allan variance,
+/// `lambda sigma^2 tau / 3`, for K).
 fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n = x.len();
@@ -1085,13 +1126,24 @@ fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let pdet = (2.0 * normal_sf(thr / sigma)).max(0.2);
     let hours = n as f64 / fs / 3600.0;
     let per_hour = steps.len() as f64 / pdet / hours;
-    let lambda = per_hour / 3600.0;
-    let k2 = (d.base.k_dps_per_rt_s.powi(2) - lambda * sigma * sigma).max(0.0);
-    let gyro = GyroSim {
-        k_dps_per_rt_s: k2.sqrt(),
-        bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }),
-        ..d.base.clone()
-    };
+    // The base terms re-fitted on the record without the detected steps (the base fit took them for K).
+    let mut order = steps.clone();
+    order.sort_by_key(|s| s.0);
+    let mut level = 0.0;
+    let mut next = 0;
+    let cleaned: Vec<f64> = x
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            while next < order.len() && order[next].0 <= i {
+                level += order[next].1;
+                next += 1;
+            }
+            v - level
+        })
+        .collect();
+    let refit = refit_base(d.base, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let gyro = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }), ..refit };
     let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / fs).collect();
     Some(EffectFit {
         effect: Effect::BiasSteps,
@@ -1118,11 +1170,12 @@ fn median4(mut v: [f64; 4]) -> f64 {
 /// Isolated spikes.
 ///
 /// Method: the residual of each sample from the median of its four neighbours (two each side; a spike does not
-/// move a median and is not shrunk by its own sample in it; steps, drifts and sinusoids slower than a few samples do not leave a residual), its robust
-/// scale 1.4826 MAD (the mean absolute residual times 1.2533 when the MAD is 0 on coarse quantisation); a
+/// move a median and is not shrunk by its own sample in it; steps, drifts and sinusoids slower than a few
+/// samples leave no residual), its robust scale 1.4826 MAD (the mean absolute residual times 1.2533 when the MAD is 0 on coarse quantisation); a
 /// sample is a spike when its residual exceeds [`OUTLIER_SIGMAS`] scales while its neighbours' do not. A
 /// Gaussian record of 1e6 samples leaves about 0.002 such samples. Parameters: the fraction of samples and the
-/// median spike size; the base N, which contains the spikes' white variance `p size^2`, is reduced by it.
+/// median spike size. The base terms are re-fitted with the spikes replaced by their neighbours' median (the
+/// base N contained their white variance `p size^2`).
 fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n = x.len();
@@ -1148,12 +1201,13 @@ fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let size = median(&sizes);
     let p = hits.len() as f64 / (n - 6) as f64;
     let fs = d.fs_hz;
-    let n2 = (d.base.n_deg_per_rt_s.powi(2) - p * size * size / fs).max(0.25 * d.base.n_deg_per_rt_s.powi(2));
-    let gyro = GyroSim {
-        n_deg_per_rt_s: n2.sqrt(),
-        outliers: Some(Outliers { per_sample: p, size_dps: size, size_sigma: 0.0 }),
-        ..d.base.clone()
-    };
+    // The base terms re-fitted with the spikes replaced by their neighbours' median (they added white variance).
+    let mut cleaned = x.to_vec();
+    for &i in &hits {
+        cleaned[i] = x[i] - r[i];
+    }
+    let refit = refit_base(d.base, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let gyro = GyroSim { outliers: Some(Outliers { per_sample: p, size_dps: size, size_sigma: 0.0 }), ..refit };
     Some(EffectFit {
         effect: Effect::Outliers,
         params: json!({"per_sample": p, "size_dps": size, "count": hits.len(), "robust_sigma_dps": scale}),
@@ -1166,7 +1220,6 @@ fn outliers(d: &TrainingData) -> Option<EffectFit> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::{fit, FitOptions, Term};
     use octavar_shared::sim::{TemperatureProfile, VirtualGyro, Wander};
     use octavar_shared::sim::temperature::Thermal;
     use octavar_shared::sim::rng::SimRng;
