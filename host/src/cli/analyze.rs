@@ -17,8 +17,9 @@ use octavar::stats::{Statistic, TauSpec};
 pub struct Args {
     /// The recording: CSV with a header (.gz is read as such); - is stdin.
     pub input: PathBuf,
-    /// A rate column to analyse (repeat for several channels).
-    #[arg(long = "column", required = true, value_name = "NAME")]
+    /// A rate column to analyse (repeat for several channels; required for CSV; names the channels of a binary
+    /// input).
+    #[arg(long = "column", value_name = "NAME")]
     pub columns: Vec<String>,
     /// Sample rate in Hz (or give --time-column).
     #[arg(long, value_name = "HZ")]
@@ -68,6 +69,19 @@ pub struct Args {
     /// Write a Kalibr imu.yaml (gyroscope_noise_density and gyroscope_random_walk) for the first channel.
     #[arg(long, value_name = "FILE")]
     pub kalibr: Option<PathBuf>,
+    /// Input format: csv (default), capture (default for .cap/.capture files), or raw little-endian samples
+    /// f64le, f32le, i16le, u16le (streamed: OADEV at octave tau and the fit, any length in bounded memory).
+    #[arg(long, value_name = "FORMAT")]
+    pub format: Option<String>,
+    /// Interleaved channels of a raw binary input.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub channels: usize,
+    /// Stream a CSV too (automatic above 1 GiB): OADEV at octave tau and the fit in bounded memory.
+    #[arg(long)]
+    pub stream: bool,
+    /// Stride S of the streamed OADEV: fully overlapping up to m = S, clusters every m/S samples above.
+    #[arg(long, default_value_t = octavar::streaming::DEFAULT_STRIDE, value_name = "S")]
+    pub stride: usize,
 }
 
 /// Parse `--stats`.
@@ -106,6 +120,12 @@ pub fn parse_taus(text: &str) -> anyhow::Result<TauSpec> {
 
 impl Args {
     pub fn run(self) -> anyhow::Result<ExitCode> {
+        if let Some(kind) = self.stream_kind()? {
+            return self.run_stream(kind);
+        }
+        if self.columns.is_empty() {
+            bail!("--column NAME is required for a CSV input (repeat it for several channels)");
+        }
         let unit = RateUnit::parse(&self.unit)?;
         let filters = self.filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?;
         let stats = parse_stats(&self.stats)?;
@@ -137,10 +157,26 @@ impl Args {
         for (name, data) in rec.names.iter().zip(&rec.channels) {
             results.push(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?);
         }
+        let range = rec
+            .channels
+            .iter()
+            .flat_map(|c| c.iter().copied().filter(|v| v.is_finite()))
+            .fold(0.0f64, |a, v| a.max(v.abs()));
+        self.emit(&rec.source, rec.info.samples, rec.rate_hz, range, &results)
+    }
 
+    /// Print the tables and fits, and write the files asked for.
+    fn emit(
+        &self,
+        source: &str,
+        samples: u64,
+        rate_hz: f64,
+        range: f64,
+        results: &[ChannelAnalysis],
+    ) -> anyhow::Result<ExitCode> {
         let mut out = std::io::stdout().lock();
-        writeln!(out, "# {}: {} samples at {} Hz", rec.source, rec.info.samples, rec.rate_hz)?;
-        for c in &results {
+        writeln!(out, "# {source}: {samples} samples at {rate_hz} Hz")?;
+        for c in results {
             writeln!(out, "\n== {} ({}; {} samples, {} gaps)", c.name, c.unit, c.n_samples, c.n_gaps)?;
             for (stat, pts) in &c.stats {
                 write!(out, "{}", analyze::table(*stat, pts))?;
@@ -151,27 +187,22 @@ impl Args {
             }
         }
         if let Some(path) = &self.json {
-            let doc = analyze::to_json(&results);
+            let doc = analyze::to_json(results);
             std::fs::write(path, serde_json::to_string_pretty(&doc)?)
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         if let Some(path) = &self.csv {
-            std::fs::write(path, analyze::to_csv(&results)).with_context(|| format!("writing {}", path.display()))?;
+            std::fs::write(path, analyze::to_csv(results)).with_context(|| format!("writing {}", path.display()))?;
         }
         if let Some(path) = &self.model_out {
-            let range = rec
-                .channels
-                .iter()
-                .flat_map(|c| c.iter().copied().filter(|v| v.is_finite()))
-                .fold(0.0f64, |a, v| a.max(v.abs()));
-            let model = analyze::model_from_fits(&results, rec.rate_hz, 4.0 * range.max(1e-3));
+            let model = analyze::model_from_fits(results, rate_hz, 4.0 * range.max(1e-3));
             std::fs::write(path, octavar::simulate::model_to_toml(&model))
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         if let Some(path) = &self.kalibr {
             let yaml = results
                 .first()
-                .and_then(|c| analyze::kalibr_yaml(c, rec.rate_hz))
+                .and_then(|c| analyze::kalibr_yaml(c, rate_hz))
                 .context("no fit to write a Kalibr file from")?;
             std::fs::write(path, yaml).with_context(|| format!("writing {}", path.display()))?;
         }
@@ -180,10 +211,109 @@ impl Args {
                 .iter()
                 .map(|c| plot::AdevSeries { name: c.name.clone(), points: c.fit_points.clone(), fit: c.fit.clone().ok() })
                 .collect();
-            let title = format!("Overlapping Allan deviation: {}", rec.source);
+            let title = format!("Overlapping Allan deviation: {source}");
             let opts = plot::PlotOptions { title, ..Default::default() };
             plot::adev_plot(&series, &opts, path).with_context(|| format!("drawing {}", path.display()))?;
         }
         Ok(ExitCode::SUCCESS)
+    }
+}
+
+/// Which streamed input `octavar analyze` reads.
+enum StreamKind {
+    Binary(octavar::streaming::BinaryFormat),
+    Capture,
+    Csv,
+}
+
+/// CSV inputs above this size are streamed.
+const STREAM_CSV_BYTES: u64 = 1 << 30;
+
+impl Args {
+    /// The streamed input, if this one is streamed: raw binary, capture, or a CSV with --stream or above 1 GiB.
+    fn stream_kind(&self) -> anyhow::Result<Option<StreamKind>> {
+        let ext = self.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        let kind = match self.format.as_deref().map(|f| f.trim().to_ascii_lowercase()) {
+            Some(f) if f == "csv" => None,
+            Some(f) if f == "capture" => Some(StreamKind::Capture),
+            Some(f) => Some(StreamKind::Binary(octavar::streaming::BinaryFormat::parse(&f).with_context(|| {
+                format!("--format {f:?}: use csv, capture, f64le, f32le, i16le or u16le")
+            })?)),
+            None if ext == "cap" || ext == "capture" => Some(StreamKind::Capture),
+            None => None,
+        };
+        let size = std::fs::metadata(&self.input).map(|m| m.len()).unwrap_or(0);
+        let kind = kind.or((self.stream || size > STREAM_CSV_BYTES).then_some(StreamKind::Csv));
+        if kind.is_some() {
+            let stats = parse_stats(&self.stats)?;
+            if stats != [Statistic::Oadev] || parse_taus(&self.taus)? != TauSpec::Octave {
+                bail!("streamed inputs (binary, capture, --stream) give OADEV at octave tau: drop --stats/--taus");
+            }
+        }
+        Ok(kind)
+    }
+
+    /// Analyse a streamed input in bounded memory, with a progress bar on stderr.
+    fn run_stream(self, kind: StreamKind) -> anyhow::Result<ExitCode> {
+        use octavar::streaming::{self as st, StreamOptions};
+        let unit = RateUnit::parse(&self.unit)?;
+        let opts = StreamOptions {
+            rate_hz: self.rate.unwrap_or(f64::NAN),
+            stride: self.stride,
+            confidence: self.confidence,
+            scale: unit.to_dps(),
+            fit: FitOptions {
+                tau_min_s: self.fit_min_tau.unwrap_or(0.0),
+                tau_max_s: self.fit_max_tau.unwrap_or(f64::INFINITY),
+                bandwidth_hz: self.bandwidth,
+                ..Default::default()
+            },
+            no_fit: false,
+        };
+        let size = std::fs::metadata(&self.input).map(|m| m.len()).unwrap_or(0);
+        let bar = (size > 0).then(|| super::progress::Progress::new(size, "analyze"));
+        let bar_ref = std::sync::Mutex::new(bar.as_ref());
+        let progress = move |done: u64| {
+            if let Some(b) = *bar_ref.lock().unwrap() {
+                b.set(done);
+            }
+        };
+        let result = match kind {
+            StreamKind::Binary(format) => {
+                if self.rate.is_none() {
+                    bail!("--rate HZ is required for a raw binary input");
+                }
+                let input = octavar::input::open(&self.input)?;
+                st::analyze_binary(input.reader, &input.name, format, self.channels, &self.columns, &opts, &progress)?
+            }
+            StreamKind::Capture => st::analyze_capture(octavar::decode::open(&self.input)?, &opts, &progress)?,
+            StreamKind::Csv => {
+                if self.columns.is_empty() {
+                    bail!("--column NAME is required for a CSV input (repeat it for several channels)");
+                }
+                let filters = self.filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?;
+                let csv_opts = CsvOptions {
+                    columns: self.columns.clone(),
+                    temp_column: None,
+                    rate_hz: self.rate,
+                    time_column: self.time_column.clone(),
+                    unit,
+                    skip_rows: self.skip_rows,
+                    filters,
+                };
+                let input = octavar::input::open(&self.input)?;
+                st::analyze_csv(input.reader, &input.name, &csv_opts, &opts, &|_| {})?
+            }
+        };
+        if let Some(b) = &bar {
+            b.finish();
+        }
+        eprintln!("# {}", result.method);
+        let range = result
+            .channels
+            .iter()
+            .flat_map(|c| c.fit_points.first().map(|p| p.dev * 10.0))
+            .fold(0.0f64, f64::max);
+        self.emit(&result.source, result.samples, result.rate_hz, range, &result.channels)
     }
 }
