@@ -717,6 +717,51 @@ mod tests {
         );
     }
 
+    /// The frames of `wire` without its hello, numbered from `first_seq`, raw indices shifted by `shift`.
+    fn continued(wire: &[u8], first_seq: u32, shift: u64) -> Vec<u8> {
+        let mut dec = octavar_shared::proto::Decoder::<Frame>::new();
+        let mut enc = Encoder::starting_at(first_seq);
+        let mut out = Vec::new();
+        for r in dec.feed(wire) {
+            match r.unwrap().msg {
+                Frame::Hello(_) => {}
+                Frame::Samples(mut s) => {
+                    s.first_sample += shift;
+                    out.extend_from_slice(&enc.encode_to_vec(&Frame::Samples(s)).unwrap());
+                }
+                f => out.extend_from_slice(&enc.encode_to_vec(&f).unwrap()),
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn snapshots_after_a_reset_that_restarts_the_raw_index_are_checked() {
+        // The firmware at a reset: empty accumulators and the raw index back to 0 at the next block, frames
+        // numbered on (no reboot). After the reset it sends what a fresh device sends, without the hello.
+        let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+        let mut out = Vec::new();
+        dev.boot(&mut out);
+        run(&mut dev, 0, 39 * 128, &mut out); // two rounds, then the reset at a block boundary
+        let next_seq = out.iter().filter(|&&b| b == 0).count() as u32;
+        let mut fresh = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+        let mut after = Vec::new();
+        run(&mut fresh, 39 * 128, 33 * 128, &mut after); // two more rounds
+        let mut wire = out.clone();
+        wire.extend(continued(&after, next_seq, 0));
+        let r = check(&wire);
+        assert_eq!((r.snapshots, r.checked, r.matched, r.unchecked), (16, 16, 16, 0), "{r:#?}");
+        assert_eq!((r.decode.lost_frames, r.decode.restarts), (0, 0));
+        assert!(r.passed());
+
+        // A raw index that runs on through the reset (since boot) cannot be lined up with the new accumulators.
+        let mut wire = out;
+        wire.extend(continued(&after, next_seq, 39 * 128));
+        let r = check(&wire);
+        assert_eq!((r.checked, r.matched, r.unchecked), (8, 8, 8), "{r:#?}");
+        assert!(r.unchecked_why.iter().all(|g| g.reason == Unchecked::DeviceReset), "{r:#?}");
+    }
+
     #[test]
     fn a_wrong_snapshot_is_reported_with_channel_level_expected_and_got() {
         let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
