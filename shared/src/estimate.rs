@@ -129,6 +129,11 @@ impl Point {
     }
 }
 
+/// `x > 0` (false for NaN).
+fn positive(x: f32) -> bool {
+    x > 0.0
+}
+
 /// Weighted least squares of `y = a x + c` with `c >= 0`: `(a, c)`, or `None` when the points do not
 /// determine `a`.
 fn fit_line(pts: &[Point]) -> Option<(f32, f32)> {
@@ -138,7 +143,7 @@ fn fit_line(pts: &[Point]) -> Option<(f32, f32)> {
         swx += p.w * p.x;
         swy += p.w * p.y;
     }
-    if !(sw > 0.0) {
+    if !positive(sw) {
         return None;
     }
     // Centred sums: no cancellation between large terms.
@@ -148,7 +153,7 @@ fn fit_line(pts: &[Point]) -> Option<(f32, f32)> {
         sxx += p.w * (p.x - xm) * (p.x - xm);
         sxy += p.w * (p.x - xm) * (p.y - ym);
     }
-    if !(sxx > 0.0) {
+    if !positive(sxx) {
         return None;
     }
     let a = sxy / sxx;
@@ -169,7 +174,7 @@ fn fit_line(pts: &[Point]) -> Option<(f32, f32)> {
 /// `(N^2, C, AVAR(last))` in codes^2 s, codes^2 and codes^2.
 fn fit(snap: &Snapshot, last: usize, cfg: &EstimateConfig) -> Option<(f32, f32, f32)> {
     let (avar_last, _) = avar_codes2(snap, last, cfg)?;
-    if !(avar_last > 0.0) || last <= FIT_FIRST_LEVEL {
+    if !positive(avar_last) || last <= FIT_FIRST_LEVEL {
         return None;
     }
     let mut buf = [Point::default(); LEVELS];
@@ -194,7 +199,7 @@ fn fit(snap: &Snapshot, last: usize, cfg: &EstimateConfig) -> Option<(f32, f32, 
         }
         (a, c) = fit_line(pts)?;
     }
-    if !(a > 0.0) {
+    if !positive(a) {
         return None;
     }
     // a is in units of AVAR_last * tau_last, c in units of AVAR_last.
