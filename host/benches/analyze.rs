@@ -1,0 +1,57 @@
+//! OADEV at octave tau on 1e7 samples, compute only (from the samples in memory to the table with noise types,
+//! EDF and intervals): the number bench/allantools_compare.sh sets against allantools.
+//!
+//! `cargo bench -p octavar --bench analyze` times a deterministic 1e7-sample record; with arguments
+//! `FILE.f64 RATE_HZ REPS` it reads that raw f64le file instead and prints one JSON line
+//! `{"compute_s", "series_s", "stride", "oadev": [[m, dev], ...]}` (used by the comparison script).
+
+use std::time::Instant;
+
+use octavar::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let (y, rate, reps, json) = if args.len() >= 3 {
+        let bytes = std::fs::read(&args[0]).expect("reading the rate file");
+        let y: Vec<f64> = bytes.chunks_exact(8).map(|b| f64::from_le_bytes(b.try_into().unwrap())).collect();
+        (y, args[1].parse::<f64>().expect("rate"), args[2].parse::<usize>().expect("reps"), true)
+    } else {
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        let y: Vec<f64> = (0..10_000_000)
+            .map(|_| {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        (y, 1.0, 7, false)
+    };
+    let opts = Options::default();
+    let (mut best, mut best_series, mut rows) = (f64::INFINITY, f64::INFINITY, Vec::new());
+    for _ in 0..reps.max(1) {
+        let t0 = Instant::now();
+        let series = Series::new(&y, DataKind::Frequency, 1.0 / rate).unwrap();
+        let t1 = t0.elapsed().as_secs_f64();
+        rows = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &opts).unwrap();
+        let t = t0.elapsed().as_secs_f64();
+        best = best.min(t);
+        best_series = best_series.min(t1);
+        drop(series);
+    }
+    if json {
+        let pts: Vec<String> = rows.iter().map(|p| format!("[{}, {:e}]", p.m, p.dev)).collect();
+        println!(
+            "{{\"compute_s\": {best}, \"series_s\": {best_series}, \"stride\": {}, \"oadev\": [{}]}}",
+            octavar::streaming::DEFAULT_STRIDE,
+            pts.join(", ")
+        );
+    } else {
+        println!(
+            "OADEV octave, {} samples, {} taus, noise ID + EDF + intervals: {:.1} ms (Series::new {:.1} ms), best of {}",
+            y.len(),
+            rows.len(),
+            best * 1e3,
+            best_series * 1e3,
+            reps
+        );
+    }
+}
