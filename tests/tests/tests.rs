@@ -2,6 +2,7 @@
 
 mod acc_allantools;
 mod fit_coverage;
+mod gap_real;
 mod corruption;
 mod pipeline;
 mod qemu;

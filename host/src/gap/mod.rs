@@ -5,8 +5,8 @@
 //!    second record ([`GapInput::joined`]).
 //! 2. **Base model**: the IEEE 952 fit ([`crate::fit::fit`], default options) on the training OADEV at octave tau;
 //!    its identifiable N, B, K, R and the training mean as the bias, on the record's ADC when it is known
-//!    ([`GapOptions::channel`]), else on a fine 16-bit ADC that adds no visible quantisation
-//!    ([`crate::analyze::fine_channel`]).
+//!    ([`GapOptions::channel`]), else on a fine 16-bit ADC over four times the record's 99.99th-percentile |rate|,
+//!    which adds no visible quantisation ([`crate::analyze::fine_channel`]).
 //! 3. **Ensemble** ([`ensemble`]): the model simulated with [`GapOptions::seeds`] seeds over the whole record,
 //!    driven by the real temperature; measured on each part.
 //! 4. **Views** ([`views`]): ADEV, PSD, distribution, temperature; z-scores of the real values against the
@@ -241,10 +241,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         .collect();
     let base_fit = fit(&pts, &opts.fit)?;
     let base = base_model(&base_fit, training);
-    let channel = opts.channel.unwrap_or_else(|| {
-        let range = input.rate_dps.iter().filter(|v| v.is_finite()).fold(0.0f64, |a, v| a.max(v.abs()));
-        fine_channel(4.0 * range.max(1e-3))
-    });
+    let channel = opts.channel.unwrap_or_else(|| fine_channel(4.0 * robust_range(&input.rate_dps).max(1e-3)));
     let seeds: Vec<u64> = (0..opts.seeds as u64).map(|i| opts.first_seed + i).collect();
 
     // Plans and the real measures.
@@ -353,6 +350,17 @@ pub fn base_model(f: &NoiseFit, training: &[f64]) -> GyroSim {
         r_dps_per_s: v(Term::R),
         ..Default::default()
     }
+}
+
+/// The 99.99th percentile of |x| (a few wild samples must not coarsen the fine ADC of the ensemble).
+pub fn robust_range(x: &[f64]) -> f64 {
+    let mut a: Vec<f64> = x.iter().filter(|v| v.is_finite()).map(|v| v.abs()).collect();
+    if a.is_empty() {
+        return 0.0;
+    }
+    let k = ((a.len() - 1) as f64 * 0.9999).round() as usize;
+    let (_, v, _) = a.select_nth_unstable_by(k, f64::total_cmp);
+    *v
 }
 
 /// A copy with NaN runs filled by linear interpolation between their neighbours (the ends by the nearest value);

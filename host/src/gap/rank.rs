@@ -2,7 +2,9 @@
 //!
 //! - **Per view**: the RMS of its points' z-scores ([`super::views::ViewGap::rms`]); about 1 (a little less, for
 //!   the model allowance) when real and simulation agree.
-//! - **The gap**: the worst view's RMS ([`gap_of`]). It is significant above [`SIGNIFICANT_GAP`].
+//! - **The gap**: the worst view's RMS ([`gap_of`]). It is significant above [`SIGNIFICANT_GAP`]. After a fix, and
+//!   on the holdout, the gap is the RMS of that same view (the one the diagnosis located), so the held-out check
+//!   measures the gap the diagnosis is about; the worst view of each is reported beside it.
 //! - **The total**: the RMS over the views of their RMS ([`total_of`]); it ranks the candidates, because a fix
 //!   that cures one view must not look useless while an unrelated view stays the worst.
 //! - **Where** ([`locate`]): in the worst view, the contiguous run of points (in increasing tau) whose |z| exceed
@@ -10,7 +12,7 @@
 //!   of its summed z (real above or below the ensemble) and its size (RMS z in the band, and for ADEV, PSD and
 //!   temperature the ratio of real to simulated there).
 //! - **Ranking** ([`score`]): `score = total_after * (1 + PARAM_PENALTY * n_params)`; the best candidate has the
-//!   lowest score and must beat the base model's total (`n_params = 0`). The penalty, 5% per parameter, is what
+//!   lowest score and must be below [`EXPLAINS`] (3/4) of the base model's total (`n_params = 0`). The penalty, 5% per parameter, is what
 //!   an extra parameter must buy: an effect with three parameters must cut the total by more than 15% against an
 //!   effect with none to win.
 
@@ -26,6 +28,11 @@ pub const SIGNIFICANT_GAP: f64 = 2.5;
 
 /// Penalty per parameter an effect adds, as a fraction of its total gap.
 pub const PARAM_PENALTY: f64 = 0.05;
+
+/// A candidate explains the gap when its score is below this fraction of the base model's total: it must remove
+/// at least a quarter of the total gap, parameters paid for. Below that the gap is reported as significant but
+/// unexplained (the effect is `none`), rather than naming an effect that changes little.
+pub const EXPLAINS: f64 = 0.75;
 
 /// |z| above which a point is part of the gap's band.
 pub const BAND_Z: f64 = 3.0;

@@ -43,25 +43,33 @@ pub struct CandidateResult {
     pub fit: Option<EffectFit>,
     /// Its ensemble's comparison.
     pub eval: Option<Evaluated>,
-    /// Training gap after, total after, and the ranking score (`None` without a fit).
+    /// Training gap after: the RMS z, with the effect, of the view where the base gap lies (`None` without a fit).
     pub gap_after: Option<f64>,
+    /// Training: the worst view's RMS z with the effect.
+    pub worst_after: Option<f64>,
     /// Total (RMS over views) after, training.
     pub total_after: Option<f64>,
     /// Ranking score.
     pub score: Option<f64>,
-    /// Holdout gap after.
+    /// Holdout gap after (the same view).
     pub holdout_after: Option<f64>,
+    /// Holdout: the worst view's RMS z with the effect.
+    pub holdout_worst_after: Option<f64>,
 }
 
 /// The diagnosis.
 #[derive(Clone, Debug)]
 pub struct GapReport {
-    /// The chosen effect (`None`: no significant gap, or no candidate reduces it).
+    /// The chosen effect (`None`: no significant gap, or no candidate removes a quarter of it).
     pub effect: Option<Effect>,
     /// Whether the base gap is significant ([`rank::SIGNIFICANT_GAP`]).
     pub significant: bool,
     /// Where the base gap lies on the training part.
     pub location: Option<Location>,
+    /// The worst view's RMS z on each part, before and after: `[training before, training after, holdout before,
+    /// holdout after]` (the holdout's NaN without one). On the holdout the worst view may differ from the one the
+    /// diagnosis is about (a disturbance only the held-out part has).
+    pub worst: [f64; 4],
     /// Training gap before/after.
     pub training: PartGap,
     /// Holdout gap before/after (`None` without a holdout).
@@ -107,34 +115,57 @@ pub(crate) struct Parts {
     pub candidates: Vec<(Effect, Option<EffectFit>, Option<Evaluated>)>,
 }
 
-/// Rank the candidates and build the report.
+/// The RMS z of one view (`None` when the view has no points).
+pub fn rms_in(views: &[ViewGap], kind: ViewKind) -> Option<f64> {
+    views.iter().find(|v| v.view == kind).map(|v| v.rms)
+}
+
+/// Rank the candidates and build the report. The gap before is the worst view of the base model on training,
+/// which is where the gap is located; "after" and the holdout gaps are the RMS z of that same view, so the
+/// held-out check measures the gap the diagnosis is about (the worst views are reported beside them).
 pub(crate) fn assemble(p: Parts) -> GapReport {
+    let location = rank::locate(&p.base_eval.training);
+    let view = location.as_ref().map(|l| l.view);
+    let in_view = |v: &[ViewGap]| -> Option<f64> { view.and_then(|k| rms_in(v, k)) };
     let gap_before = rank::gap_of(&p.base_eval.training);
     let total_before = rank::total_of(&p.base_eval.training);
-    let hold_before = (!p.base_eval.holdout.is_empty()).then(|| rank::gap_of(&p.base_eval.holdout));
+    let has_holdout = !p.base_eval.holdout.is_empty();
+    let hold_before = if has_holdout { in_view(&p.base_eval.holdout) } else { None };
     let candidates: Vec<CandidateResult> = p
         .candidates
         .into_iter()
-        .map(|(effect, fit, eval)| {
-            let (gap_after, total_after, score, holdout_after) = match (&fit, &eval) {
-                (Some(f), Some(e)) => {
-                    let t = rank::total_of(&e.training);
-                    (
-                        Some(rank::gap_of(&e.training)),
-                        Some(t),
-                        Some(rank::score(t, f.n_params)),
-                        (!e.holdout.is_empty()).then(|| rank::gap_of(&e.holdout)),
-                    )
+        .map(|(effect, fit, eval)| match (&fit, &eval) {
+            (Some(f), Some(e)) => {
+                let t = rank::total_of(&e.training);
+                CandidateResult {
+                    effect,
+                    gap_after: in_view(&e.training).or(Some(rank::gap_of(&e.training))),
+                    worst_after: Some(rank::gap_of(&e.training)),
+                    total_after: Some(t),
+                    score: Some(rank::score(t, f.n_params)),
+                    holdout_after: if has_holdout { in_view(&e.holdout) } else { None },
+                    holdout_worst_after: has_holdout.then(|| rank::gap_of(&e.holdout)),
+                    fit,
+                    eval,
                 }
-                _ => (None, None, None, None),
-            };
-            CandidateResult { effect, fit, eval, gap_after, total_after, score, holdout_after }
+            }
+            _ => CandidateResult {
+                effect,
+                fit,
+                eval,
+                gap_after: None,
+                worst_after: None,
+                total_after: None,
+                score: None,
+                holdout_after: None,
+                holdout_worst_after: None,
+            },
         })
         .collect();
     let significant = gap_before > rank::SIGNIFICANT_GAP;
     let best = candidates
         .iter()
-        .filter(|c| c.score.is_some_and(|s| s < total_before))
+        .filter(|c| c.score.is_some_and(|s| s < rank::EXPLAINS * total_before))
         .min_by(|a, b| a.score.unwrap_or(f64::INFINITY).total_cmp(&b.score.unwrap_or(f64::INFINITY)));
     let chosen = if significant { best } else { None };
     let gap_after = chosen.and_then(|c| c.gap_after).unwrap_or(gap_before);
@@ -143,10 +174,18 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         let a = chosen.and_then(|c| c.holdout_after).unwrap_or(b);
         PartGap { gap_before: b, gap_after: a, shrink: rank::shrink(b, a) }
     });
+    let hold_worst = if has_holdout { rank::gap_of(&p.base_eval.holdout) } else { f64::NAN };
+    let worst = [
+        gap_before,
+        chosen.and_then(|c| c.worst_after).unwrap_or(gap_before),
+        hold_worst,
+        chosen.and_then(|c| c.holdout_worst_after).unwrap_or(hold_worst),
+    ];
     GapReport {
         effect: chosen.map(|c| c.effect),
         significant,
-        location: rank::locate(&p.base_eval.training),
+        location,
+        worst,
         training: PartGap { gap_before, gap_after, shrink: rank::shrink(gap_before, gap_after) },
         holdout,
         total: [total_before, total_after],
@@ -203,6 +242,8 @@ impl GapReport {
                         "gap_after": h,
                         "shrink": h.zip(hb).map(|(a, b)| rank::shrink(b, a)),
                     },
+                    "worst_after": c.worst_after,
+                    "holdout_worst_after": c.holdout_worst_after,
                     "chosen": Some(c.effect) == self.effect,
                     "note": if f.is_none() { Value::from("no trace of this effect in the training data") } else { Value::Null },
                 })
@@ -227,12 +268,16 @@ impl GapReport {
                 .map(|c| serde_json::to_value(c).unwrap_or(Value::Null)),
             "effect_params": self.chosen().and_then(|c| c.fit.as_ref()).map_or(Value::Null, |f| f.params.clone()),
             "significant": self.significant,
+            "explained": !self.significant || self.effect.is_some(),
             "threshold": rank::SIGNIFICANT_GAP,
             "total_before": self.total[0],
             "total_after": self.total[1],
             "base_model": serde_json::to_value(&self.base).unwrap_or(Value::Null),
             "base_fit": serde_json::to_value(&self.base_fit).unwrap_or(Value::Null),
             "views": views,
+            "worst": {"training": [self.worst[0], self.worst[1]],
+                      "holdout": [finite(self.worst[2]), finite(self.worst[3])]},
+            "views_detail": self.views_detail(),
             "n_train": self.n_train,
             "n_holdout": self.n_holdout,
             "fs_hz": self.fs_hz,
@@ -254,6 +299,21 @@ impl GapReport {
             let hb = rms(&self.base_eval.holdout, k);
             let ha = after.map_or(hb, |e| rms(&e.holdout, k));
             m.insert(k.name().into(), json!({"training": [tb, ta], "holdout": [hb, ha]}));
+        }
+        Value::Object(m)
+    }
+
+    /// Every point of every view for the base model and each candidate: `{"base": {"training": [view...],
+    /// "holdout": [...]}, "<effect>": {...}}`, each view `{"view", "rms", "points": [{"label", "tau_s",
+    /// "tau_lo_s", "tau_hi_s", "floor_sd", "real", "sim_mean", "sd", "z"}]}`.
+    pub fn views_detail(&self) -> Value {
+        let one = |e: &Evaluated| json!({"training": e.training, "holdout": e.holdout});
+        let mut m = serde_json::Map::new();
+        m.insert("base".into(), one(&self.base_eval));
+        for c in &self.candidates {
+            if let Some(e) = &c.eval {
+                m.insert(c.effect.name().into(), one(e));
+            }
         }
         Value::Object(m)
     }
@@ -318,7 +378,10 @@ impl GapReport {
                 l.points,
             );
         }
-        let _ = writeln!(s, "candidates (training gap after, total after, score = total x (1 + 0.05 x params); holdout gap after):");
+        let _ = writeln!(
+            s,
+            "candidates (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):"
+        );
         for c in &self.candidates {
             let mark = if Some(c.effect) == self.effect { "*" } else { " " };
             match (&c.fit, c.gap_after, c.total_after, c.score) {
@@ -335,6 +398,19 @@ impl GapReport {
                     let _ = writeln!(s, " {mark}{:<13} no trace in the training data", c.effect.name());
                 }
             }
+        }
+        if self.worst[2].is_finite() {
+            let _ = writeln!(
+                s,
+                "worst view on the holdout: {:.2} -> {:.2}{}",
+                self.worst[2],
+                self.worst[3],
+                match self.base_eval.holdout.iter().max_by(|a, b| a.rms.total_cmp(&b.rms)) {
+                    Some(w) if Some(w.view) != self.location.as_ref().map(|l| l.view) =>
+                        format!(" ({}: the holdout has a gap of its own that training did not show)", w.view.name()),
+                    _ => String::new(),
+                }
+            );
         }
         match (self.effect, self.significant) {
             (Some(e), _) => {
@@ -361,7 +437,7 @@ impl GapReport {
                 let _ = writeln!(s, "diagnosis: none (the simulation of the fitted model agrees with the record)");
             }
             (None, true) => {
-                let _ = writeln!(s, "diagnosis: none of the candidates reduces the gap; it is not one of the known effects");
+                let _ = writeln!(s, "diagnosis: none: the gap is significant, but no candidate removes a quarter of it; it is not one of the known effects");
             }
         }
         s
@@ -387,6 +463,10 @@ impl GapReport {
         }
         p
     }
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
 }
 
 /// `{"a": 1.0, "b": 2.0}` as `a=1.000e0 b=2.000e0`.

@@ -9,14 +9,14 @@
 //! |------|--------|-------|
 //! | `adev` | octave taus of the overlapping Allan deviation | ln OADEV |
 //! | `psd` | log-spaced frequency bands (5 per decade), low ones through block-mean decimation by 8 | ln of the Welch-averaged periodogram (Hann, 50% overlap) over the band's bins |
-//! | `distribution` | robust scale, skewness, kurtosis, tail share, lattice share | ln (1.4826 MAD); moments; share beyond 5 robust sigma; share of first differences on the lattice step |
+//! | `distribution` | robust scale, skewness, kurtosis, tail share, lattice share | ln of the rms winsorised at 4 sigma (sigma from the interquartile range); moments; share beyond 5 robust sigmas; share of first differences on the lattice step |
 //! | `temperature` | block lengths from 1/4096 of the record up (octaves) | atanh of the correlation of the block-mean rate with the block-mean temperature at the lag (searched, 0 to 1/8 of the record) where it is largest |
 //!
 //! The distribution's points are taken on the local residual `x[i] - (x[i-1] + x[i+1]) / 2`, which removes drifts
 //! (flicker, random walk, temperature) and keeps the sign of a one-sided spike; the lattice share is taken on the
 //! first differences, which keep the ADC step and drop its offset. The lattice point exists only when the real
-//! part is on a lattice (99% of its first differences on multiples of one step) coarse enough to be visible (a step
-//! of at least 1/50 of the differences' robust scale).
+//! part is on a lattice (99% of its first differences on multiples of one step) coarse enough to matter (a step
+//! of at least half the per-sample noise sd, where quantisation adds 2% or more to the white variance).
 //!
 //! [`compare`] turns the real values and the ensemble's into z-scores, `z = (real - mean) / sd`, with `sd` the
 //! ensemble's standard deviation floored by the statistical spread the point has anyway (from the EDF for ADEV,
@@ -136,6 +136,8 @@ const MIN_SEG: usize = 32;
 const DECIM: usize = 8;
 /// Tail threshold of the distribution view, robust sigmas.
 pub const TAIL_SIGMA: f64 = 5.0;
+/// Clip of the winsorised scale, in sigmas from the interquartile range.
+const WINSOR_SIGMA: f64 = 4.0;
 
 impl Plan {
     /// Lay out the views for `real` (deg/s, NaN gaps) sampled at `fs_hz`, with the temperature if there is one.
@@ -221,7 +223,7 @@ impl Plan {
             floor_sd,
         };
         let mut dist_pts = vec![
-            dist_pt("robust_scale", (1.36 / valid).sqrt()),
+            dist_pt("robust_scale", (0.5 / valid).sqrt()),
             dist_pt("skewness", 0.02 + (6.0 / valid).sqrt()),
             dist_pt("kurtosis", 0.05 + (24.0 / valid).sqrt()),
             dist_pt("tail_share", (3.0 / valid).sqrt() / valid.sqrt()),
@@ -361,11 +363,14 @@ impl Plan {
         let skew = if m2 > 0.0 { m3 / m2.powf(1.5) } else { f64::NAN };
         let kurt = if m2 > 0.0 { m4 / (m2 * m2) - 3.0 } else { f64::NAN };
         let med = median(&mut r);
+        let iqr_sigma = (quantile(&mut r, 0.75) - quantile(&mut r, 0.25)) / 1.349;
         for v in r.iter_mut() {
             *v = (*v - med).abs();
         }
-        let mad = median(&mut r);
-        let scale = 1.4826 * mad;
+        // Winsorised at 4 IQR sigmas: outliers count at most 4 sigma each, and a lattice finer than the noise,
+        // which biases the MAD and the IQR by a share of its step, moves only the clip point.
+        let clip = WINSOR_SIGMA * iqr_sigma;
+        let scale = (r.iter().map(|&v| v.min(clip) * v.min(clip)).sum::<f64>() / n).sqrt();
         let tail = if scale > 0.0 {
             r.iter().filter(|&&v| v > TAIL_SIGMA * scale).count() as f64 / n
         } else {
@@ -470,6 +475,13 @@ fn correlation(a: &[f64], b: &[f64]) -> Option<f64> {
     (saa > 0.0 && sbb > 0.0).then(|| sab / (saa * sbb).sqrt())
 }
 
+/// The `p` quantile (nearest rank) of `v`, reordering it.
+fn quantile(v: &mut [f64], p: f64) -> f64 {
+    let k = ((v.len() - 1) as f64 * p).round() as usize;
+    let (_, m, _) = v.select_nth_unstable_by(k, f64::total_cmp);
+    *m
+}
+
 fn median(v: &mut [f64]) -> f64 {
     let mid = v.len() / 2;
     let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
@@ -477,7 +489,7 @@ fn median(v: &mut [f64]) -> f64 {
 }
 
 /// The lattice step of a record: the smallest non-zero first difference, kept when 99% of the differences are
-/// multiples of it and it is at least 1/50 of their robust scale.
+/// multiples of it and it is at least half the per-sample noise sd (robust scale of the differences / sqrt 2).
 pub fn lattice_of(x: &[f64]) -> Option<f64> {
     let mut d: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|v| v.is_finite()).collect();
     if d.len() < 16 {
@@ -492,7 +504,9 @@ pub fn lattice_of(x: &[f64]) -> Option<f64> {
     let tiny = 1e-9 * big;
     d.retain(|&v| v > tiny);
     let q = d.iter().copied().fold(f64::INFINITY, f64::min);
-    if !q.is_finite() || (scale > 0.0 && q < scale / 50.0) {
+    // Visible: the step is at least half the per-sample noise sd (the differences' scale / sqrt 2), where its
+    // q^2/12 adds at least 2% to the white variance; a finer lattice changes nothing the other views could see.
+    if !q.is_finite() || (scale > 0.0 && q < 0.5 * scale / std::f64::consts::SQRT_2) {
         return None;
     }
     (lattice_share(x, q) >= 0.99).then_some(q)
@@ -623,9 +637,12 @@ mod tests {
 
     #[test]
     fn lattice_and_spikes_are_seen() {
-        let q = 0.25;
-        let x: Vec<f64> = white(20_000, 3).iter().map(|v| (v / q).round() * q + 0.1).collect();
+        let lattice = |q: f64| -> Vec<f64> { white(20_000, 3).iter().map(|v| (v / q).round() * q + 0.1).collect() };
+        let q = 0.75;
+        let x = lattice(q);
         assert!((lattice_of(&x).unwrap() - q).abs() < 1e-12);
+        // A step of a quarter of the noise sd is on a lattice too, but too fine to matter.
+        assert!(lattice_of(&lattice(0.25)).is_none());
         assert!(lattice_of(&white(20_000, 3)).is_none());
         let plan = Plan::new(&x, None, 1.0);
         let mut spiky = white(20_000, 4);
