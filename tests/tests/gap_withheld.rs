@@ -18,11 +18,15 @@
 //!   8 cycles.
 //! - quantization: a 12-bit-like step of 1 to 3 times the white noise's per-sample sd, the offset wandering
 //!   over the lattice.
-//! - bias_steps: 1-6 per hour, sd 4-8 times the Allan deviation floor, 10 Hz for 14.5 h.
+//! - bias_steps: 1-6 per hour, 10 Hz for 14.5 h; step sd 5-10 sigma, sigma = sqrt(2) times the Allan deviation
+//!   floor (the sd of the difference of two adjacent means at the floor's tau, the best a step can be seen
+//!   against). Smaller steps are individually invisible, and their Allan signature is exactly a rate random walk
+//!   (K^2 = rate sigma^2): nothing can tell them from K.
 //! - outliers: 1e-5 to 1e-3 per sample, 8-30 white sigmas (below ~6 sigma a spike is not an outlier in a
 //!   million Gaussian samples, and it adds under 1% to the variance).
 //!
-//! The default run checks two seeds per effect and two controls; the full sweep (`full_sweep`, 10 seeds each)
+//! `GAP_WITHHELD_VERBOSE=1` prints every candidate's gap and parameters. The default run checks two seeds per
+//! effect and two controls; the full sweep (`full_sweep`, 10 seeds each)
 //! is `#[ignore]`d: run in CI with `cargo test -p octavar-tests --release gap_withheld -- --ignored`.
 
 use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport};
@@ -152,7 +156,8 @@ fn draw(effect: Option<Effect>, seed: u64) -> Case {
             let rate = uniform(&mut rng, 1.0, 6.0);
             // The Allan deviation floor of the base.
             let floor = (0..40).map(|i| base_adev(&model, 0.1 * 1.5f64.powi(i))).fold(f64::INFINITY, f64::min);
-            let sd = uniform(&mut rng, 4.0, 8.0) * floor;
+            // A step's sigma: that of the difference of two adjacent means at the floor's tau, sqrt(2) floor.
+            let sd = uniform(&mut rng, 5.0, 10.0) * std::f64::consts::SQRT_2 * floor;
             model.bias_steps = Some(BiasSteps { per_hour: rate, sigma_dps: sd });
             signature_s = [10.0, f64::INFINITY];
             what = format!("{rate:.2}/h sd {sd:.3e}");
@@ -215,6 +220,19 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
         None => effect.is_none(),
     };
     let shrink = r.holdout.as_ref().map_or(f64::NAN, |h| h.shrink);
+    if std::env::var_os("GAP_WITHHELD_VERBOSE").is_some() {
+        eprintln!("  base gap {:?} holdout {:?}", r.training, r.holdout);
+        for cand in &r.candidates {
+            eprintln!(
+                "  {:<13} gap_after {:?} score {:?} holdout_after {:?} {}",
+                cand.effect.name(),
+                cand.gap_after,
+                cand.score,
+                cand.holdout_after,
+                cand.fit.as_ref().map_or("-".to_string(), |f| f.params.to_string())
+            );
+        }
+    }
     (c, Outcome { named: r.effect, band_s, view, shrink, band_ok })
 }
 
@@ -278,4 +296,34 @@ fn withheld_effects_are_found() {
 fn full_sweep() {
     let failures = sweep(0..10);
     assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// Every estimator on the training half of chosen cases, for inspection:
+/// `CASES=temperature:0,none:2 cargo test -p octavar-tests --release gap_withheld::estimators_on_cases -- --ignored --nocapture`.
+#[test]
+#[ignore = "diagnostic: set CASES=effect:seed,..."]
+fn estimators_on_cases() {
+    use octavar::fit::{fit, FitOptions, FitPoint};
+    use octavar::gap::effects::{estimate, TrainingData};
+    use octavar::stats::{analyze, DataKind, Options, Statistic, TauSpec};
+    let which: Vec<String> = std::env::var("CASES").unwrap_or_default().split(',').map(String::from).collect();
+    for w in which {
+        let (name, seed) = w.split_once(':').unwrap();
+        let effect = Effect::parse(name);
+        let seed: u64 = seed.parse().unwrap();
+        let c = draw(effect, seed);
+        let (x, t) = record(&c, seed);
+        let half = x.len() / 2;
+        let tr = &x[..half];
+        let rows = analyze(tr, DataKind::Frequency, 1.0 / c.fs, Statistic::Oadev, &TauSpec::Octave, &Options::default()).unwrap();
+        let pts: Vec<FitPoint> = rows.iter().filter(|p| p.edf > 0.0).map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf }).collect();
+        let f = fit(&pts, &FitOptions::default()).unwrap();
+        let base = octavar::gap::base_model(&f, tr);
+        let d = TrainingData { rate_dps: tr, temp_c: t.as_ref().map(|t| &t[..half]), fs_hz: c.fs, base: &base, base_fit: &f };
+        eprintln!("{w}: {} base {:?}", c.what, base);
+        for e in Effect::ALL {
+            let r = estimate(e, &d);
+            eprintln!("  {e}: {:?}", r.map(|r| r.params.to_string()));
+        }
+    }
 }

@@ -432,16 +432,21 @@ fn normal_sf(z: f64) -> f64 {
 
 /// Bias coupled to the temperature through a first-order thermal lag.
 ///
-/// Method: rate and temperature are block-averaged to at most 8192 points of at most a second each (the
-/// temperature moves over minutes to days); for each lag the temperature goes through the discrete first-order
-/// lag (`y = T + a (y - T)`, `a = exp(-dt/lag)`, started settled, as shared::sim's `ThermalLag`), and ordinary
-/// least squares gives `rate = c0 + k T_lag`. The lag minimising the residual sum of squares is found on a log
-/// grid from the block length to three record lengths, refined by golden-section search, and compared with no
-/// lag. The coefficient must be significant at |t| > 5 against its spread under the base model's own noise
-/// (generalised least squares' variance `w' C w` of the estimator, computed in the frequency domain from the
-/// fitted N, B and K): slow bias wander (flicker, random walk) that happens to correlate with a slow temperature
-/// is not taken for coupling, as a white-noise t-test or an AR(1) effective sample size would. That noise, and
-/// the model's base terms, come from the IEEE fit of the record without the fitted coupling.
+/// Method: rate and temperature are block-averaged to blocks of at most a second (at least 8192 blocks where the
+/// record allows; the temperature moves over minutes to days). For each lag the temperature goes through the
+/// discrete first-order lag (`y = T + a (y - T)`, `a = exp(-dt/lag)`, started settled, as shared::sim's
+/// `ThermalLag`), and the coefficient comes from a generalised least-squares regression in the frequency domain
+/// (Whittle): with Hann-tapered transforms X (lagged temperature) and R (rate), `k = sum Re(X* R)/S / sum |X|^2/S`
+/// over the non-zero frequencies, S the two-sided PSD of the gyro's noise, `N^2 + B^2/(2 pi f) + K^2/(4 pi^2 f^2)`
+/// (IEEE 952 Annex C). Ordinary least squares would let the flicker and random walk at the lowest frequencies,
+/// where a slow temperature wander also lives, dominate the estimate; GLS weighs each frequency by its noise. The
+/// lag minimises the GLS residual `sum |R - k X|^2 / S` on a log grid from the block length to three record
+/// lengths, refined by golden-section search, and is compared with no lag. Two passes: S from the base fit, then
+/// from the IEEE fit of the record without the fitted coupling (the base fit took part of the temperature bump
+/// for flicker or random walk), which also gives the model's base terms. The coefficient counts when it exceeds 5
+/// standard errors, `Var k = (sum w^2/dt) / sum |X|^2/S` (twice the independent-bin value, for the taper's
+/// correlation of neighbouring bins): slow bias wander that happens to correlate with a slow temperature is not
+/// taken for coupling.
 fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let temp = d.temp_c?;
     let n = d.rate_dps.len().min(temp.len());
@@ -470,55 +475,90 @@ fn temperature(d: &TrainingData) -> Option<EffectFit> {
             })
             .collect()
     };
-    // Least squares rate = c0 + k x: (c0, k, rss, residuals).
-    let regress = |x: &[f64]| -> (f64, f64, f64) {
-        let (mx, my) = (mean(x), mean(&r));
-        let (mut sxx, mut sxy) = (0.0, 0.0);
-        for (xi, yi) in x.iter().zip(&r) {
-            sxx += (xi - mx) * (xi - mx);
-            sxy += (xi - mx) * (yi - my);
+    let nfft = nb.next_power_of_two();
+    let half = nfft / 2;
+    let wd = 2.0 * std::f64::consts::PI / nb as f64;
+    let taper: Vec<f64> = (0..nb).map(|i| 0.5 * (1.0 - (wd * (i as f64 + 0.5)).cos())).collect();
+    let sum_w2: f64 = taper.iter().map(|w| w * w).sum();
+    let transform = |v: &[f64]| -> (Vec<f64>, Vec<f64>) {
+        let mu = mean(v);
+        let mut re = vec![0.0; nfft];
+        let mut im = vec![0.0; nfft];
+        for (i, (x, w)) in v.iter().zip(&taper).enumerate() {
+            re[i] = (x - mu) * w;
+        }
+        fft(&mut re, &mut im);
+        re.truncate(half + 1);
+        im.truncate(half + 1);
+        (re, im)
+    };
+    let (rr, ri) = transform(&r);
+    let df = 1.0 / (nfft as f64 * dt);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let spectrum = |sq: &[f64; 5]| -> Vec<f64> {
+        let floor = (sq[1] + sq[2] + sq[3]).max(1e-300) * 1e-9;
+        (0..=half)
+            .map(|k| {
+                let f = (k as f64 * df).max(df);
+                (sq[1] + sq[2] / (two_pi * f) + sq[3] / (two_pi * two_pi * f * f)).max(floor)
+            })
+            .collect()
+    };
+    // (k, GLS residual, sum |X|^2/S) for a lagged temperature.
+    let gls = |x: &[f64], s: &[f64]| -> (f64, f64, f64) {
+        let (xr, xi) = transform(x);
+        let (mut sxx, mut sxr, mut srr) = (0.0, 0.0, 0.0);
+        for k in 1..=half {
+            sxx += (xr[k] * xr[k] + xi[k] * xi[k]) / s[k];
+            sxr += (xr[k] * rr[k] + xi[k] * ri[k]) / s[k];
+            srr += (rr[k] * rr[k] + ri[k] * ri[k]) / s[k];
         }
         if !(sxx > 0.0) {
-            return (my, 0.0, f64::INFINITY);
+            return (0.0, f64::INFINITY, 0.0);
         }
-        let k = sxy / sxx;
-        let c0 = my - k * mx;
-        let rss: f64 = x.iter().zip(&r).map(|(xi, yi)| (yi - c0 - k * xi).powi(2)).sum();
-        (c0, k, rss)
+        (sxr / sxx, srr - sxr * sxr / sxx, sxx)
     };
     let record = nb as f64 * dt;
-    let (lag_best, rss_lag) = log_search(dt, 3.0 * record, 40, |lag| regress(&lagged(lag)).2);
-    let rss0 = regress(&t).2;
-    let lag = if rss0 <= rss_lag { 0.0 } else { lag_best };
+    let best_lag = |s: &[f64]| -> f64 {
+        let (lag, crit) = log_search(dt, 3.0 * record, 40, |lag| gls(&lagged(lag), s).1);
+        if gls(&t, s).1 <= crit {
+            0.0
+        } else {
+            lag
+        }
+    };
+    // Pass 1: the base fit's noise.
+    let s1 = spectrum(&d.base_fit.squares);
+    let lag1 = best_lag(&s1);
+    let (k1, _, _) = gls(&lagged(lag1), &s1);
+    let cleaned_of = |k: f64, lag: f64| -> Vec<f64> {
+        let a_full = if lag > 0.0 { (-1.0 / (d.fs_hz * lag)).exp() } else { 0.0 };
+        let mut y = temp[0];
+        d.rate_dps[..n]
+            .iter()
+            .zip(&temp[..n])
+            .map(|(&r, &tc)| {
+                y = tc + a_full * (y - tc);
+                r - k * y
+            })
+            .collect()
+    };
+    // Pass 2: the noise of the record without the coupling.
+    let (_, squares) = refit_base(d.base, &cleaned_of(k1, lag1), d.fs_hz)?;
+    let s2 = spectrum(&squares);
+    let lag = best_lag(&s2);
     let x = lagged(lag);
-    let (c0, k, rss) = regress(&x);
-    if !(k.is_finite() && k != 0.0 && rss.is_finite()) {
+    let (k, _, sxx) = gls(&x, &s2);
+    if !(k.is_finite() && k != 0.0 && sxx > 0.0) {
         return None;
     }
-    // The record without the fitted coupling (the lag run at the sample rate): its own IEEE fit is the noise the
-    // coupling must stand out from, and the base terms of the model (the base fit took part of the temperature
-    // bump for flicker or random walk).
-    let a_full = if lag > 0.0 { (-1.0 / (d.fs_hz * lag)).exp() } else { 0.0 };
-    let mut y = temp[0];
-    let cleaned: Vec<f64> = d.rate_dps[..n]
-        .iter()
-        .zip(&temp[..n])
-        .map(|(&r, &tc)| {
-            y = tc + a_full * (y - tc);
-            r - k * y
-        })
-        .collect();
-    let (refit, squares) = refit_base(d.base, &cleaned, d.fs_hz)?;
-    // Significance against that noise: k = sum w_n r_n with w = (x - mean x)/Sxx, whose variance under white N,
-    // flicker B and random walk K is the integral of |W(f)|^2 S(f).
-    let mx = mean(&x);
-    let sxx: f64 = x.iter().map(|v| (v - mx) * (v - mx)).sum();
-    let w: Vec<f64> = x.iter().map(|v| (v - mx) / sxx).collect();
-    let se = null_var(&w, dt, &squares).sqrt();
+    let se = (sum_w2 / dt / sxx).sqrt();
     if !(k.abs() > 5.0 * se) {
         return None;
     }
-    // The sim adds bias + k (T_lag - ref): ref keeps the fitted intercept with the base bias as it is.
+    let (refit, _) = refit_base(d.base, &cleaned_of(k, lag), d.fs_hz)?;
+    // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
+    let c0 = mean(&r) - k * mean(&x);
     let ref_c = (d.base.bias_dps - c0) / k;
     let gyro = GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c, lag_s: lag }), ..refit };
     Some(EffectFit {
@@ -528,27 +568,6 @@ fn temperature(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
     })
-}
-
-/// `Var(sum w_n r_n)` for block means r every `dt` of the base noise (fit squares Q, N, B, K, R): the sum over
-/// frequencies of `|W(f)|^2 S(f) df` with the two-sided PSD `S(f) = N^2 + B^2/(2 pi |f|) + K^2/(4 pi^2 f^2)`
-/// (IEEE 952 Annex C; `sum w = 0` keeps the low-frequency terms finite).
-fn null_var(w: &[f64], dt: f64, sq: &[f64; 5]) -> f64 {
-    let nfft = (2 * w.len()).next_power_of_two();
-    let mut re = vec![0.0; nfft];
-    let mut im = vec![0.0; nfft];
-    re[..w.len()].copy_from_slice(w);
-    fft(&mut re, &mut im);
-    let df = 1.0 / (nfft as f64 * dt);
-    let two_pi = 2.0 * std::f64::consts::PI;
-    (1..=nfft / 2)
-        .map(|k| {
-            let f = k as f64 * df;
-            let s = sq[1] + sq[2] / (two_pi * f) + sq[3] / (two_pi * two_pi * f * f);
-            let mult = if k == nfft / 2 { 1.0 } else { 2.0 };
-            mult * (re[k] * re[k] + im[k] * im[k]) * s * df
-        })
-        .sum()
 }
 
 // ---------------------------------------------------------------------------------------------------------------
