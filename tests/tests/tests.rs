@@ -3,6 +3,7 @@
 mod acc_allantools;
 mod fit_coverage;
 mod gap_real;
+mod gap_withheld;
 mod corruption;
 mod pipeline;
 mod qemu;
