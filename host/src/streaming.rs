@@ -1012,6 +1012,51 @@ mod tests {
         }
     }
 
+    /// A capture's raw samples (two channels, split across frames, with a break in the numbering) give the
+    /// same numbers as the same codes through the binary path, scaled by each channel's deg/s per code.
+    #[test]
+    fn capture_raw_samples_are_streamed() {
+        use octavar_shared::proto::{ChannelInfo, Encoder, Frame, Hello, Samples, MAX_CODES};
+        use octavar_shared::sensor::SensorKind;
+        let mut enc = Encoder::new();
+        let mut bytes = Vec::new();
+        let mut hello = Hello::new("t", "b", 500, 12, 3300, 8);
+        let _ = hello.channels.push(ChannelInfo::new(SensorKind::Adxrs300, "gx"));
+        let _ = hello.channels.push(ChannelInfo::new(SensorKind::Env05h, "gy"));
+        bytes.extend_from_slice(&enc.encode_to_vec(&Frame::Hello(hello)).unwrap());
+        let codes: Vec<u16> = white(20_000, 4).iter().map(|v| (v * 1000.0) as u16).collect();
+        let sets = MAX_CODES / 2;
+        let mut first = 0u64;
+        for (f, part) in codes.chunks(sets).enumerate() {
+            if f == 3 {
+                first += 1000; // lost frames: a break
+            }
+            let mut s = Samples::new(first, 0b11);
+            for &c in part {
+                let _ = s.codes.push(c);
+                let _ = s.codes.push(4095 - c);
+            }
+            first += part.len() as u64;
+            bytes.extend_from_slice(&enc.encode_to_vec(&Frame::Samples(s)).unwrap());
+        }
+        let opts = StreamOptions::default();
+        let a = analyze_capture(CaptureReader::new(&bytes[..], "t.capture"), &opts, &|_| {}).unwrap();
+        assert_eq!((a.rate_hz, a.channels.len()), (500.0, 2));
+        assert_eq!((a.channels[0].name.as_str(), a.channels[1].name.as_str()), ("gx", "gy"));
+        // The same codes as one binary channel with the break as a NaN.
+        let mut y: Vec<f64> = codes.iter().map(|&c| f64::from(c)).collect();
+        y.insert(3 * sets, f64::NAN);
+        let mut acc = StreamOadev::new(DEFAULT_STRIDE).unwrap();
+        acc.push(&y);
+        let t = acc.finish();
+        let scale = crate::device_sim::dps_per_code(SensorKind::Adxrs300);
+        let want = t.points(1.0 / 500.0, scale, 0.683);
+        for (p, q) in a.channels[0].fit_points.iter().zip(&want) {
+            assert_eq!(p.n, q.n);
+            assert!((p.dev / q.dev - 1.0).abs() < 1e-12, "m={}: {} vs {}", p.m, p.dev, q.dev);
+        }
+    }
+
     #[test]
     fn binary_inputs_parse_and_odd_lengths_are_errors() {
         let y = white(40_000, 3);
