@@ -131,3 +131,40 @@ fn simulate_writes_temperature_when_the_model_has_it() {
     let (lo, hi) = temps.iter().fold((f64::MAX, f64::MIN), |(a, b), &t| (a.min(t), b.max(t)));
     assert!(lo >= 21.99 && hi <= 25.01 && hi - lo > 2.9, "temperature {lo}..{hi}");
 }
+
+#[test]
+fn analyze_rejects_malformed_csv_naming_file_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rec.csv");
+    let p = path.to_str().unwrap();
+    let run = |text: &str, extra: &[&str]| {
+        std::fs::write(&path, text).unwrap();
+        let mut args = vec!["analyze", p, "--rate", "10"];
+        args.extend_from_slice(extra);
+        octavar(&args, None)
+    };
+    // A text cell.
+    let mut text = String::from("t,g\n");
+    for i in 0..200 {
+        text += &format!("{i},{}\n", if i == 57 { "oops".to_string() } else { format!("{}", (i % 7) as f64 * 0.1) });
+    }
+    let o = run(&text, &["--column", "g"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("rec.csv") && e.contains("line 59") && e.contains("column \"g\"") && e.contains("oops"), "{e}");
+    // A missing column.
+    let o = run("t,g\n0,1\n1,2\n", &["--column", "gyro"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("rec.csv, line 1: no column \"gyro\""), "{}", stderr(&o));
+    // An empty file.
+    let o = run("", &["--column", "g"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("rec.csv") && stderr(&o).contains("no samples"), "{}", stderr(&o));
+    // A unit octavar does not know.
+    let o = run("t,g\n0,1\n", &["--column", "g", "--unit", "furlongs/fortnight"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("unknown unit \"furlongs/fortnight\""), "{}", stderr(&o));
+    for o in [run("t,g\n0,1\n", &["--column", "g", "--unit", "parsec"])] {
+        assert!(!stderr(&o).contains("panicked"));
+    }
+}

@@ -7,6 +7,7 @@ mod gap_withheld;
 mod corruption;
 mod pipeline;
 mod qemu;
+mod reference_adis;
 mod reference_nbs14;
 mod reference_stable32;
 mod sim_closed_form;
