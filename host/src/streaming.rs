@@ -455,7 +455,7 @@ impl Coarse {
         let mask = 2 * s as u64 - 1;
         for (r, k) in (first..LEVELS).enumerate() {
             let dc = 1u64 << r;
-            if self.j % dc != 0 {
+            if !self.j.is_multiple_of(dc) {
                 break;
             }
             let u = self.j / dc;
@@ -793,7 +793,7 @@ pub fn analyze_capture<R: Read>(
     for item in capture.by_ref() {
         let d = item?;
         records += 1;
-        if records % 4096 == 0 {
+        if records.is_multiple_of(4096) {
             progress(d.meta.offset);
         }
         if d.meta.restart {
@@ -861,7 +861,7 @@ pub fn analyze_capture<R: Read>(
         return Err(StreamError::Capture { name, what: "no hello frame: the sample rate is unknown".into() });
     };
     let rate = f64::from(hello.sample_rate_hz);
-    if !(rate > 0.0) {
+    if rate.is_nan() || rate <= 0.0 {
         return Err(StreamError::BadRate(rate));
     }
     let tau0 = 1.0 / rate;

@@ -256,7 +256,7 @@ pub(crate) fn oadev_sums(x: &[f64], ms: &[usize]) -> Vec<f64> {
     let mut order: Vec<usize> = (0..ms.len()).filter(|&k| ms[k] > 0 && 2 * ms[k] < n).collect();
     order.sort_by_key(|&k| ms[k]);
     let (far, near): (Vec<usize>, Vec<usize>) =
-        order.into_iter().partition(|&k| ms[k] >= FAR_PITCH && ms[k] % FAR_PITCH == 0);
+        order.into_iter().partition(|&k| ms[k] >= FAR_PITCH && ms[k].is_multiple_of(FAR_PITCH));
     let near_ms: Vec<usize> = near.iter().map(|&k| ms[k]).collect();
     let far_ms: Vec<usize> = far.iter().map(|&k| ms[k]).collect();
     let kernel = Kernel::detect();

@@ -222,7 +222,7 @@ impl Series {
     /// (>= [`COARSE_MIN_POINTS`]) and m a multiple of COARSE; None otherwise. One pass over the phase, shared by
     /// every m.
     pub(crate) fn mvar_coarse(&self, m: usize) -> Option<f64> {
-        if self.bad.is_some() || self.x.len() < COARSE_MIN_POINTS || m % COARSE != 0 || m < 16 * COARSE {
+        if self.bad.is_some() || self.x.len() < COARSE_MIN_POINTS || !m.is_multiple_of(COARSE) || m < 16 * COARSE {
             return None;
         }
         let q = self.coarse.get_or_init(|| self.x.par_chunks_exact(COARSE).map(|c| c.iter().sum::<f64>()).collect());
