@@ -14,11 +14,14 @@ fn main() {
     let samples = (hours * 3600.0 * BENCH_RATE_HZ) as u64;
     let model = demo::paper_bench(1);
     let t0 = Instant::now();
-    let rounds = demo::accumulate_bench(&model, samples, (600.0 * BENCH_RATE_HZ) as u64, &|_| {}).unwrap();
+    let runs = demo::accumulate_bench(&model, samples, (600.0 * BENCH_RATE_HZ) as u64, 2000, &|_| {}).unwrap();
+    let rounds: Vec<_> = runs.iter().map(|r| r.snapshots.clone()).collect();
     let t_sim = t0.elapsed().as_secs_f64();
     let capture = demo::snapshot_capture(&rounds);
     let snaps = demo::last_snapshots(&capture, rounds.len()).unwrap();
     let results = demo::analyse(&snaps, &model);
+    let gaps: Vec<_> =
+        runs.iter().zip(demo::TABLE1.iter()).map(|(r, p)| demo::diagnose_channel(r, p, &|_, _, _| {}).unwrap()).collect();
     let total = t0.elapsed().as_secs_f64();
     let per_s = samples as f64 * rounds.len() as f64 / t_sim;
     println!(
@@ -38,6 +41,10 @@ fn main() {
             r.paper.paper_b,
             100.0 * (r.fit.b.value.unwrap_or(f64::NAN) / r.paper.paper_b - 1.0),
         );
+    }
+    for (r, g) in results.iter().zip(&gaps) {
+        let j = g.to_json();
+        println!("  {:<10} gap: {} (held-out shrink {:.1}%)", r.paper.label, g.effect_name(), 100.0 * j["holdout"]["shrink"].as_f64().unwrap_or(f64::NAN));
     }
     assert!(total <= 60.0 || hours < 72.0, "the demo took {total:.1} s (floor: 60 s)");
 }

@@ -114,10 +114,22 @@ pub fn paper_bench(seed: u64) -> BenchSim {
     BenchSim { fs_hz: BENCH_RATE_HZ, seed, temperature: lab_temperature(), channels }
 }
 
-/// Run a bench for `samples` scans and accumulate each channel's codes as the firmware does (S = 8), keeping a
-/// snapshot every `snapshot_every` samples and the last one. Channels run in parallel (rayon, one per core), each
-/// with [`Bench::only_channel`], which gives exactly the samples the whole bench would. `progress` receives the
-/// scans done so far (averaged over channels). Returns, per channel, its snapshots in time order.
+/// What one channel of the bench produced: its snapshots in time order (one every `snapshot_every` samples and
+/// the last), and its rate and temperature averaged over blocks of `decimate` samples (deg/s, degC), the record
+/// the gap diagnosis reads.
+#[derive(Clone, Debug)]
+pub struct ChannelRun {
+    /// Snapshots, oldest first.
+    pub snapshots: Vec<Snapshot>,
+    /// Block means of the rate the ADC reports, deg/s.
+    pub rate_dps: Vec<f64>,
+    /// Block means of the bench temperature, degC.
+    pub temp_c: Vec<f64>,
+}
+
+/// Run a bench for `samples` scans and accumulate each channel's codes as the firmware does (S = 8). Channels
+/// run in parallel (rayon, one per core), each with [`Bench::only_channel`], which gives exactly the samples the
+/// whole bench would. `progress` receives the scans done so far (averaged over channels).
 ///
 /// # Errors
 /// The model's own errors ([`octavar_shared::sim::SimError`]).
@@ -125,17 +137,21 @@ pub fn accumulate_bench(
     model: &BenchSim,
     samples: u64,
     snapshot_every: u64,
+    decimate: u64,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<Vec<Vec<Snapshot>>, octavar_shared::sim::SimError> {
+) -> Result<Vec<ChannelRun>, octavar_shared::sim::SimError> {
     let n_ch = model.channels.len() as u64;
     let done = AtomicU64::new(0);
     let every = snapshot_every.max(1);
+    let decimate = decimate.max(1);
     (0..model.channels.len())
         .into_par_iter()
         .map(|i| {
             let mut bench = Bench::only_channel(model, i)?;
+            let channel = bench.channels()[0];
             let mut acc = Box::new(OctaveAllan::<STRIDE>::new());
-            let mut snaps = Vec::new();
+            let mut run = ChannelRun { snapshots: Vec::new(), rate_dps: Vec::new(), temp_c: Vec::new() };
+            let (mut sum_code, mut sum_temp, mut in_block) = (0u64, 0.0f64, 0u64);
             const BLOCK: u64 = 8000;
             let mut block = [0u16; BLOCK as usize];
             while acc.count() < samples {
@@ -143,16 +159,28 @@ pub fn accumulate_bench(
                 let to_snap = every - acc.count() % every;
                 let n = BLOCK.min(samples - acc.count()).min(to_snap) as usize;
                 for c in block.iter_mut().take(n) {
-                    *c = bench.next_sample().codes[0];
+                    let s = bench.next_sample();
+                    *c = s.codes[0];
+                    sum_code += u64::from(s.codes[0]);
+                    sum_temp += s.temp_c;
+                    in_block += 1;
+                    if in_block == decimate {
+                        // The mean of the codes, converted through the (affine) channel model.
+                        let mean = sum_code as f64 / decimate as f64;
+                        let lo = channel.code_to_dps(0);
+                        run.rate_dps.push(lo + mean * (channel.code_to_dps(1) - lo));
+                        run.temp_c.push(sum_temp / decimate as f64);
+                        (sum_code, sum_temp, in_block) = (0, 0.0, 0);
+                    }
                 }
                 acc.push_slice(&block[..n]);
                 if acc.count() % every == 0 || acc.count() == samples {
-                    snaps.push(acc.snapshot());
+                    run.snapshots.push(acc.snapshot());
                 }
                 let total = done.fetch_add(n as u64, Ordering::Relaxed) + n as u64;
                 progress(total / n_ch);
             }
-            Ok(snaps)
+            Ok(run)
         })
         .collect()
 }
@@ -218,6 +246,49 @@ pub fn last_snapshots(capture: &[u8], channels: usize) -> Result<Vec<Snapshot>, 
         .collect()
 }
 
+/// Seconds per sample of the record the gap diagnosis reads (block means of the 2 kS/s codes): the temperature
+/// lives at long tau, and a 1 Hz record of 72 h keeps the diagnosis to seconds per channel.
+pub const GAP_BLOCK_S: f64 = 1.0;
+
+/// The gap diagnosis of one channel: its 1 Hz record with the bench temperature, the part after the middle
+/// snapshot held out. The base model is the IEEE fit of the training part's own full-rate snapshot (the device's
+/// snapshot at the middle of the record), because a 1 Hz record cannot show the white-noise line.
+///
+/// # Errors
+/// As [`crate::gap::diagnose`].
+pub fn diagnose_channel(
+    run: &ChannelRun,
+    paper: &PaperChannel,
+    progress: &crate::gap::ProgressFn,
+) -> Result<crate::gap::GapReport, crate::gap::GapError> {
+    let decimate = (GAP_BLOCK_S * BENCH_RATE_HZ) as u64;
+    let total = run.rate_dps.len() as u64 * decimate;
+    let train = run
+        .snapshots
+        .iter()
+        .min_by_key(|s| s.samples.abs_diff(total / 2))
+        .copied()
+        .unwrap_or_else(|| Snapshot::empty(STRIDE).expect("stride 8 is valid"));
+    let channel = Channel::bench(GyroModel::of(paper.sensor).expect("the paper's channels are gyros"));
+    let points = snapshot_points(&train, BENCH_RATE_HZ, channel.dps_per_code(), 0.683);
+    let base_fit = fit(&fit_points(&points), &bench_fit_options()).ok();
+    let input = crate::gap::GapInput {
+        rate_dps: run.rate_dps.clone(),
+        temp_c: Some(run.temp_c.clone()),
+        fs_hz: 1.0 / GAP_BLOCK_S,
+        n_train: (train.samples / decimate) as usize,
+    };
+    let opts = crate::gap::GapOptions { base_fit, ..Default::default() };
+    crate::gap::diagnose(&input, &opts, progress)
+}
+
+/// The fit of the bench's full-rate snapshots: the white term shaped by the 600 Hz anti-alias filter, and the
+/// first octaves (m < 16, tau < 8 ms), where the discrete filter's shape differs from the continuous form the fit
+/// uses and whose huge EDF would let that pull N, left out.
+pub fn bench_fit_options() -> FitOptions {
+    FitOptions { bandwidth_hz: Some(ANTI_ALIAS_HZ), tau_min_s: 16.0 / BENCH_RATE_HZ, ..Default::default() }
+}
+
 /// One channel's outcome.
 #[derive(Clone, Debug)]
 pub struct ChannelResult {
@@ -262,12 +333,10 @@ pub fn analyse(snapshots: &[Snapshot], model: &BenchSim) -> Vec<ChannelResult> {
                 Channel::bench(GyroModel::of(cs.sensor).expect("the paper's channels are gyros"))
             });
             let points = snapshot_points(snap, model.fs_hz, channel.dps_per_code(), 0.683);
-            // The first octaves (m < 16, tau < 8 ms) sit where the discrete 600 Hz filter's shape differs from
-            // the continuous form the fit uses; their huge EDF would let that mismatch pull N.
             let opts = FitOptions {
                 bandwidth_hz: cs.gyro.bandwidth_hz,
                 tau_min_s: 16.0 / model.fs_hz,
-                ..Default::default()
+                ..bench_fit_options()
             };
             let fit = fit(&fit_points(&points), &opts).expect("a 2 kS/s record has many octaves");
             ChannelResult { paper, channel, snapshot: *snap, points, fit }
@@ -297,7 +366,9 @@ mod tests {
     fn snapshots_survive_the_frame_pipeline_bit_for_bit() {
         let mut model = paper_bench(3);
         model.fs_hz = 200.0;
-        let snaps = accumulate_bench(&model, 20_000, 2_000, &|_| {}).unwrap();
+        let runs = accumulate_bench(&model, 20_000, 2_000, 200, &|_| {}).unwrap();
+        assert!(runs.iter().all(|r| r.rate_dps.len() == 100 && r.temp_c.len() == 100));
+        let snaps: Vec<Vec<Snapshot>> = runs.into_iter().map(|r| r.snapshots).collect();
         assert!(snaps.iter().all(|s| s.len() == 10));
         let capture = snapshot_capture(&snaps);
         let last = last_snapshots(&capture, 4).unwrap();

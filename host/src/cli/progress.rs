@@ -23,6 +23,11 @@ impl Progress {
         self.0.set_position(done);
     }
 
+    /// Change the number of items.
+    pub fn set_length(&self, total: u64) {
+        self.0.set_length(total);
+    }
+
     /// Remove the bar.
     pub fn finish(&self) {
         self.0.finish_and_clear();

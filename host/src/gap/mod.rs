@@ -188,6 +188,9 @@ pub struct GapOptions {
     pub fit: FitOptions,
     /// Candidates to try (all seven by default).
     pub effects: Vec<Effect>,
+    /// A base fit made elsewhere on the training part (for example on the device's full-rate snapshot when the
+    /// record diagnosed is a decimated one, whose short taus cannot show N); `None`: fit the training record.
+    pub base_fit: Option<NoiseFit>,
 }
 
 impl Default for GapOptions {
@@ -198,6 +201,7 @@ impl Default for GapOptions {
             channel: None,
             fit: FitOptions::default(),
             effects: Effect::ALL.to_vec(),
+            base_fit: None,
         }
     }
 }
@@ -239,7 +243,10 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         .filter(|p| p.edf.is_finite() && p.edf > 0.0)
         .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
         .collect();
-    let base_fit = fit(&pts, &opts.fit)?;
+    let base_fit = match &opts.base_fit {
+        Some(f) => f.clone(),
+        None => fit(&pts, &opts.fit)?,
+    };
     let base = base_model(&base_fit, training);
     let channel = opts.channel.unwrap_or_else(|| fine_channel(4.0 * robust_range(&input.rate_dps).max(1e-3)));
     let seeds: Vec<u64> = (0..opts.seeds as u64).map(|i| opts.first_seed + i).collect();
