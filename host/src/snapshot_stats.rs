@@ -15,22 +15,46 @@ use crate::stats::{strided_avar_edf, DevPoint, NoiseMethod};
 /// 1.0 for codes), with `confidence` intervals. Levels without differences are left out.
 pub fn snapshot_points(snap: &Snapshot, fs_hz: f64, scale: f64, confidence: f64) -> Vec<DevPoint> {
     let avars: Vec<Option<f64>> = (0..LEVELS).map(|k| snap.avar_codes2(k).map(|v| v * scale * scale)).collect();
+    let shape = StridedShape { stride: u64::from(snap.stride), n_phase: snap.samples as f64 + 1.0, confidence };
+    octave_points(&avars, |k| snap.levels[k].n, |m| m / fs_hz, &shape)
+}
+
+/// What the interval of a strided octave estimate depends on besides its value.
+pub(crate) struct StridedShape {
+    /// Stride S: clusters start every m/S samples (every sample where m <= S).
+    pub stride: u64,
+    /// Phase points of the record (samples + 1, gaps left out).
+    pub n_phase: f64,
+    /// Two-sided confidence of the interval.
+    pub confidence: f64,
+}
+
+/// Points from per-level Allan variances (`None` where a level is left out): the noise type from the local
+/// slope, Greenhall's EDF for the stride factor min(m, S), the chi-square interval. `pairs(k)` is the number
+/// of differences at level k, `tau_s(m)` the averaging time of m samples. Shared by the device snapshots and
+/// the streamed analysis.
+pub(crate) fn octave_points(
+    avars: &[Option<f64>],
+    pairs: impl Fn(usize) -> u64,
+    tau_s: impl Fn(f64) -> f64,
+    shape: &StridedShape,
+) -> Vec<DevPoint> {
     let mut out = Vec::new();
-    for k in 0..LEVELS {
-        let Some(avar) = avars[k] else { continue };
+    for (k, avar) in avars.iter().enumerate() {
+        let Some(avar) = *avar else { continue };
         let m = (1u64 << k) as f64;
-        let alpha = alpha_from_slopes(&avars, k);
-        let edf = strided_avar_edf(alpha, m, snap.stride_factor(k) as f64, snap.samples as f64 + 1.0);
+        let alpha = alpha_from_slopes(avars, k);
+        let edf = strided_avar_edf(alpha, m, (shape.stride as f64).min(m), shape.n_phase);
         let dev = avar.sqrt();
         let (lo, hi) = if edf.is_finite() && edf > 0.0 {
-            confidence_interval(dev, edf, confidence)
+            confidence_interval(dev, edf, shape.confidence)
         } else {
             (f64::NAN, f64::NAN)
         };
         out.push(DevPoint {
             m: 1u64 << k,
-            tau_s: m / fs_hz,
-            n: snap.levels[k].n,
+            tau_s: tau_s(m),
+            n: pairs(k),
             dev,
             alpha,
             noise_method: NoiseMethod::Default,

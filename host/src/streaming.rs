@@ -38,8 +38,8 @@ use crate::decode::{CaptureReader, DecodeError, Record};
 use crate::fit::{fit, FitError, FitOptions, FitPoint};
 use crate::recording::{CsvOptions, RecordingError};
 use crate::stats::deviation::oadev_range_sums;
-use crate::stats::edf::confidence_interval;
-use crate::stats::{strided_avar_edf, DevPoint, NoiseMethod, Statistic};
+use crate::snapshot_stats::{octave_points, StridedShape};
+use crate::stats::{DevPoint, Statistic};
 
 /// Start indices per chunk (a multiple of the coarse block).
 pub const CHUNK: usize = 1 << 21;
@@ -317,46 +317,11 @@ impl StreamTotals {
             .map(|k| self.avar(k).filter(|_| (1u64 << k) <= m_stop).map(|v| v * scale * scale))
             .collect();
         let n_phase = (self.samples - self.gaps) as f64 + 1.0;
-        let mut out = Vec::new();
-        for k in 0..LEVELS {
-            let Some(avar) = avars[k] else { continue };
-            let m = (1u64 << k) as f64;
-            let alpha = alpha_from_slopes(&avars, k);
-            let edf = strided_avar_edf(alpha, m, (self.stride as f64).min(m), n_phase);
-            let dev = avar.sqrt();
-            let (lo, hi) =
-                if edf.is_finite() && edf > 0.0 { confidence_interval(dev, edf, confidence) } else { (f64::NAN, f64::NAN) };
-            out.push(DevPoint {
-                m: 1u64 << k,
-                tau_s: m * tau0_s,
-                n: self.levels[k].n,
-                dev,
-                alpha,
-                noise_method: NoiseMethod::Default,
-                edf,
-                lo,
-                hi,
-            });
-        }
-        out
+        let shape = StridedShape { stride: self.stride as u64, n_phase, confidence };
+        octave_points(&avars, |k| self.levels[k].n, |m| m * tau0_s, &shape)
     }
 }
 
-/// alpha at level k from the AVAR slope to its neighbours (their mean where both exist): AVAR ~ tau^mu,
-/// alpha = -mu - 1, limited to -2..1.
-fn alpha_from_slopes(avars: &[Option<f64>], k: usize) -> i32 {
-    let slope = |a: usize, b: usize| match (avars.get(a).copied().flatten(), avars.get(b).copied().flatten()) {
-        (Some(x), Some(y)) if x > 0.0 && y > 0.0 => Some((y / x).log2()),
-        _ => None,
-    };
-    let left = if k > 0 { slope(k - 1, k) } else { None };
-    let mu = match (left, slope(k, k + 1)) {
-        (Some(l), Some(r)) => (l + r) / 2.0,
-        (Some(s), None) | (None, Some(s)) => s,
-        (None, None) => -1.0,
-    };
-    ((-mu - 1.0).round() as i32).clamp(-2, 1)
-}
 
 /// One chunk's contribution.
 struct ChunkOut {

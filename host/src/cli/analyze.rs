@@ -119,6 +119,20 @@ pub fn parse_taus(text: &str) -> anyhow::Result<TauSpec> {
 }
 
 impl Args {
+    /// How to read the CSV: the columns, rate or time column, unit, skipped rows and filters of the flags.
+    fn csv_options(&self, unit: RateUnit) -> anyhow::Result<CsvOptions> {
+        let filters = self.filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?;
+        Ok(CsvOptions {
+            columns: self.columns.clone(),
+            temp_column: None,
+            rate_hz: self.rate,
+            time_column: self.time_column.clone(),
+            unit,
+            skip_rows: self.skip_rows,
+            filters,
+        })
+    }
+
     pub fn run(self) -> anyhow::Result<ExitCode> {
         if let Some(kind) = self.stream_kind()? {
             return self.run_stream(kind);
@@ -127,18 +141,9 @@ impl Args {
             bail!("--column NAME is required for a CSV input (repeat it for several channels)");
         }
         let unit = RateUnit::parse(&self.unit)?;
-        let filters = self.filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?;
         let stats = parse_stats(&self.stats)?;
         let taus = parse_taus(&self.taus)?;
-        let csv_opts = CsvOptions {
-            columns: self.columns.clone(),
-            temp_column: None,
-            rate_hz: self.rate,
-            time_column: self.time_column.clone(),
-            unit,
-            skip_rows: self.skip_rows,
-            filters,
-        };
+        let csv_opts = self.csv_options(unit)?;
         let input = octavar::input::open(&self.input)?;
         let rec = recording::read_csv(input.reader, &input.name, &csv_opts)?;
         let opts = AnalyzeOptions {
@@ -291,16 +296,7 @@ impl Args {
                 if self.columns.is_empty() {
                     bail!("--column NAME is required for a CSV input (repeat it for several channels)");
                 }
-                let filters = self.filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?;
-                let csv_opts = CsvOptions {
-                    columns: self.columns.clone(),
-                    temp_column: None,
-                    rate_hz: self.rate,
-                    time_column: self.time_column.clone(),
-                    unit,
-                    skip_rows: self.skip_rows,
-                    filters,
-                };
+                let csv_opts = self.csv_options(unit)?;
                 let input = octavar::input::open(&self.input)?;
                 st::analyze_csv(input.reader, &input.name, &csv_opts, &opts, &|_| {})?
             }
