@@ -168,3 +168,22 @@ fn analyze_rejects_malformed_csv_naming_file_line_and_column() {
         assert!(!stderr(&o).contains("panicked"));
     }
 }
+
+#[test]
+fn gap_rejects_bad_input_with_located_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rec.csv");
+    let p = path.to_str().unwrap();
+    std::fs::write(&path, "t,g\n0,1\n1,2\n2,x\n").unwrap();
+    let o = octavar(&["gap", p, "--column", "g", "--rate", "1"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("rec.csv, line 4, column \"g\": \"x\" is not a number"), "{}", stderr(&o));
+    let o = octavar(&["gap", p, "--column", "q", "--rate", "1"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no column \"q\""), "{}", stderr(&o));
+    std::fs::write(&path, "t,g\n0,1\n1,2\n2,3\n").unwrap();
+    let o = octavar(&["gap", p, "--column", "g", "--rate", "1"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("needs at least"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
+}
