@@ -222,6 +222,10 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
     let shrink = r.holdout.as_ref().map_or(f64::NAN, |h| h.shrink);
     if std::env::var_os("GAP_WITHHELD_VERBOSE").is_some() {
         eprintln!("  base gap {:?} holdout {:?}", r.training, r.holdout);
+        for v in &r.base_eval.training {
+            let zs: Vec<String> = v.points.iter().map(|p| format!("{}@{:.2e}:{:.1}", p.info.label, p.info.tau_s, p.z)).collect();
+            eprintln!("  view {:?} rms {:.2}: {}", v.view, v.rms, zs.join(" "));
+        }
         for cand in &r.candidates {
             eprintln!(
                 "  {:<13} gap_after {:?} score {:?} holdout_after {:?} {}",
@@ -344,4 +348,21 @@ fn estimators_on_cases() {
             eprintln!("  {e}: {:?}", r.map(|r| r.params.to_string()));
         }
     }
+}
+
+/// Some effects and seeds only, for work on one of them:
+/// `GAP_EFFECTS=sinusoid,none GAP_SEEDS=0..4 cargo test -p octavar-tests --release gap_withheld::chosen -- --ignored`.
+#[test]
+#[ignore = "diagnostic: set GAP_EFFECTS and GAP_SEEDS"]
+fn chosen() {
+    let effects: Vec<Option<Effect>> = std::env::var("GAP_EFFECTS")
+        .unwrap_or_default()
+        .split(',')
+        .filter(|s| !s.is_empty())
+        .map(Effect::parse)
+        .collect();
+    let seeds = std::env::var("GAP_SEEDS").unwrap_or_else(|_| "0..2".into());
+    let (a, b) = seeds.split_once("..").expect("GAP_SEEDS=a..b");
+    let failures = sweep_of(&effects, a.parse().unwrap()..b.parse().unwrap());
+    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
 }

@@ -9,10 +9,13 @@
 //! |------|--------|-------|
 //! | `adev` | octave taus of the overlapping Allan deviation | ln OADEV |
 //! | `psd` | log-spaced frequency bands (5 per decade), low ones through block-mean decimation by 8 | ln of the Welch-averaged periodogram (Hann, 50% overlap) over the band's bins |
-//! | `distribution` | robust scale, skewness, kurtosis, tail share, lattice share | ln of the rms winsorised at 4 sigma (sigma from the interquartile range); moments; share beyond 5 robust sigmas; share of first differences on the lattice step |
+//! | `distribution` | skewness, kurtosis, tail share, lattice share | moments; share beyond 5 robust sigmas (the rms winsorised at 4 sigmas of the interquartile range); share of first differences on the lattice step |
 //! | `temperature` | block lengths from 1/4096 of the record up (octaves) | atanh of the correlation of the block-mean rate with the block-mean temperature at the lag (searched, 0 to 1/8 of the record) where it is largest |
 //!
-//! The distribution's points are taken on the local residual `x[i] - (x[i-1] + x[i+1]) / 2`, which removes drifts
+//! The distribution view is about shape, not scale: the scale at tau0 is the Allan deviation's first point,
+//! which carries the fit's model allowance; a scale point here, floored only by its sampling spread
+//! (`sqrt(0.5 / n)`, a tenth of a percent on a long record), turned any 2% error of the fitted N into the worst
+//! gap of the whole diagnosis. The distribution's points are taken on the local residual `x[i] - (x[i-1] + x[i+1]) / 2`, which removes drifts
 //! (flicker, random walk, temperature) and keeps the sign of a one-sided spike; the lattice share is taken on the
 //! first differences, which keep the ADC step and drop its offset. The lattice point exists only when the real
 //! part is on a lattice (99% of its first differences on multiples of one step) coarse enough to matter (a step
@@ -223,7 +226,6 @@ impl Plan {
             floor_sd,
         };
         let mut dist_pts = vec![
-            dist_pt("robust_scale", (0.5 / valid).sqrt()),
             dist_pt("skewness", 0.02 + (6.0 / valid).sqrt()),
             dist_pt("kurtosis", 0.05 + (24.0 / valid).sqrt()),
             dist_pt("tail_share", (3.0 / valid).sqrt() / valid.sqrt()),
@@ -345,7 +347,7 @@ impl Plan {
             .map(|w| w[1] - 0.5 * (w[0] + w[2]))
             .filter(|v| v.is_finite())
             .collect();
-        let k = if self.lattice_step.is_some() { 5 } else { 4 };
+        let k = if self.lattice_step.is_some() { 4 } else { 3 };
         if r.len() < 16 {
             return vec![f64::NAN; k];
         }
@@ -377,8 +379,7 @@ impl Plan {
             // A lattice so coarse that most residuals are zero: the share of non-zero residuals.
             r.iter().filter(|&&v| v > 0.0).count() as f64 / n
         };
-        let ln_scale = if scale > 0.0 { scale.ln() } else { f64::NAN };
-        let mut out = vec![ln_scale, skew, kurt, tail];
+        let mut out = vec![skew, kurt, tail];
         if let Some(q) = self.lattice_step {
             out.push(lattice_share(x, q));
         }
@@ -651,10 +652,10 @@ mod tests {
         }
         let d = plan.measure(&spiky, None, true).values[2].clone();
         let c = plan.measure(&white(20_000, 5), None, true).values[2].clone();
-        assert!(d[2] > c[2] + 1.0, "kurtosis {d:?} {c:?}");
-        assert!(d[3] > 0.004 && c[3] < 0.001, "tails {d:?} {c:?}");
-        assert!(d[1] > 0.3, "skewness {d:?}");
-        assert!(d[4] < 0.2 && plan.measure(&x, None, true).values[2][4] > 0.99);
+        assert!(d[1] > c[1] + 1.0, "kurtosis {d:?} {c:?}");
+        assert!(d[2] > 0.004 && c[2] < 0.001, "tails {d:?} {c:?}");
+        assert!(d[0] > 0.3, "skewness {d:?}");
+        assert!(d[3] < 0.2 && plan.measure(&x, None, true).values[2][3] > 0.99);
     }
 
     #[test]
