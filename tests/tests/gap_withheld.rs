@@ -221,10 +221,10 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
     };
     let shrink = r.holdout.as_ref().map_or(f64::NAN, |h| h.shrink);
     if std::env::var_os("GAP_WITHHELD_VERBOSE").is_some() {
-        eprintln!("  base gap {:?} holdout {:?}", r.training, r.holdout);
+        eprintln!("  base gap {:?} holdout {:?}\n  base model {:?}", r.training, r.holdout, r.base);
         for v in &r.base_eval.training {
             let zs: Vec<String> = v.points.iter().map(|p| format!("{}@{:.2e}:{:.1}", p.info.label, p.info.tau_s, p.z)).collect();
-            eprintln!("  view {:?} rms {:.2}: {}", v.view, v.rms, zs.join(" "));
+            eprintln!("  view {:?} rms {:.2} gap {:.2}: {}", v.view, v.rms, v.gap, zs.join(" "));
         }
         for cand in &r.candidates {
             eprintln!(

@@ -18,7 +18,10 @@
 
 use serde::Serialize;
 
-use super::views::{ViewGap, ViewKind};
+use super::views::{PointZ, ViewGap, ViewKind};
+
+/// Width of the window a gap is measured over, decades of tau.
+pub const WINDOW_DECADES: f64 = 1.0;
 
 /// A gap (worst view's RMS z) above this is significant. Where real and simulation agree each view's RMS is
 /// about 1 (a little less with the model allowance); 2.5 leaves room for the worst of four views whose sds come
@@ -65,6 +68,8 @@ pub struct Location {
     pub view: ViewKind,
     /// Tau band, s: lowest and highest tau edge of the band's points.
     pub band_s: [f64; 2],
+    /// The representative taus of the band's first and last point, s (which points [`band_gap`] takes).
+    pub tau_range_s: [f64; 2],
     /// Real above or below.
     pub sign: Sign,
     /// RMS z over the band's points.
@@ -79,22 +84,60 @@ pub struct Location {
     pub correlation: Option<[f64; 2]>,
 }
 
-/// The gap: the worst view's RMS z (0 without views).
-pub fn gap_of(views: &[ViewGap]) -> f64 {
-    views.iter().map(|v| v.rms).fold(0.0, f64::max)
+/// The largest RMS z over a window of `points` (sorted by tau) one decade wide in tau, as `(a, b, rms)` with
+/// the window's index range `a..b`; `(0, 0, 0.0)` without points. The windows start at every point and take the
+/// points up to ten times its tau; a window inside the previous one (the short ones at the top of the tau range)
+/// is skipped, so every window spans a full decade, or the whole view when it spans less.
+pub fn worst_window(points: &[PointZ]) -> (usize, usize, f64) {
+    let mut best = (0, 0, 0.0);
+    let mut prev_end = 0;
+    for i in 0..points.len() {
+        let top = points[i].info.tau_s * 10f64.powf(WINDOW_DECADES) * (1.0 + 1e-9);
+        let end = i + points[i..].iter().take_while(|p| p.info.tau_s <= top).count();
+        if i > 0 && end <= prev_end {
+            continue;
+        }
+        prev_end = end;
+        let w = &points[i..end];
+        let rms = (w.iter().map(|p| p.z * p.z).sum::<f64>() / w.len() as f64).sqrt();
+        if rms > best.2 {
+            best = (i, end, rms);
+        }
+    }
+    best
 }
 
-/// The total: RMS over the views of their RMS z.
+/// The gap: the worst view's gap (its worst decade window's RMS z; 0 without views).
+pub fn gap_of(views: &[ViewGap]) -> f64 {
+    views.iter().map(|v| v.gap).fold(0.0, f64::max)
+}
+
+/// The total: RMS over the views of their gaps.
 pub fn total_of(views: &[ViewGap]) -> f64 {
     if views.is_empty() {
         return 0.0;
     }
-    (views.iter().map(|v| v.rms * v.rms).sum::<f64>() / views.len() as f64).sqrt()
+    (views.iter().map(|v| v.gap * v.gap).sum::<f64>() / views.len() as f64).sqrt()
 }
 
 /// The worst view.
 pub fn worst(views: &[ViewGap]) -> Option<&ViewGap> {
-    views.iter().max_by(|a, b| a.rms.total_cmp(&b.rms))
+    views.iter().max_by(|a, b| a.gap.total_cmp(&b.gap))
+}
+
+/// The RMS z, in `views`, of the points of the located view whose tau lies in the located band (the same
+/// points on the training part; on the holdout, the points at the same taus). `None` when the view has no point
+/// there.
+pub fn band_gap(views: &[ViewGap], loc: &Location) -> Option<f64> {
+    let v = views.iter().find(|v| v.view == loc.view)?;
+    let [lo, hi] = loc.tau_range_s;
+    let z: Vec<f64> = v
+        .points
+        .iter()
+        .filter(|p| p.info.tau_s >= lo * (1.0 - 1e-9) && p.info.tau_s <= hi * (1.0 + 1e-9))
+        .map(|p| p.z)
+        .collect();
+    (!z.is_empty()).then(|| (z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64).sqrt())
 }
 
 /// The ranking score of a model: its total gap with the parameter penalty.
@@ -111,36 +154,14 @@ pub fn shrink(before: f64, after: f64) -> f64 {
     }
 }
 
-/// Where the gap lies in the worst view (see the module doc); `None` without views.
+/// Where the gap lies: the worst view's worst decade window (see the module doc); `None` without views.
 pub fn locate(views: &[ViewGap]) -> Option<Location> {
     let w = worst(views)?;
-    let pts = &w.points;
-    // Runs of |z| > BAND_Z; the one with the largest sum of z^2.
-    let mut best: Option<(usize, usize, f64)> = None;
-    let mut i = 0;
-    while i < pts.len() {
-        if pts[i].z.abs() <= BAND_Z {
-            i += 1;
-            continue;
-        }
-        let start = i;
-        let mut s = 0.0;
-        while i < pts.len() && pts[i].z.abs() > BAND_Z {
-            s += pts[i].z * pts[i].z;
-            i += 1;
-        }
-        if best.is_none_or(|(_, _, b)| s > b) {
-            best = Some((start, i, s));
-        }
+    let (a, b) = w.window;
+    if b <= a {
+        return None;
     }
-    let (a, b) = match best {
-        Some((a, b, _)) => (a, b),
-        None => {
-            let k = (0..pts.len()).max_by(|&x, &y| pts[x].z.abs().total_cmp(&pts[y].z.abs()))?;
-            (k, k + 1)
-        }
-    };
-    let band = &pts[a..b];
+    let band = &w.points[a..b];
     let sum_z: f64 = band.iter().map(|p| p.z).sum();
     let n = band.len() as f64;
     let lo = band.iter().map(|p| p.info.tau_lo_s).fold(f64::INFINITY, f64::min);
@@ -157,8 +178,9 @@ pub fn locate(views: &[ViewGap]) -> Option<Location> {
     Some(Location {
         view: w.view,
         band_s: [lo, hi],
+        tau_range_s: [band[0].info.tau_s, band[band.len() - 1].info.tau_s],
         sign: if sum_z >= 0.0 { Sign::Above } else { Sign::Below },
-        z_rms: (band.iter().map(|p| p.z * p.z).sum::<f64>() / n).sqrt(),
+        z_rms: w.gap,
         points: band.len(),
         labels: band.iter().map(|p| p.info.label).collect(),
         ratio,
@@ -169,7 +191,7 @@ pub fn locate(views: &[ViewGap]) -> Option<Location> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gap::views::{PointInfo, PointZ};
+    use crate::gap::views::PointInfo;
 
     fn view(kind: ViewKind, zs: &[f64]) -> ViewGap {
         let points: Vec<PointZ> = zs
@@ -187,25 +209,35 @@ mod tests {
             })
             .collect();
         let rms = (zs.iter().map(|z| z * z).sum::<f64>() / zs.len() as f64).sqrt();
-        ViewGap { view: kind, points, rms }
+        let (a, b, gap) = worst_window(&points);
+        ViewGap { view: kind, points, rms, gap, window: (a, b) }
+    }
+
+    fn rms(z: &[f64]) -> f64 {
+        (z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64).sqrt()
     }
 
     #[test]
-    fn the_band_is_the_heaviest_run_above_three() {
-        let v = vec![
-            view(ViewKind::Psd, &[0.5, 1.0, -0.3]),
-            view(ViewKind::Adev, &[0.1, 4.0, 0.2, 3.5, 6.0, 5.0, 1.0]),
-        ];
-        assert!((gap_of(&v) - v[1].rms).abs() < 1e-12);
+    fn the_band_is_the_worst_decade() {
+        // Octave points: a decade window holds 4 of them (1, 2, 4, 8).
+        let z = [0.1, 4.0, 0.2, 3.5, 6.0, 5.0, 1.0];
+        let v = vec![view(ViewKind::Psd, &[0.5, 1.0, -0.3]), view(ViewKind::Adev, &z)];
+        let best = (0..4).map(|i| rms(&z[i..i + 4])).fold(0.0, f64::max);
+        assert!((best - rms(&z[3..7])).abs() < 1e-12);
+        assert!((gap_of(&v) - best).abs() < 1e-12);
         let loc = locate(&v).unwrap();
-        assert_eq!(loc.view, ViewKind::Adev);
-        assert_eq!(loc.points, 3);
-        assert!((loc.band_s[0] - 8.0 / 1.5).abs() < 1e-9 && (loc.band_s[1] - 32.0 * 1.5).abs() < 1e-9, "{loc:?}");
+        assert_eq!((loc.view, loc.points), (ViewKind::Adev, 4));
+        assert!((loc.band_s[0] - 8.0 / 1.5).abs() < 1e-9 && (loc.band_s[1] - 64.0 * 1.5).abs() < 1e-9, "{loc:?}");
+        assert_eq!(loc.tau_range_s, [8.0, 64.0]);
         assert_eq!(loc.sign, Sign::Above);
         assert!(loc.ratio.unwrap() > 1.0);
-        // Nothing above 3: the single largest |z|, with its sign.
+        // The same taus in another comparison: their RMS z, whatever the rest of the view does.
+        let other = vec![view(ViewKind::Adev, &[9.0, 9.0, 9.0, 1.0, -1.0, 1.0, -1.0])];
+        assert!((band_gap(&other, &loc).unwrap() - 1.0).abs() < 1e-12);
+        assert!(band_gap(&[view(ViewKind::Psd, &[1.0])], &loc).is_none());
+        // A view shorter than a decade is one window; the sign follows the summed z.
         let loc = locate(&[view(ViewKind::Adev, &[0.1, -2.0, 1.0])]).unwrap();
-        assert_eq!((loc.points, loc.sign), (1, Sign::Below));
+        assert_eq!((loc.points, loc.sign), (3, Sign::Below));
     }
 
     #[test]

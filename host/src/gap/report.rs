@@ -115,18 +115,13 @@ pub(crate) struct Parts {
     pub candidates: Vec<(Effect, Option<EffectFit>, Option<Evaluated>)>,
 }
 
-/// The RMS z of one view (`None` when the view has no points).
-pub fn rms_in(views: &[ViewGap], kind: ViewKind) -> Option<f64> {
-    views.iter().find(|v| v.view == kind).map(|v| v.rms)
-}
-
-/// Rank the candidates and build the report. The gap before is the worst view of the base model on training,
-/// which is where the gap is located; "after" and the holdout gaps are the RMS z of that same view, so the
-/// held-out check measures the gap the diagnosis is about (the worst views are reported beside them).
+/// Rank the candidates and build the report. The gap before is the worst decade window of the base model's worst
+/// view on training, which is where the gap is located; "after" and the holdout gaps are the RMS z of the same
+/// view's points at the same taus, so the held-out check measures the gap the diagnosis is about (the worst views
+/// are reported beside them).
 pub(crate) fn assemble(p: Parts) -> GapReport {
     let location = rank::locate(&p.base_eval.training);
-    let view = location.as_ref().map(|l| l.view);
-    let in_view = |v: &[ViewGap]| -> Option<f64> { view.and_then(|k| rms_in(v, k)) };
+    let in_view = |v: &[ViewGap]| -> Option<f64> { location.as_ref().and_then(|l| rank::band_gap(v, l)) };
     let gap_before = rank::gap_of(&p.base_eval.training);
     let total_before = rank::total_of(&p.base_eval.training);
     let has_holdout = !p.base_eval.holdout.is_empty();
@@ -285,10 +280,10 @@ impl GapReport {
         })
     }
 
-    /// Every view's RMS: `{"adev": {"training": [before, after], "holdout": [before, after]}, ...}`.
+    /// Every view's gap: `{"adev": {"training": [before, after], "holdout": [before, after]}, ...}`.
     fn view_table(&self) -> Value {
         let after = self.chosen().and_then(|c| c.eval.as_ref());
-        let rms = |v: &[ViewGap], k: ViewKind| v.iter().find(|g| g.view == k).map(|g| g.rms);
+        let rms = |v: &[ViewGap], k: ViewKind| v.iter().find(|g| g.view == k).map(|g| g.gap);
         let mut m = serde_json::Map::new();
         for k in ViewKind::ALL {
             let tb = rms(&self.base_eval.training, k);
@@ -340,19 +335,19 @@ impl GapReport {
             "base model (IEEE 952 fit on training): N {:.3e} deg/sqrt(s), B {:.3e} deg/s, K {:.3e} deg/s/sqrt(s), R {:.3e} deg/s^2, bias {:.4e} deg/s",
             b.n_deg_per_rt_s, b.b_dps, b.k_dps_per_rt_s, b.r_dps_per_s, b.bias_dps
         );
-        let _ = writeln!(s, "views (RMS z of real against the ensemble; about 1 when they agree):");
+        let _ = writeln!(s, "views (gap: the RMS z of real against the ensemble over the worst decade of tau; about 1 when they agree):");
         let after = self.chosen().and_then(|c| c.eval.as_ref());
         for g in &self.base_eval.training {
-            let a = after.and_then(|e| e.training.iter().find(|x| x.view == g.view)).map(|x| x.rms);
-            let hb = self.base_eval.holdout.iter().find(|x| x.view == g.view).map(|x| x.rms);
-            let ha = after.and_then(|e| e.holdout.iter().find(|x| x.view == g.view)).map(|x| x.rms);
+            let a = after.and_then(|e| e.training.iter().find(|x| x.view == g.view)).map(|x| x.gap);
+            let hb = self.base_eval.holdout.iter().find(|x| x.view == g.view).map(|x| x.gap);
+            let ha = after.and_then(|e| e.holdout.iter().find(|x| x.view == g.view)).map(|x| x.gap);
             let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
             let _ = writeln!(
                 s,
                 "  {:<13} training {:>7.2} -> {:>7}   holdout {:>7} -> {:>7}",
                 g.view.name(),
-                g.rms,
-                f(a.or(Some(g.rms))),
+                g.gap,
+                f(a.or(Some(g.gap))),
                 f(hb),
                 f(ha.or(hb))
             );
@@ -405,7 +400,7 @@ impl GapReport {
                 "worst view on the holdout: {:.2} -> {:.2}{}",
                 self.worst[2],
                 self.worst[3],
-                match self.base_eval.holdout.iter().max_by(|a, b| a.rms.total_cmp(&b.rms)) {
+                match self.base_eval.holdout.iter().max_by(|a, b| a.gap.total_cmp(&b.gap)) {
                     Some(w) if Some(w.view) != self.location.as_ref().map(|l| l.view) =>
                         format!(" ({}: the holdout has a gap of its own that training did not show)", w.view.name()),
                     _ => String::new(),

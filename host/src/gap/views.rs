@@ -558,6 +558,11 @@ pub struct ViewGap {
     pub points: Vec<PointZ>,
     /// RMS of the z-scores (0 without points).
     pub rms: f64,
+    /// The view's gap: the largest RMS z over a window of its points one decade wide in tau
+    /// ([`super::rank::worst_window`]).
+    pub gap: f64,
+    /// That window: the index range of its points.
+    pub window: (usize, usize),
 }
 
 /// Compare the real measure with the ensemble's, view by view (views without points are left out).
@@ -583,11 +588,11 @@ pub fn compare(plan: &Plan, real: &Measure, sims: &[Measure]) -> Vec<ViewGap> {
         if points.is_empty() {
             continue;
         }
-        if *kind != ViewKind::Distribution {
-            points.sort_by(|a, b| a.info.tau_s.total_cmp(&b.info.tau_s));
-        }
+        // Stable: the distribution's points at tau0 keep their order.
+        points.sort_by(|a, b| a.info.tau_s.total_cmp(&b.info.tau_s));
         let rms = (points.iter().map(|p| p.z * p.z).sum::<f64>() / points.len() as f64).sqrt();
-        out.push(ViewGap { view: *kind, points, rms });
+        let (a, b, gap) = super::rank::worst_window(&points);
+        out.push(ViewGap { view: *kind, points, rms, gap, window: (a, b) });
     }
     out
 }
