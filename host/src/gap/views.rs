@@ -115,6 +115,8 @@ pub struct Plan {
     levels: Vec<Level>,
     bands: Vec<PsdBand>,
     lattice_step: Option<f64>,
+    /// Block lengths (samples) of the Allan-difference kurtosis points.
+    kurt_ms: Vec<usize>,
     temp_scales: Vec<usize>,
     /// The points of each view, in [`ViewKind::ALL`] order (an empty list: the view does not apply).
     pub points: [Vec<PointInfo>; 4],
@@ -139,6 +141,8 @@ const MIN_SEG: usize = 32;
 const DECIM: usize = 8;
 /// Tail threshold of the distribution view, robust sigmas.
 pub const TAIL_SIGMA: f64 = 5.0;
+/// Fewest Allan differences a kurtosis point needs.
+const MIN_DIFFERENCES: usize = 64;
 /// Clip of the winsorised scale, in sigmas from the interquartile range.
 const WINSOR_SIGMA: f64 = 4.0;
 
@@ -234,6 +238,22 @@ impl Plan {
         if lattice_step.is_some() {
             dist_pts.push(dist_pt("lattice_share", 0.02));
         }
+        // The kurtosis of the Allan differences at octave taus from 2 tau0, while there are enough of them.
+        let mut kurt_ms = Vec::new();
+        let mut m = 2usize;
+        while n / m > MIN_DIFFERENCES {
+            let tau = m as f64 * tau0;
+            let k = (n / m - 1) as f64;
+            dist_pts.push(PointInfo {
+                label: "difference_kurtosis",
+                tau_s: tau,
+                tau_lo_s: tau / std::f64::consts::SQRT_2,
+                tau_hi_s: tau * std::f64::consts::SQRT_2,
+                floor_sd: 0.05 + (24.0 / k).sqrt(),
+            });
+            kurt_ms.push(m);
+            m *= 2;
+        }
         // Temperature: octave block lengths with at least 32 blocks.
         let mut temp_scales = Vec::new();
         let mut temp_pts = Vec::new();
@@ -261,6 +281,7 @@ impl Plan {
             levels,
             bands,
             lattice_step,
+            kurt_ms,
             temp_scales,
             points: [adev_pts, psd_pts, dist_pts, temp_pts],
         }
@@ -347,7 +368,7 @@ impl Plan {
             .map(|w| w[1] - 0.5 * (w[0] + w[2]))
             .filter(|v| v.is_finite())
             .collect();
-        let k = if self.lattice_step.is_some() { 4 } else { 3 };
+        let k = if self.lattice_step.is_some() { 4 } else { 3 } + self.kurt_ms.len();
         if r.len() < 16 {
             return vec![f64::NAN; k];
         }
@@ -383,6 +404,7 @@ impl Plan {
         if let Some(q) = self.lattice_step {
             out.push(lattice_share(x, q));
         }
+        out.extend(difference_kurtosis(x, &self.kurt_ms));
         out
     }
 
@@ -447,6 +469,37 @@ fn welch(data: &[f64], l: &Level) -> Option<Vec<f64>> {
 }
 
 /// Block means of `b` samples (NaN for a block with a gap).
+/// The excess kurtosis of the differences of adjacent non-overlapping block means (the Allan differences) for
+/// each block length of `ms` (increasing octaves from 2); NaN where fewer than [`MIN_DIFFERENCES`] are free of
+/// gaps. Block means at 2m are the pairwise means at m, so all lengths cost O(n).
+fn difference_kurtosis(x: &[f64], ms: &[usize]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(ms.len());
+    let mut means: Vec<f64> = x.to_vec();
+    let mut m = 1usize;
+    for &target in ms {
+        while m < target {
+            means = means.chunks_exact(2).map(|c| 0.5 * (c[0] + c[1])).collect();
+            m *= 2;
+        }
+        let d: Vec<f64> = means.windows(2).map(|w| w[1] - w[0]).filter(|v| v.is_finite()).collect();
+        if d.len() < MIN_DIFFERENCES {
+            out.push(f64::NAN);
+            continue;
+        }
+        let n = d.len() as f64;
+        let mean = d.iter().sum::<f64>() / n;
+        let (mut m2, mut m4) = (0.0, 0.0);
+        for v in &d {
+            let e = (v - mean) * (v - mean);
+            m2 += e;
+            m4 += e * e;
+        }
+        let (m2, m4) = (m2 / n, m4 / n);
+        out.push(if m2 > 0.0 { m4 / (m2 * m2) - 3.0 } else { f64::NAN });
+    }
+    out
+}
+
 fn block_means(x: &[f64], b: usize) -> Vec<f64> {
     x.chunks_exact(b).map(|c| c.iter().sum::<f64>() / b as f64).collect()
 }
