@@ -222,6 +222,10 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
     let shrink = r.holdout.as_ref().map_or(f64::NAN, |h| h.shrink);
     if std::env::var_os("GAP_WITHHELD_VERBOSE").is_some() {
         eprintln!("  base gap {:?} holdout {:?}\n  base model {:?}", r.training, r.holdout, r.base);
+        eprintln!(
+            "  truth N {:.4e} B {:.4e} K {:.4e}",
+            c.model.n_deg_per_rt_s, c.model.b_dps, c.model.k_dps_per_rt_s
+        );
         for v in &r.base_eval.training {
             let zs: Vec<String> = v.points.iter().map(|p| format!("{}@{:.2e}:{:.1}", p.info.label, p.info.tau_s, p.z)).collect();
             eprintln!("  view {:?} rms {:.2} gap {:.2}: {}", v.view, v.rms, v.gap, zs.join(" "));
