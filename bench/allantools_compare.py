@@ -3,9 +3,9 @@
 
 Runs allantools.oadev(y, rate, data_type="freq", taus="octave") in this process (compute time: from the array in
 memory to the deviations; end-to-end: from the file), runs `octavar analyze FILE --format f64le --json` as a
-subprocess (end-to-end) and octavar's own compute timing (the `analyze` bench: Series::new + OADEV at octave tau
-with noise identification, EDF and intervals, from the array in memory), and checks that every common tau agrees
-within 1e-9 relative.
+subprocess (end-to-end) and octavar's own compute timing (the `analyze` bench: `stats::analyze` from the array in
+memory to OADEV at octave tau, deviations and counts, and again with noise identification, EDF and intervals), and
+checks that every common tau agrees within 1e-9 relative.
 
 usage: allantools_compare.py RATE_FILE.f64 OCTAVAR_BIN BENCH_BIN [--rate HZ] [--reps N]
 """

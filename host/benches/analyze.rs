@@ -3,11 +3,13 @@
 //!
 //! `cargo bench -p octavar --bench analyze` times a deterministic 1e7-sample record; with arguments
 //! `FILE.f64 RATE_HZ REPS` it reads that raw f64le file instead and prints one JSON line
-//! `{"compute_s", "series_s", "stride", "oadev": [[m, dev], ...]}` (used by the comparison script).
+//! `{"compute_s", "compute_plain_s", "stride", "oadev": [[m, dev], ...]}` (used by the comparison script). Both
+//! times are `analyze` from the array in memory: the phase, its OADEV at octave tau, and (compute_s) the noise
+//! identification, EDF and intervals.
 
 use std::time::Instant;
 
-use octavar::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
+use octavar::stats::{analyze, DataKind, Options, Statistic, TauSpec};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
@@ -26,16 +28,11 @@ fn main() {
         (y, 1.0, 7, false)
     };
     let opts = Options::default();
-    let (mut best, mut best_series, mut rows) = (f64::INFINITY, f64::INFINITY, Vec::new());
+    let (mut best, mut rows) = (f64::INFINITY, Vec::new());
     for _ in 0..reps.max(1) {
         let t0 = Instant::now();
-        let series = Series::new(&y, DataKind::Frequency, 1.0 / rate).unwrap();
-        let t1 = t0.elapsed().as_secs_f64();
-        rows = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &opts).unwrap();
-        let t = t0.elapsed().as_secs_f64();
-        best = best.min(t);
-        best_series = best_series.min(t1);
-        drop(series);
+        rows = analyze(&y, DataKind::Frequency, 1.0 / rate, Statistic::Oadev, &TauSpec::Octave, &opts).unwrap();
+        best = best.min(t0.elapsed().as_secs_f64());
     }
     // Like for like with allantools' oadev, which returns deviations, counts and dev/sqrt(n): no noise
     // identification, EDF or chi-square intervals.
@@ -43,26 +40,24 @@ fn main() {
     let mut best_plain = f64::INFINITY;
     for _ in 0..reps.max(1) {
         let t0 = Instant::now();
-        let series = Series::new(&y, DataKind::Frequency, 1.0 / rate).unwrap();
-        let r = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &plain).unwrap();
+        let r = analyze(&y, DataKind::Frequency, 1.0 / rate, Statistic::Oadev, &TauSpec::Octave, &plain).unwrap();
         best_plain = best_plain.min(t0.elapsed().as_secs_f64());
         assert_eq!(r.len(), rows.len());
     }
     if json {
         let pts: Vec<String> = rows.iter().map(|p| format!("[{}, {:e}]", p.m, p.dev)).collect();
         println!(
-            "{{\"compute_s\": {best}, \"compute_plain_s\": {best_plain}, \"series_s\": {best_series}, \"stride\": {}, \"oadev\": [{}]}}",
+            "{{\"compute_s\": {best}, \"compute_plain_s\": {best_plain}, \"stride\": {}, \"oadev\": [{}]}}",
             octavar::streaming::DEFAULT_STRIDE,
             pts.join(", ")
         );
     } else {
         println!(
-            "OADEV octave, {} samples, {} taus: {:.1} ms deviations only, {:.1} ms with noise ID + EDF + intervals (Series::new {:.1} ms), best of {}",
+            "OADEV octave, {} samples, {} taus: {:.1} ms deviations only, {:.1} ms with noise ID + EDF + intervals, best of {}",
             y.len(),
             rows.len(),
             best_plain * 1e3,
             best * 1e3,
-            best_series * 1e3,
             reps
         );
     }

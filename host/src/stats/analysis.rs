@@ -99,7 +99,16 @@ pub fn analyze(
     taus: &TauSpec,
     opts: &Options,
 ) -> Result<Vec<DevPoint>, StatsError> {
-    let series = Series::new(data, kind, tau0_s)?;
+    let series = if stat == Statistic::Oadev && opts.parallel {
+        // The smaller averaging factors are summed in the pass that builds the phase.
+        Series::with_oadev(data, kind, tau0_s, |n_phase| {
+            averaging_factors(taus, stat.stop_ratio(), stat.m_limit(n_phase), n_phase, tau0_s)
+                .map(|ms| ms.iter().map(|&m| m as usize).collect())
+                .unwrap_or_default()
+        })?
+    } else {
+        Series::new(data, kind, tau0_s)?
+    };
     analyze_series(&series, stat, taus, opts)
 }
 

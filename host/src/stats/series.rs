@@ -20,10 +20,64 @@
 
 use rayon::prelude::*;
 
+use super::deviation::oadev_range_sums;
 use super::error::StatsError;
 
 /// Work unit of the parallel passes over the samples.
 const CHUNK: usize = 1 << 18;
+/// Segment of the frequency integration: each starts from its own offset (from the scan's segment sums). Not a
+/// power of two: the interleaved segments then fall into different cache sets (576 bytes apart modulo 4 KiB).
+const SEG: usize = (1 << 15) + 72;
+/// Segments integrated together by one thread, interleaved (independent running sums: the additions overlap
+/// instead of waiting for each other).
+const LANES: usize = 8;
+
+/// Sum of the non-NaN samples of `ch` less `reference`, and their number (eight lanes: vectorises).
+fn scan_segment(ch: &[f64], reference: f64) -> (f64, usize) {
+    let (mut s, mut n) = ([0.0f64; 8], [0u64; 8]);
+    let mut it = ch.chunks_exact(8);
+    for q in &mut it {
+        for k in 0..8 {
+            let v = q[k];
+            let ok = !v.is_nan();
+            s[k] += if ok { v - reference } else { 0.0 };
+            n[k] += ok as u64;
+        }
+    }
+    for (k, &v) in it.remainder().iter().enumerate() {
+        let ok = !v.is_nan();
+        s[k] += if ok { v - reference } else { 0.0 };
+        n[k] += ok as u64;
+    }
+    (s.iter().sum(), n.iter().sum::<u64>() as usize)
+}
+
+/// Phase of up to LANES consecutive segments of SEG samples: `o[k] = off[seg] + sum_{j <= k in seg} (y[j] -
+/// mean) tau0` (a NaN sample adds 0), the segments advanced together while they are all whole.
+fn integrate_lanes(o: &mut [std::mem::MaybeUninit<f64>], y: &[f64], off: &[f64], mean: f64, tau0_s: f64) {
+    let step = |v: f64| if v.is_nan() { 0.0 } else { (v - mean) * tau0_s };
+    if y.len() == LANES * SEG && off.len() == LANES {
+        let mut acc: [f64; LANES] = off.try_into().unwrap();
+        let (ys, os) = (y.as_ptr(), o.as_mut_ptr());
+        for j in 0..SEG {
+            for (l, a) in acc.iter_mut().enumerate() {
+                // SAFETY: l SEG + j < LANES SEG = y.len() = o.len().
+                unsafe {
+                    *a += step(*ys.add(l * SEG + j));
+                    (*os.add(l * SEG + j)).write(*a);
+                }
+            }
+        }
+        return;
+    }
+    for ((o, y), &off) in o.chunks_mut(SEG).zip(y.chunks(SEG)).zip(off) {
+        let mut s = off;
+        for (o, &v) in o.iter_mut().zip(y) {
+            s += step(v);
+            o.write(s);
+        }
+    }
+}
 
 /// An empty vector with room for `n` phase points; a large one is backed by transparent huge pages where the
 /// kernel offers them (Linux `madvise`), which cuts the page faults of its first write by 512.
@@ -70,7 +124,16 @@ pub struct Series {
     pub(crate) prefix: std::sync::OnceLock<(Vec<f64>, Vec<f64>)>,
     /// Sums of x over consecutive blocks of [`COARSE`] points, built on first use by [`Series::mvar_coarse`].
     pub(crate) coarse: std::sync::OnceLock<Vec<f64>>,
+    /// OADEV sums `(m, sum_i (x[i+2m] - 2x[i+m] + x[i])^2)` taken while the phase was written (see
+    /// [`Series::with_oadev`]); empty for [`Series::new`].
+    pub(crate) oadev_fused: Vec<(usize, f64)>,
 }
+
+/// The largest averaging factor whose OADEV sum [`Series::with_oadev`] takes in the integration pass.
+pub(crate) const FUSED_MAX_M: usize = 1 << 13;
+/// Samples per group of the frequency integration: LANES segments, in cache while their OADEV terms are summed.
+const GROUP_LEN: usize = LANES * SEG;
+const _: () = assert!(2 * FUSED_MAX_M <= GROUP_LEN);
 
 /// Block length of the coarse phase sums.
 pub(crate) const COARSE: usize = 1 << 12;
@@ -84,6 +147,30 @@ impl Series {
     /// [`StatsError::BadTau0`], [`StatsError::Infinite`], or [`StatsError::TooFewSamples`] when fewer than 3 phase
     /// points remain after trimming NaNs at both ends.
     pub fn new(data: &[f64], kind: DataKind, tau0_s: f64) -> Result<Self, StatsError> {
+        Series::build(data, kind, tau0_s, |_| Vec::new())
+    }
+
+    /// As [`Series::new`], and the OADEV sums of the averaging factors `oadev_ms(n_phase)` up to [`FUSED_MAX_M`]
+    /// taken in the same pass, from the phase while it is still in cache (a record without gaps; otherwise
+    /// none). [`super::deviation::estimate_many`] uses them.
+    ///
+    /// # Errors
+    /// As [`Series::new`].
+    pub(crate) fn with_oadev(
+        data: &[f64],
+        kind: DataKind,
+        tau0_s: f64,
+        oadev_ms: impl FnOnce(usize) -> Vec<usize>,
+    ) -> Result<Self, StatsError> {
+        Series::build(data, kind, tau0_s, oadev_ms)
+    }
+
+    fn build(
+        data: &[f64],
+        kind: DataKind,
+        tau0_s: f64,
+        oadev_ms: impl FnOnce(usize) -> Vec<usize>,
+    ) -> Result<Self, StatsError> {
         if !(tau0_s > 0.0 && tau0_s.is_finite()) {
             return Err(StatsError::BadTau0 { tau0_s });
         }
@@ -94,27 +181,19 @@ impl Series {
             DataKind::Phase => d.len(),
             DataKind::Frequency => d.len() + 1,
         };
-        // One parallel scan: per chunk the sum of the valid samples less a reference (the first sample, which is
-        // valid after trimming: the chunk sums stay small and exact enough to give each chunk's offset), their
-        // number, and the first infinity.
+        // One parallel scan: per segment of SEG samples the sum of the valid samples less a reference (the first
+        // sample, which is valid after trimming: the segment sums stay small and exact enough to give each
+        // segment's offset) and their number. No branch per sample: an infinity makes the segment's sum
+        // non-finite, and only then is the segment searched for it.
         let reference = d.first().copied().unwrap_or(0.0);
         let reference = if reference.is_finite() { reference } else { 0.0 };
         let chunks: Vec<(f64, usize, Option<usize>)> = d
-            .par_chunks(CHUNK)
+            .par_chunks(SEG)
             .enumerate()
             .map(|(c, ch)| {
-                let (mut s, mut n, mut inf) = ([0.0f64; 8], [0usize; 8], None);
-                for (j, q) in ch.chunks(8).enumerate() {
-                    for (k, &v) in q.iter().enumerate() {
-                        if v.is_infinite() {
-                            inf = inf.or(Some(c * CHUNK + j * 8 + k));
-                        }
-                        let ok = !v.is_nan();
-                        s[k] += if ok { v - reference } else { 0.0 };
-                        n[k] += ok as usize;
-                    }
-                }
-                (s.iter().sum::<f64>(), n.iter().sum::<usize>(), inf)
+                let (s, n) = scan_segment(ch, reference);
+                let inf = if s.is_finite() { None } else { ch.iter().position(|v| v.is_infinite()) };
+                (s, n, inf.map(|k| c * SEG + k))
             })
             .collect();
         if let Some(i) = chunks.iter().find_map(|c| c.2) {
@@ -140,13 +219,13 @@ impl Series {
         });
         let mut x = phase_vec(n_phase);
         let out = &mut x.spare_capacity_mut()[..n_phase];
+        let mut fused = (Vec::new(), Vec::new());
         match kind {
             DataKind::Frequency => {
                 let shift = chunks.iter().map(|c| c.0).sum::<f64>() / n_valid as f64; // mean - reference
                 let mean = reference + shift;
-                let step = |v: f64| if v.is_nan() { 0.0 } else { (v - mean) * tau0_s };
-                // Chunk offsets from the chunk sums of the scan: each chunk then integrates from its offset, in
-                // the same pass that writes the phase (the array is written once).
+                // Segment offsets from the segment sums of the scan: each segment then integrates from its
+                // offset, in the same pass that writes the phase (the array is written once).
                 let mut offsets = Vec::with_capacity(chunks.len());
                 let mut acc = 0.0;
                 for &(s, n, _) in &chunks {
@@ -154,15 +233,37 @@ impl Series {
                     acc += (s - n as f64 * shift) * tau0_s;
                 }
                 out[0].write(0.0);
-                out[1..].par_chunks_mut(CHUNK).zip(d.par_chunks(CHUNK)).zip(offsets.par_iter()).for_each(
-                    |((o, ch), &off)| {
-                        let mut s = off;
-                        for (o, &v) in o.iter_mut().zip(ch) {
-                            s += step(v);
-                            o.write(s);
-                        }
-                    },
-                );
+                // LANES segments at a time on each thread, interleaved: LANES independent running sums; then,
+                // while that group's phase is in cache, the OADEV terms that lie inside it.
+                let mut ms: Vec<usize> =
+                    if bad.is_none() { oadev_ms(n_phase) } else { Vec::new() };
+                ms.retain(|&m| m > 0 && m <= FUSED_MAX_M && 2 * m < n_phase);
+                ms.sort_unstable();
+                ms.dedup();
+                let sums = out[1..]
+                    .par_chunks_mut(GROUP_LEN)
+                    .zip(d.par_chunks(GROUP_LEN))
+                    .zip(offsets.par_chunks(LANES))
+                    .fold(
+                        || vec![0.0f64; ms.len()],
+                        |mut acc, ((o, ch), off)| {
+                            integrate_lanes(o, ch, off, mean, tau0_s);
+                            if !ms.is_empty() {
+                                // SAFETY: integrate_lanes wrote every element of o.
+                                let xs = unsafe { &*(o as *const [std::mem::MaybeUninit<f64>] as *const [f64]) };
+                                oadev_range_sums(xs, &ms, 0, xs.len(), &mut acc);
+                            }
+                            acc
+                        },
+                    )
+                    .reduce(
+                        || vec![0.0f64; ms.len()],
+                        |mut a, b| {
+                            a.iter_mut().zip(&b).for_each(|(u, v)| *u += v);
+                            a
+                        },
+                    );
+                fused = (ms, sums);
             }
             DataKind::Phase => {
                 // Remove the line through the first and last points (both valid after trimming).
@@ -179,7 +280,40 @@ impl Series {
         }
         // SAFETY: every one of the n_phase elements was written above.
         unsafe { x.set_len(n_phase) };
-        Ok(Series { kind, tau0_s, x, bad, prefix: std::sync::OnceLock::new(), coarse: std::sync::OnceLock::new() })
+        let (ms, mut sums) = fused;
+        if !ms.is_empty() {
+            // The terms that cross from one group into the next (or start at x[0]): i in [b - 2m, b) for each
+            // group start b = 1 + g GROUP_LEN (2m <= GROUP_LEN: one boundary per term at most).
+            let extra = (0..n_phase - 1)
+                .step_by(GROUP_LEN)
+                .par_bridge()
+                .map(|g| {
+                    let b = g + 1;
+                    let mut acc = vec![0.0f64; ms.len()];
+                    for (k, &m) in ms.iter().enumerate() {
+                        oadev_range_sums(&x, &ms[k..k + 1], b.saturating_sub(2 * m), b, &mut acc[k..k + 1]);
+                    }
+                    acc
+                })
+                .reduce(
+                    || vec![0.0f64; ms.len()],
+                    |mut a, b| {
+                        a.iter_mut().zip(&b).for_each(|(u, v)| *u += v);
+                        a
+                    },
+                );
+            sums.iter_mut().zip(&extra).for_each(|(u, v)| *u += v);
+        }
+        let oadev_fused = ms.into_iter().zip(sums).collect();
+        Ok(Series {
+            kind,
+            tau0_s,
+            x,
+            bad,
+            prefix: std::sync::OnceLock::new(),
+            coarse: std::sync::OnceLock::new(),
+            oadev_fused,
+        })
     }
 
     /// Whether phase point k is missing (phase data) or interval [k, k+1) is (frequency data).
