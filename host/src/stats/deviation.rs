@@ -242,6 +242,8 @@ const MANY_BLOCK: usize = 1 << 14;
 const FAR_PITCH: usize = 1 << 14;
 /// Width of one column of [`oadev_sums`] (eight cache lines): a column of a 1e7-point record is 300 KB, in L2.
 const FAR_WIDTH: usize = 64;
+/// Rows ahead that the gather of a far column prefetches.
+const PREFETCH_ROWS: usize = 6;
 /// Start indices per block of the near levels of [`oadev_sums`].
 const NEAR_BLOCK: usize = 4096;
 /// Levels summed together by one pass of the kernel (registers: one accumulator each).
@@ -361,12 +363,25 @@ fn far_column(x: &[f64], far_ms: &[usize], r0: usize, kernel: Kernel, buf: &mut 
     }
     // Row q holds x[r0 + q P .. + W] (the last row cut at the end of the record, padded with zeros never read).
     let rows = (n - r0).div_ceil(FAR_PITCH);
-    buf.clear();
+    // (Zeroed once per buffer size: the rows are overwritten, only the padding keeps its zeros.)
     buf.resize(rows * FAR_WIDTH, 0.0);
     for q in 0..rows {
         let a = r0 + q * FAR_PITCH;
+        // The rows are FAR_PITCH apart (one cache set each): ask for a row a few ahead while this one is copied.
+        #[cfg(target_arch = "x86_64")]
+        if a + PREFETCH_ROWS * FAR_PITCH + FAR_WIDTH <= n {
+            for l in (0..FAR_WIDTH).step_by(8) {
+                // SAFETY: a prefetch hint on an address inside x; nothing is read or written.
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                        x.as_ptr().add(a + PREFETCH_ROWS * FAR_PITCH + l) as *const i8,
+                    )
+                };
+            }
+        }
         let b = (a + FAR_WIDTH).min(n);
         buf[q * FAR_WIDTH..q * FAR_WIDTH + (b - a)].copy_from_slice(&x[a..b]);
+        buf[q * FAR_WIDTH + (b - a)..(q + 1) * FAR_WIDTH].fill(0.0);
     }
     // Term (q, l) exists when r0 + q P + l + 2m <= n - 1. Whole rows: q + 2j <= (n - 1 - r0 - (W - 1)) / P.
     let last = n - 1 - r0; // the largest offset from r0 inside the record
