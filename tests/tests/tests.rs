@@ -5,6 +5,7 @@ mod fit_coverage;
 mod gap_real;
 mod gap_withheld;
 mod corruption;
+mod demo_bench;
 mod pipeline;
 mod qemu;
 mod reference_adis;

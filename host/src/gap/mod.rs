@@ -191,6 +191,10 @@ pub struct GapOptions {
     /// A base fit made elsewhere on the training part (for example on the device's full-rate snapshot when the
     /// record diagnosed is a decimated one, whose short taus cannot show N); `None`: fit the training record.
     pub base_fit: Option<NoiseFit>,
+    /// When each sample of the record is the mean of a block of the sensor's samples: the ensemble members are
+    /// simulated at this many times the record's rate and averaged the same way (see
+    /// [`ensemble::Record::oversample`]); 1 (the default) for a record at the sensor's own rate.
+    pub oversample: usize,
 }
 
 impl Default for GapOptions {
@@ -202,6 +206,7 @@ impl Default for GapOptions {
             fit: FitOptions::default(),
             effects: Effect::ALL.to_vec(),
             base_fit: None,
+            oversample: 1,
         }
     }
 }
@@ -230,7 +235,13 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     }
     let fs = input.fs_hz;
     let temp = input.temp_c.as_deref().map(fill_gaps);
-    let rec = ensemble::Record { rate_dps: &input.rate_dps, temp_c: temp.as_deref(), fs_hz: fs, n_train };
+    let rec = ensemble::Record {
+        rate_dps: &input.rate_dps,
+        temp_c: temp.as_deref(),
+        fs_hz: fs,
+        n_train,
+        oversample: opts.oversample.max(1),
+    };
     let total_steps = 2 + opts.effects.len();
     progress("base fit", 0, total_steps);
 
