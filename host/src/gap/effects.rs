@@ -422,23 +422,6 @@ fn refit_base(base: &GyroSim, cleaned: &[f64], fs: f64) -> Option<(GyroSim, [f64
     Some((g, f.squares))
 }
 
-/// Like [`refit_base`], but every term the base model has is kept and only its size re-fitted (non-negative
-/// least squares on the log-domain chi-square, [`joint_fit`]), instead of choosing the terms again by AIC. For
-/// the temperature: once the coupling is out, a random walk of the real bias is a weak +1/2 slope in the last
-/// octaves that AIC may drop; simulated without it, the members follow the temperature more closely than the
-/// real gyro does (correlation 0.93 against 0.86 on the demo's IDG1215 Y).
-fn refit_sizes(base: &GyroSim, cleaned: &[f64], fs: f64) -> Option<GyroSim> {
-    let pts = oadev_points(cleaned, fs);
-    let mut cols = base_columns(&pts, fs, base.bandwidth_hz);
-    if base.r_dps_per_s <= 0.0 {
-        cols.truncate(3);
-    }
-    let j = joint_fit(&pts, &cols)?;
-    let mut theta = j.theta;
-    theta.resize(4, 0.0);
-    Some(with_base_terms(base, &theta))
-}
-
 /// The standard normal upper tail.
 fn normal_sf(z: f64) -> f64 {
     0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)
@@ -573,7 +556,7 @@ fn temperature(d: &TrainingData) -> Option<EffectFit> {
     if !(k.abs() > 5.0 * se) {
         return None;
     }
-    let refit = refit_sizes(d.base, &cleaned_of(k, lag), d.fs_hz)?;
+    let (refit, _) = refit_base(d.base, &cleaned_of(k, lag), d.fs_hz)?;
     // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
     let c0 = mean(&r) - k * mean(&x);
     let ref_c = (d.base.bias_dps - c0) / k;
