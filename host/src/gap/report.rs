@@ -100,6 +100,10 @@ pub struct GapReport {
     pub has_temperature: bool,
 }
 
+/// How much worse a temperature coupling's score may be than the best candidate's and still be chosen, when the
+/// gap lies in the temperature view (see [`assemble`]).
+pub const DRIVER_PREFERENCE: f64 = 1.25;
+
 /// What [`assemble`] needs.
 pub(crate) struct Parts {
     pub fs_hz: f64,
@@ -162,6 +166,19 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         .iter()
         .filter(|c| c.score.is_some_and(|s| s < rank::EXPLAINS * total_before))
         .min_by(|a, b| a.score.unwrap_or(f64::INFINITY).total_cmp(&b.score.unwrap_or(f64::INFINITY)));
+    // A gap in the temperature view is a relation with a recorded channel: the coupling to that channel is the
+    // first explanation, and one without a driver (a sinusoid at the temperature's cycle) wins only when it is
+    // clearly better.
+    let best = match (&location, best) {
+        (Some(l), Some(b)) if l.view == ViewKind::Temperature && b.effect != Effect::Temperature => candidates
+            .iter()
+            .find(|c| {
+                c.effect == Effect::Temperature
+                    && c.score.is_some_and(|s| s < rank::EXPLAINS * total_before && s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0))
+            })
+            .or(Some(b)),
+        (_, b) => b,
+    };
     let chosen = if significant { best } else { None };
     let gap_after = chosen.and_then(|c| c.gap_after).unwrap_or(gap_before);
     let total_after = chosen.and_then(|c| c.total_after).unwrap_or(total_before);
