@@ -230,6 +230,20 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
             let zs: Vec<String> = v.points.iter().map(|p| format!("{}@{:.2e}:{:.1}", p.info.label, p.info.tau_s, p.z)).collect();
             eprintln!("  view {:?} rms {:.2} gap {:.2}: {}", v.view, v.rms, v.gap, zs.join(" "));
         }
+        let loc_view = r.location.as_ref().map(|l| l.view);
+        let show = |tag: &str, views: &[octavar::gap::ViewGap]| {
+            for v in views.iter().filter(|v| Some(v.view) == loc_view) {
+                let zs: Vec<String> = v.points.iter().map(|p| format!("{:.2e}:{:.1}", p.info.tau_s, p.z)).collect();
+                eprintln!("  {tag} {:?}: {}", v.view, zs.join(" "));
+            }
+        };
+        show("holdout base", &r.base_eval.holdout);
+        for cand in r.candidates.iter().filter(|c| Some(c.effect) == effect) {
+            if let Some(e) = &cand.eval {
+                show("training +effect", &e.training);
+                show("holdout +effect", &e.holdout);
+            }
+        }
         for cand in &r.candidates {
             eprintln!(
                 "  {:<13} gap_after {:?} score {:?} holdout_after {:?} {}",
