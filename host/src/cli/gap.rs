@@ -54,6 +54,11 @@ pub struct Args {
     /// Ensemble size.
     #[arg(long, value_name = "N", default_value_t = 20)]
     pub seeds: usize,
+    /// Each sample of the record is the mean of N of the sensor's samples (a decimated record, such as 1 Hz
+    /// means of a 2 kHz gyro): the ensemble is simulated at N times the rate and averaged the same way, so its
+    /// spectrum has the block mean's shape too (16 is enough for a long block).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub oversample: u32,
     /// Write the JSON document here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -95,7 +100,7 @@ impl Args {
         } else {
             GapInput::split(rec.channels.remove(0), rec.temp_c.take(), fs, self.holdout_fraction)?
         };
-        let opts = GapOptions { seeds: self.seeds, ..Default::default() };
+        let opts = GapOptions { seeds: self.seeds, oversample: self.oversample as usize, ..Default::default() };
         let bar = Mutex::new(None::<Progress>);
         let progress = |_stage: &str, done: usize, total: usize| {
             let mut b = bar.lock().expect("progress lock");
