@@ -99,6 +99,12 @@ pub fn analyze(
     taus: &TauSpec,
     opts: &Options,
 ) -> Result<Vec<DevPoint>, StatsError> {
+    if stat == Statistic::Oadev && kind == DataKind::Frequency {
+        // Long gap-free records: no phase array (see `octave`).
+        if let Some(rows) = super::octave::analyze_octave(data, tau0_s, taus, opts) {
+            return rows;
+        }
+    }
     let series = if stat == Statistic::Oadev && opts.parallel {
         // The smaller averaging factors are summed in the pass that builds the phase.
         Series::with_oadev(data, kind, tau0_s, |n_phase| {
@@ -147,9 +153,23 @@ pub fn analyze_series(
 
 /// One row at averaging factor m.
 fn point(series: &Series, stat: Statistic, m: usize, est: Estimate, opts: &Options) -> DevPoint {
+    row(m, series.tau0_s(), series.n_phase(), stat, est, opts, || identify_with(series, stat, m, Some(est.dev)))
+}
+
+/// One row at averaging factor m of a record of `n_phase` points; `identify` gives the noise type when it is
+/// identified.
+pub(crate) fn row(
+    m: usize,
+    tau0_s: f64,
+    n_phase: usize,
+    stat: Statistic,
+    est: Estimate,
+    opts: &Options,
+    identify: impl FnOnce() -> (i32, NoiseMethod),
+) -> DevPoint {
     let mut p = DevPoint {
         m: m as u64,
-        tau_s: m as f64 * series.tau0_s(),
+        tau_s: m as f64 * tau0_s,
         n: est.n as u64,
         dev: est.dev,
         alpha: 0,
@@ -163,11 +183,11 @@ fn point(series: &Series, stat: Statistic, m: usize, est: Estimate, opts: &Optio
     }
     let (alpha, method) = match opts.noise {
         NoiseSpec::Fixed(a) => (a, NoiseMethod::Fixed),
-        NoiseSpec::Auto => identify_with(series, stat, m, Some(est.dev)),
+        NoiseSpec::Auto => identify(),
     };
     p.alpha = alpha;
     p.noise_method = method;
-    p.edf = edf_for(stat, alpha, m as f64, series.n_phase() as f64);
+    p.edf = edf_for(stat, alpha, m as f64, n_phase as f64);
     let (lo, hi) = confidence_interval(est.dev, p.edf, opts.confidence);
     p.lo = lo;
     p.hi = hi;

@@ -239,11 +239,11 @@ const MANY_BLOCK: usize = 1 << 14;
 
 /// Column pitch of the far levels of [`oadev_sums`]: averaging factors that are multiples of it (and at least it)
 /// are summed column-wise.
-const FAR_PITCH: usize = 1 << 14;
+pub(crate) const FAR_PITCH: usize = 1 << 14;
 /// Width of one column of [`oadev_sums`] (eight cache lines): a column of a 1e7-point record is 300 KB, in L2.
-const FAR_WIDTH: usize = 64;
+pub(crate) const FAR_WIDTH: usize = 64;
 /// Rows ahead that the gather of a far column prefetches.
-const PREFETCH_ROWS: usize = 6;
+pub(crate) const PREFETCH_ROWS: usize = 6;
 /// Start indices per block of the near levels of [`oadev_sums`].
 const NEAR_BLOCK: usize = 4096;
 /// Levels summed together by one pass of the kernel (registers: one accumulator each).
@@ -300,21 +300,7 @@ pub(crate) fn oadev_sums(x: &[f64], ms: &[usize]) -> Vec<f64> {
             )
             .reduce(|| vec![0.0f64; near_ms.len()], add_vecs)
     };
-    let far_sums = if far_ms.is_empty() {
-        Vec::new()
-    } else {
-        (0..FAR_PITCH / FAR_WIDTH)
-            .into_par_iter()
-            .fold(
-                || (vec![0.0f64; far_ms.len()], Vec::new()),
-                |(mut acc, mut buf), c| {
-                    far_column(x, &far_ms, c * FAR_WIDTH, kernel, &mut buf, &mut acc);
-                    (acc, buf)
-                },
-            )
-            .map(|(acc, _)| acc)
-            .reduce(|| vec![0.0f64; far_ms.len()], add_vecs)
-    };
+    let far_sums = far_sums(n, &far_ms, |r0, buf| gather_column(x, r0, buf));
     let mut out = vec![0.0f64; ms.len()];
     for (k, s) in near.iter().zip(near_sums).chain(far.iter().zip(far_sums)) {
         out[*k] = s;
@@ -355,17 +341,39 @@ fn add_vecs(mut a: Vec<f64>, b: Vec<f64>) -> Vec<f64> {
     a
 }
 
-/// One column of the far levels of [`oadev_sums`]: start indices r0 + q FAR_PITCH + l, l < FAR_WIDTH.
-fn far_column(x: &[f64], far_ms: &[usize], r0: usize, kernel: Kernel, buf: &mut Vec<f64>, acc: &mut [f64]) {
-    let n = x.len();
-    if r0 >= n {
-        return;
+/// The far levels of [`oadev_sums`] (`far_ms` ascending, multiples of [`FAR_PITCH`]) of a record of `n` phase
+/// points, column by column: `fill(r0, buf)` writes row q of column r0 (`x[r0 + q FAR_PITCH + l]`, l <
+/// [`FAR_WIDTH`]) to `buf[q FAR_WIDTH + l]`, the points beyond the record as 0.
+pub(crate) fn far_sums(n: usize, far_ms: &[usize], fill: impl Fn(usize, &mut [f64]) + Sync) -> Vec<f64> {
+    if far_ms.is_empty() {
+        return Vec::new();
     }
-    // Row q holds x[r0 + q P .. + W] (the last row cut at the end of the record, padded with zeros never read).
-    let rows = (n - r0).div_ceil(FAR_PITCH);
-    // (Zeroed once per buffer size: the rows are overwritten, only the padding keeps its zeros.)
-    buf.resize(rows * FAR_WIDTH, 0.0);
-    for q in 0..rows {
+    let kernel = Kernel::detect();
+    (0..FAR_PITCH / FAR_WIDTH)
+        .into_par_iter()
+        .fold(
+            || (vec![0.0f64; far_ms.len()], Vec::new()),
+            |(mut acc, mut buf), c| {
+                let r0 = c * FAR_WIDTH;
+                if r0 < n {
+                    let rows = (n - r0).div_ceil(FAR_PITCH);
+                    // (Zeroed once per buffer size: fill overwrites the rows.)
+                    buf.resize(rows * FAR_WIDTH, 0.0);
+                    fill(r0, &mut buf[..rows * FAR_WIDTH]);
+                    far_column(n, far_ms, r0, kernel, &buf[..rows * FAR_WIDTH], &mut acc);
+                }
+                (acc, buf)
+            },
+        )
+        .map(|(acc, _)| acc)
+        .reduce(|| vec![0.0f64; far_ms.len()], add_vecs)
+}
+
+/// Row q of column r0 of the far levels: `x[r0 + q P .. + W]` (the last row cut at the end of the record, padded
+/// with zeros never read).
+fn gather_column(x: &[f64], r0: usize, buf: &mut [f64]) {
+    let n = x.len();
+    for (q, row) in buf.chunks_exact_mut(FAR_WIDTH).enumerate() {
         let a = r0 + q * FAR_PITCH;
         // The rows are FAR_PITCH apart (one cache set each): ask for a row a few ahead while this one is copied.
         #[cfg(target_arch = "x86_64")]
@@ -380,9 +388,13 @@ fn far_column(x: &[f64], far_ms: &[usize], r0: usize, kernel: Kernel, buf: &mut 
             }
         }
         let b = (a + FAR_WIDTH).min(n);
-        buf[q * FAR_WIDTH..q * FAR_WIDTH + (b - a)].copy_from_slice(&x[a..b]);
-        buf[q * FAR_WIDTH + (b - a)..(q + 1) * FAR_WIDTH].fill(0.0);
+        row[..b - a].copy_from_slice(&x[a..b]);
+        row[b - a..].fill(0.0);
     }
+}
+
+/// One column of the far levels: start indices r0 + q FAR_PITCH + l, l < FAR_WIDTH, from its rows in `buf`.
+fn far_column(n: usize, far_ms: &[usize], r0: usize, kernel: Kernel, buf: &[f64], acc: &mut [f64]) {
     // Term (q, l) exists when r0 + q P + l + 2m <= n - 1. Whole rows: q + 2j <= (n - 1 - r0 - (W - 1)) / P.
     let last = n - 1 - r0; // the largest offset from r0 inside the record
     let whole = if last + 1 >= FAR_WIDTH { (last + 1 - FAR_WIDTH) / FAR_PITCH + 1 } else { 0 };

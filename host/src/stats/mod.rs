@@ -5,6 +5,7 @@
 //! - [`deviation`]: ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, TOTDEV in O(N) per tau;
 //! - [`noise_id`]: power-law noise identification (lag-1 autocorrelation, B1/R(n) fallback);
 //! - [`edf`]: equivalent degrees of freedom (Greenhall's algorithm, SP 1065 formulas) and chi-square intervals;
+//! - `octave`: OADEV of long frequency records without the phase array (the path [`analyze`] takes there);
 //! - [`analysis`]: all of it in one call, one row per tau, like a Stable32 table.
 
 pub mod analysis;
@@ -12,6 +13,7 @@ pub mod deviation;
 pub mod edf;
 pub mod error;
 pub mod noise_id;
+mod octave;
 pub mod series;
 pub mod taus;
 

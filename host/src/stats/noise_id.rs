@@ -53,6 +53,17 @@ pub fn acf_noise_id(series: &Series, m: usize, dmax: u32) -> Option<(i32, f64)> 
         DataKind::Phase => x.len().div_ceil(m),
         DataKind::Frequency => (x.len() - 1) / m,
     };
+    acf_noise_id_from(series.kind, total, dmax, |j0, j1| averages(series, m, j0, j1))
+}
+
+/// As [`acf_noise_id`], with `total` points at the averaging factor and `averages(j0, j1)` giving points j0..j1
+/// (what `averages` gives for a [`Series`]).
+pub(crate) fn acf_noise_id_from(
+    kind: DataKind,
+    total: usize,
+    dmax: u32,
+    averages: impl Fn(usize, usize) -> Vec<f64>,
+) -> Option<(i32, f64)> {
     if total < ACF_MIN_POINTS {
         return None;
     }
@@ -61,11 +72,11 @@ pub fn acf_noise_id(series: &Series, m: usize, dmax: u32) -> Option<(i32, f64)> 
     } else {
         (0..ACF_RUNS).map(|r| (r * (total - ACF_RUN) / (ACF_RUNS - 1), ACF_RUN)).map(|(a, n)| (a, a + n)).collect()
     };
-    let deg = if series.kind == DataKind::Phase { 2 } else { 1 };
+    let deg = if kind == DataKind::Phase { 2 } else { 1 };
     let mut vs: Vec<Vec<f64>> = runs
         .iter()
         .map(|&(j0, j1)| {
-            let mut v = averages(series, m, j0, j1);
+            let mut v = averages(j0, j1);
             detrend(&mut v, deg);
             v
         })
@@ -75,7 +86,7 @@ pub fn acf_noise_id(series: &Series, m: usize, dmax: u32) -> Option<(i32, f64)> 
         let r1 = pooled_lag1_acf(&vs);
         let rho = r1 / (1.0 + r1);
         if rho < 0.25 || d >= dmax || vs.iter().any(|v| v.len() < 3) {
-            let add = if series.kind == DataKind::Phase { 2.0 } else { 0.0 };
+            let add = if kind == DataKind::Phase { 2.0 } else { 0.0 };
             let p = -2.0 * (rho + d as f64);
             let alpha_int = (-(2.0 * rho).round_ties_even() - 2.0 * d as f64 + add) as i32;
             return Some((alpha_int, p + add));
@@ -265,16 +276,44 @@ pub fn b1_noise_id_with(
         }
         k += m;
     }
+    let avar_dev = || match known_dev {
+        Some(d) => Some(d),
+        None => estimate(series, avar_stat, m).map(|e| e.dev),
+    };
+    let oavar = || match (avar_stat, known_dev) {
+        (Statistic::Oadev, Some(d)) => Some(d * d),
+        _ => estimate(series, Statistic::Oadev, m).map(|e| e.dev.powi(2)),
+    };
+    b1_decide(
+        &ybar,
+        m,
+        min_alpha,
+        avar_dev,
+        oavar,
+        || series.mvar_coarse(m),
+        || estimate(series, Statistic::Mdev, m).map(|e| e.dev.powi(2)),
+    )
+}
+
+/// The B1 / R(n) decision from the frequency averages `ybar` at m: `avar_dev` gives the Allan deviation of the
+/// denominator, `oavar` the overlapping Allan variance, `mvar_coarse` a cheap strided MVAR when there is one
+/// (tried first) and `mvar` the exact MVAR (each asked only when needed).
+pub(crate) fn b1_decide(
+    ybar: &[f64],
+    m: usize,
+    min_alpha: i32,
+    avar_dev: impl FnOnce() -> Option<f64>,
+    oavar: impl FnOnce() -> Option<f64>,
+    mvar_coarse: impl FnOnce() -> Option<f64>,
+    mvar: impl FnOnce() -> Option<f64>,
+) -> Option<i32> {
     let nb = ybar.len();
     if nb < 3 {
         return None;
     }
     let mean = ybar.iter().sum::<f64>() / nb as f64;
     let var = ybar.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (nb as f64 - 1.0);
-    let avar_dev = match known_dev {
-        Some(d) => d,
-        None => estimate(series, avar_stat, m)?.dev,
-    };
+    let avar_dev = avar_dev()?;
     let avar = avar_dev.powi(2);
     if !(avar > 0.0) {
         return None;
@@ -297,20 +336,17 @@ pub fn b1_noise_id_with(
     if m == 1 {
         return Some(2);
     }
-    let oavar = match (avar_stat, known_dev) {
-        (Statistic::Oadev, Some(d)) => d * d,
-        _ => estimate(series, Statistic::Oadev, m)?.dev.powi(2),
-    };
+    let oavar = oavar()?;
     let boundary = (rn_theory(m as f64, 0) * rn_theory(m as f64, -1)).sqrt();
     // A long record first tries MVAR from its coarse window sums (strided, cheap); only a ratio within 10% of the
     // boundary takes the exact MVAR.
-    if let Some(mvar) = series.mvar_coarse(m) {
+    if let Some(mvar) = mvar_coarse() {
         let rn = mvar / oavar;
         if (rn / boundary).ln().abs() > 0.1 {
             return Some(if rn > boundary { 1 } else { 2 });
         }
     }
-    let mvar = estimate(series, Statistic::Mdev, m)?.dev.powi(2);
+    let mvar = mvar()?;
     let rn = mvar / oavar;
     Some(if rn > boundary { 1 } else { 2 })
 }

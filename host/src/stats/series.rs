@@ -27,10 +27,10 @@ use super::error::StatsError;
 const CHUNK: usize = 1 << 18;
 /// Segment of the frequency integration: each starts from its own offset (from the scan's segment sums). Not a
 /// power of two: the interleaved segments then fall into different cache sets (576 bytes apart modulo 4 KiB).
-const SEG: usize = (1 << 15) + 72;
+pub(crate) const SEG: usize = (1 << 15) + 72;
 /// Segments integrated together by one thread, interleaved (independent running sums: the additions overlap
 /// instead of waiting for each other).
-const LANES: usize = 8;
+pub(crate) const LANES: usize = 8;
 
 /// Sum of the non-NaN samples of `ch` less `reference`, and their number (eight lanes: vectorises).
 fn scan_segment(ch: &[f64], reference: f64) -> (f64, usize) {
@@ -52,9 +52,28 @@ fn scan_segment(ch: &[f64], reference: f64) -> (f64, usize) {
     (s.iter().sum(), n.iter().sum::<u64>() as usize)
 }
 
+/// One parallel scan of the trimmed record `d`: per segment of SEG samples the sum of the valid samples less a
+/// reference (the first sample, which is valid after trimming: the segment sums stay small and exact enough to
+/// give each segment's offset), their number, and the index of the first infinity when the segment has one. No
+/// branch per sample: an infinity makes the segment's sum non-finite, and only then is the segment searched for it.
+pub(crate) fn scan(d: &[f64]) -> (f64, Vec<(f64, usize, Option<usize>)>) {
+    let reference = d.first().copied().unwrap_or(0.0);
+    let reference = if reference.is_finite() { reference } else { 0.0 };
+    let chunks = d
+        .par_chunks(SEG)
+        .enumerate()
+        .map(|(c, ch)| {
+            let (s, n) = scan_segment(ch, reference);
+            let inf = if s.is_finite() { None } else { ch.iter().position(|v| v.is_infinite()) };
+            (s, n, inf.map(|k| c * SEG + k))
+        })
+        .collect();
+    (reference, chunks)
+}
+
 /// Phase of up to LANES consecutive segments of SEG samples: `o[k] = off[seg] + sum_{j <= k in seg} (y[j] -
 /// mean) tau0` (a NaN sample adds 0), the segments advanced together while they are all whole.
-fn integrate_lanes(o: &mut [std::mem::MaybeUninit<f64>], y: &[f64], off: &[f64], mean: f64, tau0_s: f64) {
+pub(crate) fn integrate_lanes(o: &mut [std::mem::MaybeUninit<f64>], y: &[f64], off: &[f64], mean: f64, tau0_s: f64) {
     let step = |v: f64| if v.is_nan() { 0.0 } else { (v - mean) * tau0_s };
     if y.len() == LANES * SEG && off.len() == LANES {
         let mut acc: [f64; LANES] = off.try_into().unwrap();
@@ -99,6 +118,25 @@ fn phase_vec(n: usize) -> Vec<f64> {
     v
 }
 
+/// The strided MVAR at m (a multiple of [`COARSE`]) from the sums `q` of the phase over consecutive blocks of
+/// COARSE points (see [`Series::mvar_coarse`]).
+pub(crate) fn mvar_from_coarse(q: &[f64], m: usize, tau0_s: f64) -> Option<f64> {
+    let w = m / COARSE;
+    let n_terms = (q.len() + 1).checked_sub(3 * w)?;
+    if n_terms == 0 {
+        return None;
+    }
+    let win = |b: usize| q[b..b + w].iter().sum::<f64>();
+    let sum: f64 = (0..n_terms)
+        .map(|b| {
+            let v = win(b + 2 * w) - 2.0 * win(b + w) + win(b);
+            v * v
+        })
+        .sum();
+    let (mf, tau) = (m as f64, m as f64 * tau0_s);
+    Some(sum / (2.0 * mf * mf * n_terms as f64) / (tau * tau))
+}
+
 /// What a sample is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DataKind {
@@ -132,7 +170,7 @@ pub struct Series {
 /// The largest averaging factor whose OADEV sum [`Series::with_oadev`] takes in the integration pass.
 pub(crate) const FUSED_MAX_M: usize = 1 << 13;
 /// Samples per group of the frequency integration: LANES segments, in cache while their OADEV terms are summed.
-const GROUP_LEN: usize = LANES * SEG;
+pub(crate) const GROUP_LEN: usize = LANES * SEG;
 const _: () = assert!(2 * FUSED_MAX_M <= GROUP_LEN);
 
 /// Block length of the coarse phase sums.
@@ -185,17 +223,7 @@ impl Series {
         // sample, which is valid after trimming: the segment sums stay small and exact enough to give each
         // segment's offset) and their number. No branch per sample: an infinity makes the segment's sum
         // non-finite, and only then is the segment searched for it.
-        let reference = d.first().copied().unwrap_or(0.0);
-        let reference = if reference.is_finite() { reference } else { 0.0 };
-        let chunks: Vec<(f64, usize, Option<usize>)> = d
-            .par_chunks(SEG)
-            .enumerate()
-            .map(|(c, ch)| {
-                let (s, n) = scan_segment(ch, reference);
-                let inf = if s.is_finite() { None } else { ch.iter().position(|v| v.is_infinite()) };
-                (s, n, inf.map(|k| c * SEG + k))
-            })
-            .collect();
+        let (reference, chunks) = scan(d);
         if let Some(i) = chunks.iter().find_map(|c| c.2) {
             return Err(StatsError::Infinite { index: first + i });
         }
@@ -360,20 +388,7 @@ impl Series {
             return None;
         }
         let q = self.coarse.get_or_init(|| self.x.par_chunks_exact(COARSE).map(|c| c.iter().sum::<f64>()).collect());
-        let w = m / COARSE;
-        let n_terms = (q.len() + 1).checked_sub(3 * w)?;
-        if n_terms == 0 {
-            return None;
-        }
-        let win = |b: usize| q[b..b + w].iter().sum::<f64>();
-        let sum: f64 = (0..n_terms)
-            .map(|b| {
-                let v = win(b + 2 * w) - 2.0 * win(b + w) + win(b);
-                v * v
-            })
-            .sum();
-        let (mf, tau) = (m as f64, m as f64 * self.tau0_s);
-        Some(sum / (2.0 * mf * mf * n_terms as f64) / (tau * tau))
+        mvar_from_coarse(q, m, self.tau0_s)
     }
 
     /// Double-double prefix sums P[k] = x[0] + ... + x[k-1], k = 0..=N.
