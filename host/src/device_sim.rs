@@ -150,6 +150,10 @@ pub struct DeviceSim {
     temp_n: u32,
     /// Scan index since boot of the next scan (jumps over lost samples).
     next_scan: u64,
+    /// The scan index (since boot) of this session's first scan: raw samples are numbered from it, as the
+    /// firmware's `Characterizer` does, so a reset starts the raw index at 0 again. `None` until the first block
+    /// of the session.
+    origin: Option<u64>,
     /// The scans of the block being filled.
     block: Vec<u16>,
     block_first: u64,
@@ -178,6 +182,7 @@ impl DeviceSim {
             temp_sum: 0,
             temp_n: 0,
             next_scan: 0,
+            origin: None,
             block: Vec::with_capacity(cfg.block_sets * cfg.width()),
             block_first: 0,
             gap_before: false,
@@ -242,6 +247,7 @@ impl DeviceSim {
                 self.until_round = self.cfg.snapshot_every;
                 self.temp_sum = 0;
                 self.temp_n = 0;
+                self.origin = None;
             }
             Command::Hello => self.boot(out),
             Command::ReadFieldLog { .. } => {}
@@ -295,8 +301,9 @@ impl DeviceSim {
                 self.accs[g].reset();
             }
         }
+        let origin = *self.origin.get_or_insert(first_sample);
         if self.raw_mask != 0 {
-            self.stream_raw(first_sample, codes, out);
+            self.stream_raw(first_sample - origin, codes, out);
         }
         let sets = codes.len() / width;
         let mut at = 0;
@@ -429,6 +436,36 @@ mod tests {
         );
         // The partial last block (52 scans) still streams its raw codes.
         assert_eq!(kinds.len(), 1 + 64 + 6 + 2);
+    }
+
+    #[test]
+    fn a_reset_restarts_the_raw_index_as_the_firmware_does() {
+        let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x01);
+        let mut out = Vec::new();
+        dev.boot(&mut out);
+        let block = DeviceConfig::firmware().block_sets as u64;
+        for s in scans(3 * block as u32) {
+            dev.push_scan(s.as_ref(), &mut out);
+        }
+        dev.command(Command::Reset, &mut out);
+        dev.lose_samples(5, &mut out);
+        for s in scans(2 * block as u32) {
+            dev.push_scan(s.as_ref(), &mut out);
+        }
+        let firsts: Vec<u64> = CaptureReader::new(&out[..], "sim")
+            .filter_map(|d| match d.unwrap().record {
+                Record::Samples(s) => Some(s.first_sample),
+                _ => None,
+            })
+            .collect();
+        let per = DeviceConfig::firmware().raw_sets_per_frame as u64;
+        // Before the reset: 0, per, ... ; after it the index starts at 0 again (the lost samples before the
+        // session's first block are not a gap within the session).
+        let after: Vec<u64> = firsts.iter().copied().skip((3 * block / per) as usize).collect();
+        assert_eq!(firsts[0], 0);
+        assert_eq!(after[0], 0, "{firsts:?}");
+        assert_eq!(after[1], per, "{firsts:?}");
+        assert_eq!(dev.samples(), 2 * block);
     }
 
     #[test]
