@@ -22,6 +22,8 @@ use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::{
     BiasSteps, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling, MAX_SINUSOIDS,
 };
+use rustfft::num_complex::Complex;
+use rustfft::FftPlanner;
 use serde::Serialize;
 use serde_json::{json, Value};
 
@@ -573,39 +575,13 @@ fn temperature(d: &TrainingData) -> Option<EffectFit> {
 // ---------------------------------------------------------------------------------------------------------------
 // Sinusoids.
 
-/// In-place iterative radix-2 FFT (Cooley-Tukey, decimation in time); `re.len()` a power of two.
+/// In-place forward FFT of the complex sequence `re + i im` (rustfft; any length).
 fn fft(re: &mut [f64], im: &mut [f64]) {
-    let n = re.len();
-    let mut j = 0usize;
-    for i in 1..n {
-        let mut bit = n >> 1;
-        while j & bit != 0 {
-            j ^= bit;
-            bit >>= 1;
-        }
-        j |= bit;
-        if i < j {
-            re.swap(i, j);
-            im.swap(i, j);
-        }
-    }
-    let mut len = 2;
-    while len <= n {
-        let ang = -2.0 * std::f64::consts::PI / len as f64;
-        let half = len / 2;
-        let tw: Vec<(f64, f64)> = (0..half).map(|k| ((ang * k as f64).cos(), (ang * k as f64).sin())).collect();
-        for start in (0..n).step_by(len) {
-            for (k, &(wr, wi)) in tw.iter().enumerate() {
-                let (a, b) = (start + k, start + k + half);
-                let xr = re[b] * wr - im[b] * wi;
-                let xi = re[b] * wi + im[b] * wr;
-                re[b] = re[a] - xr;
-                im[b] = im[a] - xi;
-                re[a] += xr;
-                im[a] += xi;
-            }
-        }
-        len <<= 1;
+    let mut buf: Vec<Complex<f64>> = re.iter().zip(im.iter()).map(|(&r, &i)| Complex::new(r, i)).collect();
+    FftPlanner::new().plan_fft_forward(buf.len()).process(&mut buf);
+    for ((r, i), c) in re.iter_mut().zip(im.iter_mut()).zip(&buf) {
+        *r = c.re;
+        *i = c.im;
     }
 }
 
