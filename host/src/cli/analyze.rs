@@ -8,8 +8,10 @@ use anyhow::{bail, Context};
 use octavar::analyze::{self, AnalyzeOptions, ChannelAnalysis};
 use octavar::fit::FitOptions;
 use octavar::plot;
-use octavar::recording::{self, CsvOptions, RateUnit, RowFilter};
+use octavar::recording::{self, CsvOptions};
 use octavar::stats::{Statistic, TauSpec};
+
+use super::csv_args::CsvArgs;
 
 /// Analyse a rate recording (CSV, CSV.gz or stdin): the Allan deviation family with confidence intervals
 /// (Stable32's table), the IEEE 952 noise terms N, B, K, R, Q with intervals, and the files to go on with.
@@ -21,21 +23,9 @@ pub struct Args {
     /// input).
     #[arg(long = "column", value_name = "NAME")]
     pub columns: Vec<String>,
-    /// Sample rate in Hz (or give --time-column).
-    #[arg(long, value_name = "HZ")]
-    pub rate: Option<f64>,
-    /// A time column in seconds: the rate is its median step; missing samples become gaps.
-    #[arg(long, value_name = "NAME")]
-    pub time_column: Option<String>,
-    /// Unit of the rate columns: deg/s, rad/s, mrad/s, deg/h.
-    #[arg(long, default_value = "deg/s")]
-    pub unit: String,
-    /// Lines to skip before the header.
-    #[arg(long, default_value_t = 0)]
-    pub skip_rows: usize,
-    /// Keep only rows where COLUMN equals VALUE (repeatable), e.g. --where period=1.
-    #[arg(long = "where", value_name = "COLUMN=VALUE")]
-    pub filters: Vec<String>,
+    /// How to read a CSV recording.
+    #[command(flatten)]
+    pub reading: CsvArgs,
     /// Statistics, comma-separated: adev, oadev, mdev, hdev, ohdev, tdev, totdev, or all.
     #[arg(long, default_value = "oadev", value_delimiter = ',')]
     pub stats: Vec<String>,
@@ -120,17 +110,8 @@ pub fn parse_taus(text: &str) -> anyhow::Result<TauSpec> {
 
 impl Args {
     /// How to read the CSV: the columns, rate or time column, unit, skipped rows and filters of the flags.
-    fn csv_options(&self, unit: RateUnit) -> anyhow::Result<CsvOptions> {
-        let filters = self.filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?;
-        Ok(CsvOptions {
-            columns: self.columns.clone(),
-            temp_column: None,
-            rate_hz: self.rate,
-            time_column: self.time_column.clone(),
-            unit,
-            skip_rows: self.skip_rows,
-            filters,
-        })
+    fn csv_options(&self) -> anyhow::Result<CsvOptions> {
+        self.reading.options(self.columns.clone(), None, &self.reading.filters)
     }
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
@@ -140,10 +121,9 @@ impl Args {
         if self.columns.is_empty() {
             bail!("--column NAME is required for a CSV input (repeat it for several channels)");
         }
-        let unit = RateUnit::parse(&self.unit)?;
         let stats = parse_stats(&self.stats)?;
         let taus = parse_taus(&self.taus)?;
-        let csv_opts = self.csv_options(unit)?;
+        let csv_opts = self.csv_options()?;
         let input = octavar::input::open(&self.input)?;
         let rec = recording::read_csv(input.reader, &input.name, &csv_opts)?;
         let opts = AnalyzeOptions {
@@ -261,9 +241,9 @@ impl Args {
     /// Analyse a streamed input in bounded memory, with a progress bar on stderr.
     fn run_stream(self, kind: StreamKind) -> anyhow::Result<ExitCode> {
         use octavar::streaming::{self as st, StreamOptions};
-        let unit = RateUnit::parse(&self.unit)?;
+        let unit = self.reading.rate_unit()?;
         let opts = StreamOptions {
-            rate_hz: self.rate.unwrap_or(f64::NAN),
+            rate_hz: self.reading.rate.unwrap_or(f64::NAN),
             stride: self.stride,
             confidence: self.confidence,
             scale: unit.to_dps(),
@@ -285,7 +265,7 @@ impl Args {
         };
         let result = match kind {
             StreamKind::Binary(format) => {
-                if self.rate.is_none() {
+                if self.reading.rate.is_none() {
                     bail!("--rate HZ is required for a raw binary input");
                 }
                 let input = octavar::input::open(&self.input)?;
@@ -296,7 +276,7 @@ impl Args {
                 if self.columns.is_empty() {
                     bail!("--column NAME is required for a CSV input (repeat it for several channels)");
                 }
-                let csv_opts = self.csv_options(unit)?;
+                let csv_opts = self.csv_options()?;
                 let input = octavar::input::open(&self.input)?;
                 st::analyze_csv(input.reader, &input.name, &csv_opts, &opts, &|_| {})?
             }

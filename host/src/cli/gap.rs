@@ -8,8 +8,9 @@ use std::sync::Mutex;
 use anyhow::{bail, Context};
 use octavar::gap::{self, GapInput, GapOptions};
 use octavar::plot;
-use octavar::recording::{self, CsvOptions, RateUnit, Recording, RowFilter};
+use octavar::recording::{self, CsvOptions, Recording};
 
+use super::csv_args::CsvArgs;
 use super::progress::Progress;
 
 /// Diagnose the sim-to-real gap: fit the IEEE 952 terms on the training part, simulate an ensemble of the fitted
@@ -23,21 +24,9 @@ pub struct Args {
     /// The rate column to diagnose.
     #[arg(long, value_name = "NAME")]
     pub column: String,
-    /// Sample rate in Hz (or give --time-column).
-    #[arg(long, value_name = "HZ")]
-    pub rate: Option<f64>,
-    /// A time column in seconds: the rate is its median step; missing samples become gaps.
-    #[arg(long, value_name = "NAME")]
-    pub time_column: Option<String>,
-    /// Unit of the rate column: deg/s, rad/s, mrad/s, deg/h.
-    #[arg(long, default_value = "deg/s")]
-    pub unit: String,
-    /// Lines to skip before the header.
-    #[arg(long, default_value_t = 0)]
-    pub skip_rows: usize,
-    /// Keep only rows where COLUMN equals VALUE (repeatable), e.g. --where period=1.
-    #[arg(long = "where", value_name = "COLUMN=VALUE")]
-    pub filters: Vec<String>,
+    /// How to read the recording.
+    #[command(flatten)]
+    pub reading: CsvArgs,
     /// A temperature column (degC): the ensemble is driven by it and the temperature view compares correlations.
     #[arg(long, value_name = "NAME")]
     pub temp_column: Option<String>,
@@ -69,15 +58,7 @@ pub struct Args {
 
 impl Args {
     fn csv_options(&self, filters: &[String]) -> anyhow::Result<CsvOptions> {
-        Ok(CsvOptions {
-            columns: vec![self.column.clone()],
-            temp_column: self.temp_column.clone(),
-            rate_hz: self.rate,
-            time_column: self.time_column.clone(),
-            unit: RateUnit::parse(&self.unit)?,
-            skip_rows: self.skip_rows,
-            filters: filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?,
-        })
+        self.reading.options(vec![self.column.clone()], self.temp_column.clone(), filters)
     }
 
     fn read(&self, path: &PathBuf, filters: &[String]) -> anyhow::Result<Recording> {
@@ -86,12 +67,12 @@ impl Args {
     }
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
-        let mut rec = self.read(&self.input, &self.filters)?;
+        let mut rec = self.read(&self.input, &self.reading.filters)?;
         let fs = rec.rate_hz;
         let separate = self.holdout.is_some() || !self.holdout_filters.is_empty();
         let input = if separate {
             let path = self.holdout.clone().unwrap_or_else(|| self.input.clone());
-            let filters = if self.holdout_filters.is_empty() { &self.filters } else { &self.holdout_filters };
+            let filters = if self.holdout_filters.is_empty() { &self.reading.filters } else { &self.holdout_filters };
             let mut hold = self.read(&path, filters)?;
             if (hold.rate_hz - fs).abs() > 1e-6 * fs {
                 bail!("the holdout is sampled at {} Hz, the training at {} Hz", hold.rate_hz, fs);

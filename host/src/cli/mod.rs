@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 
 pub mod accumulate;
 pub mod analyze;
+pub mod csv_args;
 pub mod decode;
 pub mod demo;
 pub mod gap;

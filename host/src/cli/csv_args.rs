@@ -1,0 +1,45 @@
+//! The recording flags `analyze` and `gap` share: the sample rate or a time column, the unit, skipped rows and
+//! row filters, and the CSV options they make.
+
+use octavar::recording::{CsvOptions, RateUnit, RowFilter};
+
+/// How to read a rate recording.
+#[derive(Debug, clap::Args)]
+pub struct CsvArgs {
+    /// Sample rate in Hz (or give --time-column).
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// A time column in seconds: the rate is its median step; missing samples become gaps.
+    #[arg(long, value_name = "NAME")]
+    pub time_column: Option<String>,
+    /// Unit of the rate columns: deg/s, rad/s, mrad/s, deg/h.
+    #[arg(long, default_value = "deg/s")]
+    pub unit: String,
+    /// Lines to skip before the header.
+    #[arg(long, default_value_t = 0)]
+    pub skip_rows: usize,
+    /// Keep only rows where COLUMN equals VALUE (repeatable), e.g. --where period=1.
+    #[arg(long = "where", value_name = "COLUMN=VALUE")]
+    pub filters: Vec<String>,
+}
+
+impl CsvArgs {
+    /// The unit of `--unit`.
+    pub fn rate_unit(&self) -> anyhow::Result<RateUnit> {
+        Ok(RateUnit::parse(&self.unit)?)
+    }
+
+    /// The CSV options for `columns` (and a temperature column), with `filters` as the row filters (the
+    /// `--where` flags, or another set such as gap's `--holdout-where`).
+    pub fn options(&self, columns: Vec<String>, temp_column: Option<String>, filters: &[String]) -> anyhow::Result<CsvOptions> {
+        Ok(CsvOptions {
+            columns,
+            temp_column,
+            rate_hz: self.rate,
+            time_column: self.time_column.clone(),
+            unit: self.rate_unit()?,
+            skip_rows: self.skip_rows,
+            filters: filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?,
+        })
+    }
+}
