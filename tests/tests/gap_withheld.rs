@@ -371,6 +371,11 @@ fn estimators_on_cases() {
         let base = octavar::gap::base_model(&f, tr);
         let d = TrainingData { rate_dps: tr, temp_c: t.as_ref().map(|t| &t[..half]), fs_hz: c.fs, base: &base, base_fit: &f };
         eprintln!("{w}: {} base {:?}", c.what, base);
+        eprintln!("  truth N {:.4e} B {:.4e} K {:.4e}", c.model.n_deg_per_rt_s, c.model.b_dps, c.model.k_dps_per_rt_s);
+        for p in &pts {
+            let model: f64 = f.model_avar(p.tau_s);
+            eprintln!("  tau {:>10.3e} adev {:.4e} edf {:>9.1} model {:.4e} ({:+.1}%)", p.tau_s, p.avar.sqrt(), p.edf, model.sqrt(), 100.0 * ((model / p.avar).sqrt() - 1.0));
+        }
         for e in Effect::ALL {
             let r = estimate(e, &d);
             eprintln!("  {e}: {:?}", r.map(|r| r.params.to_string()));
