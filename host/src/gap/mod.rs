@@ -11,7 +11,8 @@
 //!    driven by the real temperature; measured on each part.
 //! 4. **Views** ([`views`]): ADEV, PSD, distribution, temperature; z-scores of the real values against the
 //!    ensemble.
-//! 5. **Gap and location** ([`rank`]): the worst view's RMS z, the band in tau where it lies, its sign and size.
+//! 5. **Gap and location** ([`rank`]): the worst view's RMS z over its worst decade of tau, that band, its sign
+//!    and size.
 //! 6. **Candidates** ([`effects`]): each effect of the vocabulary fitted on the training data, re-simulated with the
 //!    same seeds, re-measured; ranked by total gap with a penalty per parameter; the best is named, or `none` when
 //!    the base gap is not significant.

@@ -26,7 +26,7 @@ use crate::stats::DevPoint;
 /// A gap before and after, on one part.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct PartGap {
-    /// The base model's gap (worst view's RMS z).
+    /// The base model's gap (the located band's RMS z).
     pub gap_before: f64,
     /// With the effect.
     pub gap_after: f64,
@@ -45,7 +45,7 @@ pub struct CandidateResult {
     pub eval: Option<Evaluated>,
     /// Training gap after: the RMS z, with the effect, of the view where the base gap lies (`None` without a fit).
     pub gap_after: Option<f64>,
-    /// Training: the worst view's RMS z with the effect.
+    /// Training: the worst view's gap with the effect.
     pub worst_after: Option<f64>,
     /// Total (RMS over views) after, training.
     pub total_after: Option<f64>,
@@ -53,7 +53,7 @@ pub struct CandidateResult {
     pub score: Option<f64>,
     /// Holdout gap after (the same view).
     pub holdout_after: Option<f64>,
-    /// Holdout: the worst view's RMS z with the effect.
+    /// Holdout: the worst view's gap with the effect.
     pub holdout_worst_after: Option<f64>,
 }
 
@@ -66,7 +66,7 @@ pub struct GapReport {
     pub significant: bool,
     /// Where the base gap lies on the training part.
     pub location: Option<Location>,
-    /// The worst view's RMS z on each part, before and after: `[training before, training after, holdout before,
+    /// The worst view's gap on each part, before and after: `[training before, training after, holdout before,
     /// holdout after]` (the holdout's NaN without one). On the holdout the worst view may differ from the one the
     /// diagnosis is about (a disturbance only the held-out part has).
     pub worst: [f64; 4],
