@@ -258,14 +258,7 @@ pub fn model_from_fits(channels: &[ChannelAnalysis], rate_hz: f64, data_range_dp
     let mut out = heapless::Vec::new();
     for c in channels.iter().take(octavar_shared::sim::MAX_CHANNELS) {
         let Ok(f) = &c.fit else { continue };
-        let v = |t: Term| f.term(t).value.unwrap_or(0.0);
-        let gyro = GyroSim {
-            n_deg_per_rt_s: v(Term::N),
-            b_dps: v(Term::B),
-            k_dps_per_rt_s: v(Term::K),
-            r_dps_per_s: v(Term::R),
-            ..Default::default()
-        };
+        let gyro = f.sim_terms(GyroSim::default());
         let _ = out.push(ChannelSim { sensor: SensorKind::Generic, channel: Some(fine_channel(data_range_dps)), gyro });
     }
     BenchSim { fs_hz: rate_hz, seed: 0, temperature: Default::default(), channels: out }

@@ -235,6 +235,19 @@ pub struct NoiseFit {
 }
 
 impl NoiseFit {
+    /// `gyro` with its N, B, K and R replaced by this fit's identifiable terms (a term that is not identifiable
+    /// becomes 0; Q has no rate-domain simulation and is left out).
+    pub fn sim_terms(&self, gyro: octavar_shared::sim::GyroSim) -> octavar_shared::sim::GyroSim {
+        let v = |t: Term| self.term(t).value.unwrap_or(0.0);
+        octavar_shared::sim::GyroSim {
+            n_deg_per_rt_s: v(Term::N),
+            b_dps: v(Term::B),
+            k_dps_per_rt_s: v(Term::K),
+            r_dps_per_s: v(Term::R),
+            ..gyro
+        }
+    }
+
     /// The estimate of one term.
     pub fn term(&self, t: Term) -> &TermEstimate {
         match t {

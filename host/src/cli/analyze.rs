@@ -109,6 +109,17 @@ pub fn parse_taus(text: &str) -> anyhow::Result<TauSpec> {
 }
 
 impl Args {
+    /// The fit's options from the flags (the tau range and a known bandwidth), for both the in-memory and the
+    /// streamed path.
+    fn fit_options(&self) -> FitOptions {
+        FitOptions {
+            tau_min_s: self.fit_min_tau.unwrap_or(0.0),
+            tau_max_s: self.fit_max_tau.unwrap_or(f64::INFINITY),
+            bandwidth_hz: self.bandwidth,
+            ..Default::default()
+        }
+    }
+
     /// How to read the CSV: the columns, rate or time column, unit, skipped rows and filters of the flags.
     fn csv_options(&self) -> anyhow::Result<CsvOptions> {
         self.reading.options(self.columns.clone(), None, &self.reading.filters)
@@ -130,12 +141,7 @@ impl Args {
             stats,
             taus,
             confidence: self.confidence,
-            fit: FitOptions {
-                tau_min_s: self.fit_min_tau.unwrap_or(0.0),
-                tau_max_s: self.fit_max_tau.unwrap_or(f64::INFINITY),
-                bandwidth_hz: self.bandwidth,
-                ..Default::default()
-            },
+            fit: self.fit_options(),
             no_fit: false,
         };
         let mut results: Vec<ChannelAnalysis> = Vec::new();
@@ -247,12 +253,7 @@ impl Args {
             stride: self.stride,
             confidence: self.confidence,
             scale: unit.to_dps(),
-            fit: FitOptions {
-                tau_min_s: self.fit_min_tau.unwrap_or(0.0),
-                tau_max_s: self.fit_max_tau.unwrap_or(f64::INFINITY),
-                bandwidth_hz: self.bandwidth,
-                ..Default::default()
-            },
+            fit: self.fit_options(),
             no_fit: false,
         };
         let size = std::fs::metadata(&self.input).map(|m| m.len()).unwrap_or(0);

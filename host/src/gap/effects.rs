@@ -27,7 +27,7 @@ use rustfft::FftPlanner;
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use crate::fit::{fit, FitOptions, FitPoint, NoiseFit, Term, FLICKER_AVAR_FACTOR};
+use crate::fit::{fit, FitOptions, FitPoint, NoiseFit, FLICKER_AVAR_FACTOR};
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
 
 /// A candidate effect: something the IEEE 952 base model does not have.
@@ -413,15 +413,7 @@ fn refit_base(base: &GyroSim, cleaned: &[f64], fs: f64) -> Option<(GyroSim, [f64
     let pts = oadev_points(cleaned, fs);
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, ..Default::default() };
     let f = fit(&pts, &opts).ok()?;
-    let v = |t: Term| f.term(t).value.unwrap_or(0.0);
-    let g = GyroSim {
-        n_deg_per_rt_s: v(Term::N),
-        b_dps: v(Term::B),
-        k_dps_per_rt_s: v(Term::K),
-        r_dps_per_s: v(Term::R),
-        ..base.clone()
-    };
-    Some((g, f.squares))
+    Some((f.sim_terms(base.clone()), f.squares))
 }
 
 /// The standard normal upper tail.
@@ -1277,16 +1269,7 @@ mod tests {
     fn base_of(x: &[f64], fs: f64) -> (GyroSim, NoiseFit) {
         let pts = oadev_points(x, fs);
         let f = fit(&pts, &FitOptions::default()).unwrap();
-        let v = |t: Term| f.term(t).value.unwrap_or(0.0);
-        let g = GyroSim {
-            bias_dps: mean(x),
-            n_deg_per_rt_s: v(Term::N),
-            b_dps: v(Term::B),
-            k_dps_per_rt_s: v(Term::K),
-            r_dps_per_s: v(Term::R),
-            ..Default::default()
-        };
-        (g, f)
+        (crate::gap::base_model(&f, x), f)
     }
 
     fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, fs: f64) -> Option<EffectFit> {

@@ -46,7 +46,7 @@ use octavar_shared::sim::GyroSim;
 use rayon::prelude::*;
 
 use crate::analyze::fine_channel;
-use crate::fit::{fit, FitError, FitOptions, FitPoint, NoiseFit, Term};
+use crate::fit::{fit, FitError, FitOptions, FitPoint, NoiseFit};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
 
 pub use effects::{Effect, EffectFit};
@@ -359,16 +359,8 @@ impl Evaluated {
 /// The base simulation model of a fit: its identifiable N, B, K, R (Q has no rate-domain simulation and is left
 /// out), with the mean of `training` as the bias.
 pub fn base_model(f: &NoiseFit, training: &[f64]) -> GyroSim {
-    let v = |t: Term| f.term(t).value.unwrap_or(0.0);
     let (sum, n) = training.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
-    GyroSim {
-        bias_dps: if n > 0 { sum / n as f64 } else { 0.0 },
-        n_deg_per_rt_s: v(Term::N),
-        b_dps: v(Term::B),
-        k_dps_per_rt_s: v(Term::K),
-        r_dps_per_s: v(Term::R),
-        ..Default::default()
-    }
+    f.sim_terms(GyroSim { bias_dps: if n > 0 { sum / n as f64 } else { 0.0 }, ..Default::default() })
 }
 
 /// The 99.99th percentile of |x| (a few wild samples must not coarsen the fine ADC of the ensemble).
