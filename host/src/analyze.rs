@@ -323,18 +323,7 @@ mod tests {
     use super::*;
 
     fn white(n: usize, sigma: f64, seed: u64) -> Vec<f64> {
-        // Sum of 12 uniforms: near-Gaussian, deterministic.
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                let mut acc = 0.0;
-                for _ in 0..12 {
-                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                    acc += (s >> 11) as f64 / (1u64 << 53) as f64;
-                }
-                (acc - 6.0) * sigma
-            })
-            .collect()
+        crate::test_signals::white(n, seed).into_iter().map(|v| v * sigma).collect()
     }
 
     #[test]

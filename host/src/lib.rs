@@ -20,3 +20,6 @@ pub mod snapshot_stats;
 pub mod stats;
 pub mod streaming;
 pub mod verify;
+
+#[cfg(test)]
+mod test_signals;

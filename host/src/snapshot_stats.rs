@@ -102,10 +102,9 @@ mod tests {
     #[test]
     fn white_codes_give_alpha_zero_and_intervals_around_the_truth() {
         let mut acc = OctaveAllan::<8>::new();
-        let mut s = 7u64;
+        let mut g = crate::test_signals::Lcg::new(7);
         for _ in 0..(1 << 18) {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            acc.push(((s >> 32) as u32 >> 20) as u16);
+            acc.push(((g.next_u64() >> 32) as u32 >> 20) as u16);
         }
         let pts = snapshot_points(&acc.snapshot(), 1000.0, 1.0, 0.95);
         let sigma = ((4096.0f64 * 4096.0 - 1.0) / 12.0).sqrt();

@@ -881,14 +881,10 @@ mod tests {
     use super::*;
     use crate::stats::{estimate, DataKind, Series};
 
+    /// Uniform white noise of mean 3.
     fn white(n: usize, seed: u64) -> Vec<f64> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5 + 3.0
-            })
-            .collect()
+        let mut g = crate::test_signals::Lcg::new(seed);
+        (0..n).map(|_| g.uniform() - 0.5 + 3.0).collect()
     }
 
     fn phase(y: &[f64]) -> Vec<f64> {

@@ -659,19 +659,7 @@ pub fn measure_all(plan: &Plan, series: &[Vec<f64>], temp_c: Option<&[f64]>) -> 
 mod tests {
     use super::*;
 
-    fn white(n: usize, seed: u64) -> Vec<f64> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                let mut acc = 0.0;
-                for _ in 0..12 {
-                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                    acc += (s >> 11) as f64 / (1u64 << 53) as f64;
-                }
-                acc - 6.0
-            })
-            .collect()
-    }
+    use crate::test_signals::white;
 
     #[test]
     fn white_noise_agrees_with_white_noise() {

@@ -267,13 +267,8 @@ mod tests {
     #[test]
     #[ignore]
     fn speed_oadev_octave_1e7() {
-        let mut s = 0x9E37_79B9_7F4A_7C15u64;
-        let y: Vec<f64> = (0..10_000_000)
-            .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect();
+        let mut g = crate::test_signals::Lcg::new(0x9E37_79B9_7F4A_7C15);
+        let y: Vec<f64> = (0..10_000_000).map(|_| g.uniform() - 0.5).collect();
         let (w, c, series) = timed(5, || Series::new(&y, DataKind::Frequency, 1.0).unwrap());
         println!("Series::new: {w:.1} ms wall, {c:.1} ms cpu");
         let ms: Vec<usize> = (0..22).map(|k| 1usize << k).collect();

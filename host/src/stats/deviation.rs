@@ -789,13 +789,8 @@ mod tests {
     use crate::stats::series::DataKind;
 
     fn data(n: usize) -> Vec<f64> {
-        let mut s = 12345u64;
-        (0..n)
-            .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 53) as f64
-            })
-            .collect()
+        let mut g = crate::test_signals::Lcg::new(12345);
+        (0..n).map(|_| g.uniform()).collect()
     }
 
     /// A NaN frequency sample removes exactly the OADEV terms whose window holds it; the others are averaged as

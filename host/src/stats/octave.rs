@@ -380,12 +380,11 @@ mod tests {
 
     /// A random walk of frequency on white frequency noise, with an offset (deterministic).
     fn data(n: usize) -> Vec<f64> {
-        let mut s = 0x2545_F491_4F6C_DD1Du64;
+        let mut g = crate::test_signals::Lcg::new(0x2545_F491_4F6C_DD1D);
         let mut walk = 0.0;
         (0..n)
             .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                let u = g.uniform() - 0.5;
                 walk += 1e-3 * u;
                 3.0 + u + walk
             })
