@@ -683,6 +683,34 @@ mod tests {
     }
 
     #[test]
+    fn difference_kurtosis_has_its_closed_forms() {
+        // Gaussian white noise: the Allan differences are Gaussian, excess kurtosis 0 (sd sqrt(24/n)).
+        let x = white(1 << 18, 11);
+        let ms = [2usize, 8, 64];
+        for (m, k) in ms.iter().zip(difference_kurtosis(&x, &ms)) {
+            let n = ((1 << 18) / m - 1) as f64;
+            assert!(k.abs() < 5.0 * (24.0 / n).sqrt() + 0.02, "m {m}: {k}");
+        }
+        // A pure sinusoid: its differences are a sinusoid, excess kurtosis -1.5.
+        let sine: Vec<f64> = (0..1 << 16).map(|i| (2.0 * std::f64::consts::PI * i as f64 / 1000.0).sin()).collect();
+        for k in difference_kurtosis(&sine, &[2, 4, 8]) {
+            assert!((k + 1.5).abs() < 0.01, "{k}");
+        }
+        // Rare large steps on white noise: heavy tails.
+        let mut steps = white(1 << 18, 12);
+        let mut level = 0.0;
+        for (i, v) in steps.iter_mut().enumerate() {
+            if i % 20_000 == 10_000 {
+                level += 20.0;
+            }
+            *v += level;
+        }
+        assert!(difference_kurtosis(&steps, &[64])[0] > 10.0);
+        // Too few differences: NaN.
+        assert!(difference_kurtosis(&x[..200], &[4])[0].is_nan());
+    }
+
+    #[test]
     fn lattice_and_spikes_are_seen() {
         let lattice = |q: f64| -> Vec<f64> { white(20_000, 3).iter().map(|v| (v / q).round() * q + 0.1).collect() };
         let q = 0.75;
