@@ -321,9 +321,15 @@ mod tests {
             ("IDG1215 X", IDG1215_X, 3.2e-3, 14e-3),
             ("ADXRS300", ADXRS300, 46e-3, 26e-3),
         ];
+        // The B of a gyro whose white noise meets its floor late rests on few clusters: the ADXRS300's N/sqrt(tau)
+        // meets 0.664 B at 7 s, so its minimum lies at 30-60 s, where 10 minutes hold 10-20 clusters (EDF near
+        // 10, a 22% sd on the deviation). Such a gyro is checked per seed at 35% and on its mean over the seeds
+        // at 8%; the others, whose floor is reached within a second, at 10% per seed.
+        let seeds = 1..=12u64;
+        let mut b_error_sum = [0.0f64; 4];
         let mut codes = [0u16; 4096];
-        for seed in 1..=12u64 {
-            for (name, model, n_true, b_true) in gyros {
+        for seed in seeds.clone() {
+            for (g, (name, model, n_true, b_true)) in gyros.into_iter().enumerate() {
                 let channel = Channel::bench(model);
                 // A small rate random walk as on the QEMU bench (it does not reach the floor in 10 minutes).
                 let sim = GyroSim { n_deg_per_rt_s: n_true, b_dps: b_true, k_dps_per_rt_s: n_true * 1e-3, ..Default::default() };
@@ -353,9 +359,16 @@ mod tests {
                     100.0 * eb,
                     e.tau_b_s.unwrap()
                 );
+                let floor_reached_s = (n_true / (0.6643 * b_true)).powi(2);
+                let b_bound = if floor_reached_s < 1.0 { 0.10 } else { 0.35 };
                 assert!(en.abs() < 0.10, "{name}, seed {seed}: N {n:.3e} deg/sqrt(s), Table 1 {n_true:.1e}");
-                assert!(eb.abs() < 0.20, "{name}, seed {seed}: B {b:.3e} deg/s, Table 1 {b_true:.1e}");
+                assert!(eb.abs() < b_bound, "{name}, seed {seed}: B {b:.3e} deg/s, Table 1 {b_true:.1e}");
+                b_error_sum[g] += eb;
             }
+        }
+        for (g, (name, ..)) in gyros.into_iter().enumerate() {
+            let mean = b_error_sum[g] / seeds.clone().count() as f64;
+            assert!(mean.abs() < 0.08, "{name}: mean B error {:+.1}% over the seeds", 100.0 * mean);
         }
     }
 

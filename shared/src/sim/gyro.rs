@@ -1,6 +1,6 @@
 //! One virtual gyro channel: the model's terms summed sample by sample, then the ADC.
 //!
-//! Order within a sample: bias + white (N, plus the flicker bank's completion) + flicker + random walk + ramp +
+//! Order within a sample: bias + white (N) + differenced white angle (Q) + flicker + random walk + ramp +
 //! Gauss-Markov + sinusoids + temperature coupling + bias steps; that sum goes through the sensor's first-order
 //! bandwidth; outliers are added after the filter; the result is the analog rate at the ADC
 //! ([`Sample::rate_dps`]), which the [`Quantizer`] turns into a code.
@@ -63,6 +63,9 @@ pub struct VirtualGyro {
     n: u64,
     bias: f64,
     white_sigma: f64,
+    /// Q fs and the last white angle draw, for the differenced white angle noise.
+    angle_scale: f64,
+    last_angle: f64,
     ramp_step: f64,
     flicker: Option<FlickerBank>,
     rw: Option<RandomWalk>,
@@ -99,6 +102,7 @@ impl GyroSim {
     /// [`SimError::InvalidParameter`] naming the first bad field.
     pub fn validate(&self) -> Result<(), SimError> {
         check(self.bias_dps.is_finite(), "bias_dps")?;
+        nonneg(self.q_deg, "q_deg")?;
         nonneg(self.n_deg_per_rt_s, "n_deg_per_rt_s")?;
         nonneg(self.b_dps, "b_dps")?;
         nonneg(self.k_dps_per_rt_s, "k_dps_per_rt_s")?;
@@ -156,8 +160,7 @@ impl VirtualGyro {
         let mut rng = SimRng::new(seed);
         let n_sigma = model.n_deg_per_rt_s * libm::sqrt(fs_hz);
         let flicker = (model.b_dps > 0.0).then(|| FlickerBank::new(model.b_dps, &mut rng));
-        let white_var =
-            n_sigma * n_sigma + flicker.as_ref().map_or(0.0, FlickerBank::completion_var);
+        let white_var = n_sigma * n_sigma;
         let gm = model
             .gauss_markov
             .filter(|g| g.sigma_dps > 0.0)
@@ -170,10 +173,14 @@ impl VirtualGyro {
             .outliers
             .filter(|o| o.per_sample > 0.0)
             .map(|o| Spikes::new(&o, n_sigma, &mut rng));
+        // The angle drawn "before" sample 0, so the first difference is stationary too (no draw without Q).
+        let last_angle = if model.q_deg > 0.0 { rng.normal() } else { 0.0 };
         Ok(VirtualGyro {
             n: 0,
             bias: model.bias_dps,
             white_sigma: libm::sqrt(white_var),
+            angle_scale: model.q_deg * fs_hz,
+            last_angle,
             ramp_step: model.r_dps_per_s * tau0,
             flicker,
             rw: (model.k_dps_per_rt_s > 0.0).then(|| RandomWalk::new(model.k_dps_per_rt_s, tau0)),
@@ -199,6 +206,11 @@ impl VirtualGyro {
         let mut r = self.bias;
         if self.white_sigma != 0.0 {
             r += self.white_sigma * rng.normal();
+        }
+        if self.angle_scale != 0.0 {
+            let w = rng.normal();
+            r += self.angle_scale * (w - self.last_angle);
+            self.last_angle = w;
         }
         if let Some(f) = &mut self.flicker {
             r += f.next(n, rng);
@@ -270,8 +282,7 @@ impl VirtualGyro {
         self.spikes.as_ref().map_or(0, Spikes::count)
     }
 
-    /// The per-sample sd of the white Gaussian actually drawn (N sqrt(fs), plus the flicker bank's completion),
-    /// deg/s.
+    /// The per-sample sd of the white Gaussian drawn (N sqrt(fs)), deg/s.
     pub fn white_sigma_dps(&self) -> f64 {
         self.white_sigma
     }

@@ -6,6 +6,7 @@
 //!
 //! | term | model field | Allan variance |
 //! |------|-------------|----------------|
+//! | white angle noise (quantization noise) Q | `q_deg` | `3 Q^2 / tau^2` |
 //! | white rate noise N | `n_deg_per_rt_s` | `N^2 / tau` |
 //! | flicker B | `b_dps` | `(2 ln 2 / pi) B^2` ([`flicker`]: 9 decades) |
 //! | rate random walk K | `k_dps_per_rt_s` | `K^2 tau / 3` |

@@ -1,7 +1,7 @@
 //! The simulation model: what a `model.toml` holds, per gyro channel and for the bench.
 //!
 //! Every term defaults to absent (zero or `None`), so a model file names only what it uses. Units are in the
-//! field names: `n_deg_per_rt_s` is deg/sqrt(s), `b_dps` deg/s, `k_dps_per_rt_s` deg/s/sqrt(s),
+//! field names: `q_deg` is deg, `n_deg_per_rt_s` is deg/sqrt(s), `b_dps` deg/s, `k_dps_per_rt_s` deg/s/sqrt(s),
 //! `r_dps_per_s` deg/s^2.
 //!
 //! ```toml
@@ -42,6 +42,9 @@ pub const MAX_CHANNELS: usize = 8;
 pub struct GyroSim {
     /// Constant bias, deg/s.
     pub bias_dps: f64,
+    /// White angle noise (IEEE 952 quantization noise) Q, deg: the rate gets `Q fs (w_n - w_(n-1))`, w unit
+    /// white Gaussian, whose Allan variance is `3 Q^2 / tau^2` at every tau.
+    pub q_deg: f64,
     /// White rate noise (angle random walk) N, deg/sqrt(s): per-sample sd `N sqrt(fs)`.
     pub n_deg_per_rt_s: f64,
     /// Flicker (bias instability) B, deg/s: Allan deviation floor 0.6643 B.
