@@ -235,11 +235,14 @@ pub struct NoiseFit {
 }
 
 impl NoiseFit {
-    /// `gyro` with its N, B, K and R replaced by this fit's identifiable terms (a term that is not identifiable
-    /// becomes 0; Q has no rate-domain simulation and is left out).
+    /// `gyro` with its N, B, K and R replaced by this fit's fitted terms, so that a simulation of it has the
+    /// fitted curve ([`NoiseFit::model_avar`]). A term in the model that is not identifiable keeps its fitted
+    /// square: the report gives an upper bound for it, but dropping it would simulate a curve the fit did not
+    /// draw (a poor fit, whose reduced chi-square inflates every interval, would lose its white noise).
     pub fn sim_terms(&self, gyro: octavar_shared::sim::GyroSim) -> octavar_shared::sim::GyroSim {
-        let v = |t: Term| self.term(t).value.unwrap_or(0.0);
+        let v = |t: Term| self.squares[t as usize].max(0.0).sqrt();
         octavar_shared::sim::GyroSim {
+            q_deg: v(Term::Q),
             n_deg_per_rt_s: v(Term::N),
             b_dps: v(Term::B),
             k_dps_per_rt_s: v(Term::K),

@@ -386,29 +386,34 @@ fn log_search(lo: f64, hi: f64, n: usize, f: impl Fn(f64) -> f64) -> (f64, f64) 
     }
 }
 
-/// The columns of the base terms N (shaped by `bw`), B, K, R at the points' taus, N per unit N^2.
+/// Number of base-term columns ([`base_columns`]); an effect's own column comes after them.
+const BASE_COLS: usize = 5;
+
+/// The columns of the base terms N (shaped by `bw`), B, K, R and Q at the points' taus, N per unit N^2.
 fn base_columns(pts: &[FitPoint], fs: f64, bw: Option<f64>) -> Vec<Vec<f64>> {
     vec![
         pts.iter().map(|q| lowpass_white_avar(bw, q.tau_s, fs)).collect(),
         pts.iter().map(|_| FLICKER_AVAR_FACTOR).collect(),
         pts.iter().map(|q| q.tau_s / 3.0).collect(),
         pts.iter().map(|q| q.tau_s * q.tau_s / 2.0).collect(),
+        pts.iter().map(|q| 3.0 / (q.tau_s * q.tau_s)).collect(),
     ]
 }
 
-/// The base model with its N, B, K, R replaced by the fitted squares.
+/// The base model with its N, B, K, R and Q replaced by the fitted squares.
 fn with_base_terms(base: &GyroSim, theta: &[f64]) -> GyroSim {
     GyroSim {
         n_deg_per_rt_s: theta[0].max(0.0).sqrt(),
         b_dps: theta[1].max(0.0).sqrt(),
         k_dps_per_rt_s: theta[2].max(0.0).sqrt(),
         r_dps_per_s: theta[3].max(0.0).sqrt(),
+        q_deg: theta[4].max(0.0).sqrt(),
         ..base.clone()
     }
 }
 
 /// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component: the
-/// base model with its N, B, K, R replaced by the identifiable terms of that fit, and the fit's squares.
+/// base model with its Q, N, B, K, R replaced by the fitted terms of that fit, and the fit's squares.
 fn refit_base(base: &GyroSim, cleaned: &[f64], fs: f64) -> Option<(GyroSim, [f64; 5])> {
     let pts = oadev_points(cleaned, fs);
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, ..Default::default() };
@@ -850,7 +855,7 @@ const CURVE_DELTA_CHI2: f64 = 30.0;
 /// first-order low-pass, the exact AR(1) Allan form, which tends to `fit::lowpass_white_factor` when the corner
 /// is far below the sample rate), B, K and R, by weighted non-negative least squares (IRLS, every subset of
 /// terms), the corner f3dB on a log grid from fs/2000 to fs/2 refined by golden search. It counts when the
-/// log-domain chi-square falls by at least [`CURVE_DELTA_CHI2`] from the unfiltered fit. N, B, K and R are
+/// log-domain chi-square falls by at least [`CURVE_DELTA_CHI2`] from the unfiltered fit. N, B, K, R and Q are
 /// re-fitted with the bandwidth in place (the base fit reads N low from the bent short taus).
 fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     let fs = d.fs_hz;
@@ -885,12 +890,12 @@ fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
 
 /// A Gauss-Markov (first-order exponentially correlated) rate noise.
 ///
-/// Method: the OADEV at octave tau is fitted jointly with the base terms N, B, K, R and a Gauss-Markov term of
+/// Method: the OADEV at octave tau is fitted jointly with the base terms N, B, K, R, Q and a Gauss-Markov term of
 /// unit variance (its exact Allan form: the discrete AR(1) expression, or IEEE 952 Annex C's continuous one for
 /// T beyond a thousand samples), weighted NNLS as for the bandwidth, T on a log grid from 2 tau0 to a third of
 /// the record refined by golden search. It counts when the log-domain chi-square falls by at least
 /// [`CURVE_DELTA_CHI2`] from the base-terms-only fit and the process carries at least a fifth of the model's
-/// Allan variance somewhere on the curve; N, B, K and R are re-fitted with it.
+/// Allan variance somewhere on the curve; N, B, K, R and Q are re-fitted with it.
 fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
     let fs = d.fs_hz;
     let tau0 = 1.0 / fs;
@@ -914,14 +919,14 @@ fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
     }
     let cols = cols_for(t);
     let j = joint_fit(&pts, &cols)?;
-    let s2 = j.theta[4];
+    let s2 = j.theta[BASE_COLS];
     if !(s2 > 0.0) {
         return None;
     }
     let share = (0..pts.len())
         .map(|i| {
             let tot: f64 = (0..cols.len()).map(|c| j.theta[c] * cols[c][i]).sum();
-            s2 * cols[4][i] / tot
+            s2 * cols[BASE_COLS][i] / tot
         })
         .fold(0.0, f64::max);
     if share < 0.2 {
