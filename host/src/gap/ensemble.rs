@@ -4,10 +4,12 @@
 //! ADC (the measured rate is `channel.code_to_dps(code)`, looked up in a table of every code), driven by the real
 //! temperature sequence when there is one, so a temperature coupling acts through the temperature the sensor saw.
 //! Simulating training and holdout as one run keeps sinusoid phases and drifts continuous across the split; the
-//! real record's gaps are copied into each member, then each part is measured on its own [`Plan`]. Members run in
+//! real record's gaps are copied into each member, then each part is measured on its own [`Plan`] (the
+//! temperature view on the member less the model's own temperature response, [`temperature_response`]). Members run in
 //! parallel (rayon) and only their measures are kept, so memory is two records per core, not one per seed.
 
 use octavar_shared::sensor::Channel;
+use octavar_shared::sim::temperature::ThermalLag;
 use octavar_shared::sim::{GyroSim, SimError, VirtualGyro};
 use rayon::prelude::*;
 
@@ -61,6 +63,16 @@ pub struct Ensemble {
     pub holdout: Vec<Measure>,
 }
 
+/// The model's own response to the record's temperature, sample by sample over the whole record (training then
+/// holdout), as the simulation adds it: the coupling through its thermal lag at the simulation rate, averaged
+/// over the oversampled sub-samples. `None` when the model has no coupling or the record no temperature.
+pub fn temperature_response(gyro: &GyroSim, rec: &Record) -> Option<Vec<f64>> {
+    let (coupling, temp) = (gyro.temperature.as_ref()?, rec.temp_c?);
+    let d = rec.oversample.max(1);
+    let mut lag = ThermalLag::new(coupling, 1.0 / (rec.fs_hz * d as f64));
+    Some(temp.iter().map(|&tc| (0..d).map(|_| lag.next(tc)).sum::<f64>() / d as f64).collect())
+}
+
 /// Temperature used when the record has none (the model's reference is 25 degC; nothing couples to it).
 const NO_TEMP_C: f64 = 25.0;
 
@@ -81,6 +93,11 @@ pub fn simulate(
     let fs_sim = rec.fs_hz * d as f64;
     VirtualGyro::new(gyro, *channel, fs_sim, 0)?;
     let table: Vec<f64> = (0..=channel.adc.max_code()).map(|c| channel.code_to_dps(c)).collect();
+    let response = temperature_response(gyro, rec);
+    let (resp_train, resp_hold) = match &response {
+        Some(r) => (Some(&r[..rec.n_train]), Some(&r[rec.n_train..])),
+        None => (None, None),
+    };
     let members: Vec<(Measure, Option<Measure>)> = seeds
         .par_iter()
         .map(|&seed| {
@@ -105,8 +122,9 @@ pub fn simulate(
                     }
                 })
                 .collect();
-            let train = train_plan.measure(&x[..rec.n_train], rec.training_temp(), false);
-            let hold = holdout_plan.map(|p| p.measure(&x[rec.n_train..], rec.holdout_temp(), false));
+            let train = train_plan.measure_explained(&x[..rec.n_train], rec.training_temp(), resp_train, false);
+            let hold = holdout_plan
+                .map(|p| p.measure_explained(&x[rec.n_train..], rec.holdout_temp(), resp_hold, false));
             (train, hold)
         })
         .collect();

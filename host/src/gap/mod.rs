@@ -273,6 +273,15 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let run = |gyro: &GyroSim, ch: &Channel, name: &str| -> Result<Evaluated, GapError> {
         let e = ensemble::simulate(gyro, ch, &rec, &train_plan, hold_plan.as_ref(), &seeds)
             .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
+        // A model with a temperature coupling is judged in the temperature view on what its coupling leaves.
+        if let Some(resp) = ensemble::temperature_response(gyro, &rec) {
+            let (resp_train, resp_hold) = resp.split_at(n_train);
+            let real_train = train_plan.measure_explained(training, rec.training_temp(), Some(resp_train), true);
+            let real_hold = hold_plan
+                .as_ref()
+                .map(|p| p.measure_explained(rec.holdout(), rec.holdout_temp(), Some(resp_hold), true));
+            return Ok(Evaluated::new(&train_plan, &real_train, hold_plan.as_ref(), real_hold.as_ref(), e));
+        }
         Ok(Evaluated::new(&train_plan, &real_train, hold_plan.as_ref(), real_hold.as_ref(), e))
     };
     let base_eval = run(&base, &channel, "base")?;

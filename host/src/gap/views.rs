@@ -10,7 +10,7 @@
 //! | `adev` | octave taus of the overlapping Allan deviation | ln OADEV |
 //! | `psd` | log-spaced frequency bands (5 per decade), low ones through block-mean decimation by 8 | ln of the Welch-averaged periodogram (Hann, 50% overlap) over the band's bins |
 //! | `distribution` | skewness, kurtosis, tail share, lattice share | moments; share beyond 5 robust sigmas (the rms winsorised at 4 sigmas of the interquartile range); share of first differences on the lattice step |
-//! | `temperature` | block lengths from 1/4096 of the record up (octaves) | atanh of the correlation of the block-mean rate with the block-mean temperature at the lag (searched, 0 to 1/8 of the record) where it is largest |
+//! | `temperature` | block lengths from 1/4096 of the record up (octaves) | atanh of the correlation of the block-mean rate, less the model's own temperature response, with the block-mean temperature at the lag (searched, 0 to 1/8 of the record) where it is largest |
 //!
 //! The distribution view is about shape, not scale: the scale at tau0 is the Allan deviation's first point,
 //! which carries the fit's model allowance; a scale point here, floored only by its sampling spread
@@ -305,12 +305,33 @@ impl Plan {
     /// Reduce a series of this part (same length, gaps where the real one has them) to its view values.
     /// `parallel`: let the Allan deviation use rayon (off when the caller already runs members in parallel).
     pub fn measure(&self, x: &[f64], temp_c: Option<&[f64]>, parallel: bool) -> Measure {
+        self.measure_explained(x, temp_c, None, parallel)
+    }
+
+    /// As [`Plan::measure`], with the temperature view taken on `x` less `explained` (the response to the
+    /// temperature that the model under test carries): the view then asks whether the series still follows the
+    /// temperature once the model's coupling is taken out. For a model that has the coupling right, real and
+    /// simulated residual correlations both scatter about zero; a correlation near one, compared as such, has a
+    /// spread so small that a 2% difference in unexplained noise between real and model reads as a gap of 4.
+    pub fn measure_explained(
+        &self,
+        x: &[f64],
+        temp_c: Option<&[f64]>,
+        explained: Option<&[f64]>,
+        parallel: bool,
+    ) -> Measure {
         let adev = self.adev(x, parallel);
         let ln_adev = adev.iter().map(|v| if *v > 0.0 { v.ln() } else { f64::NAN }).collect();
         let psd = self.psd(x);
         let dist = self.distribution(x);
         let temp = match temp_c {
-            Some(t) if !self.temp_scales.is_empty() => self.temperature(x, t),
+            Some(t) if !self.temp_scales.is_empty() => match explained {
+                Some(e) => {
+                    let residual: Vec<f64> = x.iter().zip(e).map(|(v, c)| v - c).collect();
+                    self.temperature(&residual, t)
+                }
+                None => self.temperature(x, t),
+            },
             _ => vec![f64::NAN; self.temp_scales.len()],
         };
         Measure { values: [ln_adev, psd, dist, temp], adev }
