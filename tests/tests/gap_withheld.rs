@@ -22,8 +22,9 @@
 //!   floor (the sd of the difference of two adjacent means at the floor's tau, the best a step can be seen
 //!   against). Smaller steps are individually invisible, and their Allan signature is exactly a rate random walk
 //!   (K^2 = rate sigma^2): nothing can tell them from K.
-//! - outliers: 1e-5 to 1e-3 per sample, 8-30 white sigmas (below ~6 sigma a spike is not an outlier in a
-//!   million Gaussian samples, and it adds under 1% to the variance).
+//! - outliers: 10 to 300 expected in each half of the record (4e-5 to 1.1e-3 per sample; a rate is estimated from
+//!   the training half's spikes, and two or three events are not one), 8-30 white sigmas (below ~6 sigma a spike
+//!   is not an outlier in a million Gaussian samples, and it adds under 1% to the variance).
 //!
 //! `GAP_WITHHELD_VERBOSE=1` prints every candidate's gap and parameters. The default run checks two seeds per
 //! effect and two controls; the full sweep (`full_sweep`, 10 seeds each)
@@ -163,7 +164,9 @@ fn draw(effect: Option<Effect>, seed: u64) -> Case {
             what = format!("{rate:.2}/h sd {sd:.3e}");
         }
         Some(Effect::Outliers) => {
-            let p = log_uniform(&mut rng, 1e-5, 1e-3);
+            // 10 to 300 spikes expected in each half: a process of outliers is estimated from the training
+            // part's spikes and checked on the holdout's, and two or three events are not a rate.
+            let p = log_uniform(&mut rng, 10.0, 300.0) / (N_SAMPLES / 2) as f64;
             let size = uniform(&mut rng, 8.0, 30.0);
             model.outliers = Some(Outliers { per_sample: p, size_dps: 0.0, size_sigma: size });
             signature_s = [0.0, 100.0 / fs];

@@ -389,14 +389,17 @@ fn log_search(lo: f64, hi: f64, n: usize, f: impl Fn(f64) -> f64) -> (f64, f64) 
 /// Number of base-term columns ([`base_columns`]); an effect's own column comes after them.
 const BASE_COLS: usize = 5;
 
-/// The columns of the base terms N (shaped by `bw`), B, K, R and Q at the points' taus, N per unit N^2.
-fn base_columns(pts: &[FitPoint], fs: f64, bw: Option<f64>) -> Vec<Vec<f64>> {
+/// The columns of the base terms N (shaped by `bw`), B, K, R and Q at the points' taus, N per unit N^2. The Q
+/// column is all zero (so [`joint_fit`] never uses it) unless `with_q`: the base fit's choice, for at the
+/// shortest taus angle white noise and a low-pass corner or a fast Gauss-Markov trade against each other.
+fn base_columns(pts: &[FitPoint], fs: f64, bw: Option<f64>, with_q: bool) -> Vec<Vec<f64>> {
+    let q = if with_q { 3.0 } else { 0.0 };
     vec![
-        pts.iter().map(|q| lowpass_white_avar(bw, q.tau_s, fs)).collect(),
+        pts.iter().map(|p| lowpass_white_avar(bw, p.tau_s, fs)).collect(),
         pts.iter().map(|_| FLICKER_AVAR_FACTOR).collect(),
-        pts.iter().map(|q| q.tau_s / 3.0).collect(),
-        pts.iter().map(|q| q.tau_s * q.tau_s / 2.0).collect(),
-        pts.iter().map(|q| 3.0 / (q.tau_s * q.tau_s)).collect(),
+        pts.iter().map(|p| p.tau_s / 3.0).collect(),
+        pts.iter().map(|p| p.tau_s * p.tau_s / 2.0).collect(),
+        pts.iter().map(|p| q / (p.tau_s * p.tau_s)).collect(),
     ]
 }
 
@@ -863,7 +866,8 @@ fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     if pts.len() < 5 {
         return None;
     }
-    let score = |f: Option<f64>| joint_fit(&pts, &base_columns(&pts, fs, f));
+    let with_q = d.base.q_deg > 0.0;
+    let score = |f: Option<f64>| joint_fit(&pts, &base_columns(&pts, fs, f, with_q));
     let plain = score(None)?;
     let (f, chi) = log_search(fs / 2000.0, fs / 2.0, 40, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
     if !(chi + CURVE_DELTA_CHI2 < plain.chi2) {
@@ -904,7 +908,7 @@ fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
         return None;
     }
     let bw = d.base.bandwidth_hz;
-    let base_cols = base_columns(&pts, fs, bw);
+    let base_cols = base_columns(&pts, fs, bw, d.base.q_deg > 0.0);
     let plain = joint_fit(&pts, &base_cols)?;
     let cols_for = |t: f64| {
         let mut c = base_cols.clone();
