@@ -283,8 +283,11 @@ fn joint_fit(pts: &[FitPoint], cols: &[Vec<f64>]) -> Option<Joint> {
                     (pts[i].avar - m).powi(2) / var[i]
                 })
                 .sum();
-            if round.as_ref().is_none_or(|(c, _)| chi < *c) {
-                round = Some((chi, theta));
+            // Akaike's penalty per active term: a term must buy more than 2 in chi-square (a ramp bending the
+            // top two octaves would otherwise trade against the flicker floor and a Gauss-Markov time).
+            let aic = chi + 2.0 * k as f64;
+            if round.as_ref().is_none_or(|(c, _)| aic < *c) {
+                round = Some((aic, theta));
             }
         }
         let (_, theta) = round?;
