@@ -27,8 +27,8 @@
 //!   is not an outlier in a million Gaussian samples, and it adds under 1% to the variance).
 //!
 //! `GAP_WITHHELD_VERBOSE=1` prints every candidate's gap and parameters. The default run checks two seeds per
-//! effect and two controls; the full sweep (`full_sweep`, 10 seeds each)
-//! is `#[ignore]`d: run in CI with `cargo test -p octavar-tests --release gap_withheld -- --ignored`.
+//! effect and two controls; the full sweep (`full_sweep`, 10 seeds each) is `#[ignore]`d: `cargo test -p
+//! octavar-tests --release gap_withheld::full_sweep -- --ignored`.
 
 use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport};
 use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
@@ -326,37 +326,25 @@ fn sweep_of(cases: &[Option<Effect>], seeds: std::ops::Range<u64>) -> Vec<String
     failures
 }
 
-/// What holds today, in every run (seeds 0 and 1): the controls answer `none`, and bandwidth, quantisation, bias
-/// steps and temperature are named, placed and cured on held-out data. The 10-seed sweep (`full_sweep`) gives:
-/// bandwidth, quantization, bias_steps 10/10, temperature 9/10, outliers 9/10, sinusoid 7/10, gauss_markov 6/10,
-/// controls 10/10 `none`. Outliers are left out here because seed 0 is the one that misses: named and placed,
-/// but its holdout drew fewer spikes than training, and the held-out shrink is 0.6997.
+/// Every effect and the controls at seeds 0 and 1, in every run (16 cases, about 15 s): each effect named,
+/// placed over its signature and cured on held-out data by at least 70%, the controls `none`. The 10-seed sweep
+/// (`full_sweep`) gives bandwidth, quantization, bias_steps and outliers 10/10, temperature 9/10, sinusoid 9/10,
+/// gauss_markov 8/10 and the controls 10/10 `none`: see its note.
 #[test]
-fn controls_are_none_and_short_tau_effects_are_found() {
-    let cases = [
-        None,
-        Some(Effect::Bandwidth),
-        Some(Effect::Quantization),
-        Some(Effect::BiasSteps),
-        Some(Effect::Temperature),
-    ];
-    let failures = sweep_of(&cases, 0..2);
-    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
-}
-
-/// The issue's floor over every effect. Not met yet (issue 5 stays open): some sinusoids with periods of hours
-/// and some Gauss-Markov processes are not named (the base fit takes their hump for B, K or R, so the located gap
-/// is small) or not cured on the holdout (few degrees of freedom at the top of the tau range); see the issue note.
-#[test]
-#[ignore = "issue 5 floor not met yet: run with --ignored"]
 fn withheld_effects_are_found() {
     let failures = sweep(0..2);
     assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
 }
 
-/// The full seed sweep (10 seeds per effect and 10 controls); run in CI with `--ignored`.
+/// The full seed sweep (10 seeds per effect and 10 controls), the issue's floor, not met at every seed yet (issue 5
+/// stays open): every effect is named and placed at every seed, but four held-out shrinks fall short of 70%
+/// (gauss_markov seeds 3 and 8, sinusoid seed 5, temperature seed 7: 0.27 to 0.66). In each the training part's
+/// realisation misleads a parameter (a flicker floor read 20% low beside a Gauss-Markov hump; a coupling read 30%
+/// high from noise that happened to follow four temperature cycles) or the holdout shows little gap to shrink
+/// (gauss_markov seed 3: 1.8 before). About 100 s in release: `cargo test -p octavar-tests --release
+/// gap_withheld::full_sweep -- --ignored`.
 #[test]
-#[ignore = "full sweep: run in CI with --ignored"]
+#[ignore = "issue 5 floor, not met at every seed: run with --ignored"]
 fn full_sweep() {
     let failures = sweep(0..10);
     assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
