@@ -174,20 +174,7 @@ impl Characterizer {
 
     /// Send the block's codes of the streamed channels; `first` is its first scan's index in this session.
     fn stream_raw(&self, block: &SampleBlock, first: u64) {
-        let mask = self.raw_mask;
-        for (i, chunk) in block.codes.chunks(RAW_SETS_PER_FRAME * CHANNELS).enumerate() {
-            let mut frame = Samples::new(first + (i * RAW_SETS_PER_FRAME) as u64, mask);
-            let mut set = [0u16; CHANNELS];
-            for scan in chunk.chunks_exact(CHANNELS) {
-                let mut k = 0;
-                for (c, &code) in scan.iter().enumerate() {
-                    if mask & (1 << c) != 0 {
-                        set[k] = code;
-                        k += 1;
-                    }
-                }
-                let _ = frame.push_set(&set[..k]);
-            }
+        for frame in Samples::pack_scans(first, self.raw_mask, CHANNELS, RAW_SETS_PER_FRAME, &block.codes) {
             frames::send(&Frame::Samples(frame));
         }
     }

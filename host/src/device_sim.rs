@@ -332,22 +332,8 @@ impl DeviceSim {
     }
 
     fn stream_raw(&mut self, first_sample: u64, codes: &[u16], out: &mut Vec<u8>) {
-        let mask = self.raw_mask;
-        let width = self.cfg.width();
-        let per = self.cfg.raw_sets_per_frame;
-        for (i, chunk) in codes.chunks(per * width).enumerate() {
-            let mut frame = Samples::new(first_sample + (i * per) as u64, mask);
-            let mut set = [0u16; 8];
-            for scan in chunk.chunks_exact(width) {
-                let mut k = 0;
-                for (c, &code) in scan.iter().enumerate() {
-                    if mask & (1 << c) != 0 {
-                        set[k] = code;
-                        k += 1;
-                    }
-                }
-                let _ = frame.push_set(&set[..k]);
-            }
+        let (mask, width, per) = (self.raw_mask, self.cfg.width(), self.cfg.raw_sets_per_frame);
+        for frame in Samples::pack_scans(first_sample, mask, width, per, codes) {
             self.send(&Frame::Samples(frame), out);
         }
     }

@@ -171,6 +171,36 @@ impl Samples {
         let i = set.checked_mul(self.channels())?.checked_add(slot)?;
         self.codes.get(i).copied()
     }
+
+    /// The frames of a block of scans: `codes` holds whole scans of `width` codes (channel 0 first), the frames
+    /// keep the channels of `channel_mask`, `sets_per_frame` scans each (the last frame may hold fewer; at most
+    /// [`Samples::capacity_sets`]), and the first one starts at sample `first_sample`. What the firmware streams
+    /// and what the host's device simulator streams, from one place.
+    pub fn pack_scans(
+        first_sample: u64,
+        channel_mask: u8,
+        width: usize,
+        sets_per_frame: usize,
+        codes: &[u16],
+    ) -> impl Iterator<Item = Samples> + '_ {
+        let per = sets_per_frame.clamp(1, Self::capacity_sets(channel_mask).max(1));
+        let width = width.clamp(1, MAX_CHANNELS);
+        codes.chunks(per * width).enumerate().map(move |(i, chunk)| {
+            let mut frame = Samples::new(first_sample + (i * per) as u64, channel_mask);
+            let mut set = [0u16; MAX_CHANNELS];
+            for scan in chunk.chunks_exact(width) {
+                let mut k = 0;
+                for (c, &code) in scan.iter().enumerate() {
+                    if channel_mask & (1 << c) != 0 {
+                        set[k] = code;
+                        k += 1;
+                    }
+                }
+                let _ = frame.push_set(&set[..k]);
+            }
+            frame
+        })
+    }
 }
 
 /// Health counters of the device.
@@ -280,5 +310,23 @@ mod tests {
         let mut empty = Samples::new(0, 0);
         assert!(empty.push_set(&[]).is_err());
         assert_eq!(empty.sets(), 0);
+    }
+
+    #[test]
+    fn scans_pack_into_frames_of_the_masked_channels() {
+        // 5 scans of 3 channels (code = 100 scan + channel), channels 0 and 2 kept, 2 scans per frame.
+        let codes: std::vec::Vec<u16> = (0..5u16).flat_map(|s| (0..3u16).map(move |c| 100 * s + c)).collect();
+        let frames: std::vec::Vec<Samples> = Samples::pack_scans(40, 0b101, 3, 2, &codes).collect();
+        assert_eq!(frames.len(), 3);
+        assert_eq!(frames.iter().map(|f| f.first_sample).collect::<std::vec::Vec<_>>(), [40, 42, 44]);
+        assert_eq!(frames.iter().map(Samples::sets).collect::<std::vec::Vec<_>>(), [2, 2, 1]);
+        assert_eq!(frames[1].code(1, 0), Some(300));
+        assert_eq!(frames[1].code(1, 1), Some(302));
+        assert_eq!(frames[2].code(0, 1), Some(402));
+        // A request beyond a frame's capacity is cut to it: nothing is dropped.
+        let many = vec![7u16; 3 * 200];
+        let frames: std::vec::Vec<Samples> = Samples::pack_scans(0, 0b111, 3, 1000, &many).collect();
+        assert_eq!(frames.iter().map(Samples::sets).sum::<usize>(), 200);
+        assert!(frames.iter().all(|f| f.sets() <= Samples::capacity_sets(0b111)));
     }
 }
