@@ -275,7 +275,7 @@ pub struct StreamDecoder {
     /// Snapshot parts waiting, per channel.
     snapshots: BTreeMap<u8, Pending>,
     /// Field-log parts waiting, per (checkpoint, channel).
-    field_log: BTreeMap<(u32, u8), (Pending, FieldLogRecord)>,
+    field_log: BTreeMap<(u32, u8), Pending>,
     stats: DecodeStats,
 }
 
@@ -412,20 +412,13 @@ impl StreamDecoder {
             Frame::AllanSnapshot(part) => {
                 self.stats.snapshot_parts += 1;
                 let channel = part.channel;
-                let slot = self.snapshots.entry(channel).or_default();
-                let result = add_part(slot, part, meta.offset);
-                let first_offset = slot.offset;
-                match result {
-                    PartResult::Waiting => return,
-                    PartResult::Broken(n) => {
-                        self.stats.incomplete_snapshots += n;
+                match join_part(&mut self.snapshots, channel, part, meta.offset, &mut self.stats) {
+                    Joined::Waiting => return,
+                    Joined::Broken => {
                         self.bad(meta.offset, 0, BadReason::SnapshotParts);
-                        self.snapshots.remove(&channel);
                         return;
                     }
-                    PartResult::Done(snapshot, dropped) => {
-                        self.stats.incomplete_snapshots += dropped;
-                        self.snapshots.remove(&channel);
+                    Joined::Done(snapshot, first_offset) => {
                         self.stats.snapshots += 1;
                         meta.offset = first_offset;
                         Record::Snapshot(ChannelSnapshot { channel, snapshot: *snapshot })
@@ -439,28 +432,21 @@ impl StreamDecoder {
                     self.stats.incomplete_snapshots += self.field_log.len() as u64;
                     self.field_log.clear();
                 }
-                let (slot, _) = self.field_log.entry(key).or_insert_with(|| (Pending::default(), rec.clone()));
-                let head = rec.clone();
-                let result = add_part(slot, rec.part, meta.offset);
-                let first_offset = slot.offset;
-                match result {
-                    PartResult::Waiting => return,
-                    PartResult::Broken(n) => {
-                        self.stats.incomplete_snapshots += n;
+                let FieldLogRecord { checkpoint, time_s, sessions, adc_overruns, part } = rec;
+                match join_part(&mut self.field_log, key, part, meta.offset, &mut self.stats) {
+                    Joined::Waiting => return,
+                    Joined::Broken => {
                         self.bad(meta.offset, 0, BadReason::SnapshotParts);
-                        self.field_log.remove(&key);
                         return;
                     }
-                    PartResult::Done(snapshot, dropped) => {
-                        self.stats.incomplete_snapshots += dropped;
-                        self.field_log.remove(&key);
+                    Joined::Done(snapshot, first_offset) => {
                         self.stats.field_log_snapshots += 1;
                         meta.offset = first_offset;
                         Record::FieldLog(FieldLogSnapshot {
-                            checkpoint: head.checkpoint,
-                            time_s: head.time_s,
-                            sessions: head.sessions,
-                            adc_overruns: head.adc_overruns,
+                            checkpoint,
+                            time_s,
+                            sessions,
+                            adc_overruns,
                             channel: key.1,
                             snapshot: *snapshot,
                         })
@@ -469,6 +455,43 @@ impl StreamDecoder {
             }
         };
         emit(Decoded { meta, record });
+    }
+}
+
+/// What joining one part gave.
+enum Joined {
+    /// More parts to come.
+    Waiting,
+    /// The part does not fit: the pending parts of its key are dropped (counted).
+    Broken,
+    /// The whole snapshot, and the stream offset of its first part.
+    Done(Box<Snapshot>, u64),
+}
+
+/// Add `part` to the pending parts under `key` (snapshots by channel, field-log records by checkpoint and
+/// channel), count the snapshots lost on the way, and forget the key once it is joined or broken.
+fn join_part<K: Ord + Copy>(
+    pending: &mut BTreeMap<K, Pending>,
+    key: K,
+    part: SnapshotPart,
+    offset: u64,
+    stats: &mut DecodeStats,
+) -> Joined {
+    let slot = pending.entry(key).or_default();
+    let result = add_part(slot, part, offset);
+    let first_offset = slot.offset;
+    match result {
+        PartResult::Waiting => Joined::Waiting,
+        PartResult::Broken(lost) => {
+            stats.incomplete_snapshots += lost;
+            pending.remove(&key);
+            Joined::Broken
+        }
+        PartResult::Done(snapshot, dropped) => {
+            stats.incomplete_snapshots += dropped;
+            pending.remove(&key);
+            Joined::Done(snapshot, first_offset)
+        }
     }
 }
 
