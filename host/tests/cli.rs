@@ -1,25 +1,7 @@
 //! The `octavar` command from the outside: exit codes, error messages that locate the fault, pipelines.
 
-use std::io::Write;
-use std::process::{Command, Output, Stdio};
-
-fn octavar(args: &[&str], stdin: Option<&[u8]>) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_octavar"))
-        .args(args)
-        .stdin(if stdin.is_some() { Stdio::piped() } else { Stdio::null() })
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run octavar");
-    if let Some(bytes) = stdin {
-        child.stdin.take().unwrap().write_all(bytes).unwrap();
-    }
-    child.wait_with_output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{octavar, stderr};
 
 #[test]
 fn accumulate_rejects_bad_codes_with_the_line() {

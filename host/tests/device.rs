@@ -1,34 +1,13 @@
 //! The device path from the outside: `octavar record`, `decode` and `verify` on captures of a simulated device,
 //! exit codes, and errors that name the problem and where it is.
 
-use std::io::Write;
+mod common;
+use common::{octavar, stderr, stdout};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
 
 use octavar::device_sim::{device_frames, DeviceConfig, DeviceSim};
 use octavar_shared::proto::{Encoder, Frame, SnapshotPart};
-
-fn octavar(args: &[&str], stdin: Option<&[u8]>) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_octavar"))
-        .args(args)
-        .stdin(if stdin.is_some() { Stdio::piped() } else { Stdio::null() })
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run octavar");
-    if let Some(bytes) = stdin {
-        child.stdin.take().unwrap().write_all(bytes).unwrap();
-    }
-    child.wait_with_output().unwrap()
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn scan(i: u32) -> [u16; 5] {
     let x = (i.wrapping_mul(2654435761) >> 20) as u16;
