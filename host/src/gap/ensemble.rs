@@ -5,8 +5,8 @@
 //! temperature sequence when there is one, so a temperature coupling acts through the temperature the sensor saw.
 //! Simulating training and holdout as one run keeps sinusoid phases and drifts continuous across the split; the
 //! real record's gaps are copied into each member, then each part is measured on its own [`Plan`] (the
-//! temperature view on the member less the model's own temperature response, [`temperature_response`]). Members run in
-//! parallel (rayon) and only their measures are kept, so memory is two records per core, not one per seed.
+//! temperature view on the member less the model's own temperature response, [`temperature_response`]). Members
+//! run in parallel (rayon) and only their measures are kept, so memory is two records per core, not one per seed.
 
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::temperature::ThermalLag;
@@ -76,7 +76,8 @@ pub fn temperature_response(gyro: &GyroSim, rec: &Record) -> Option<Vec<f64>> {
 /// Temperature used when the record has none (the model's reference is 25 degC; nothing couples to it).
 const NO_TEMP_C: f64 = 25.0;
 
-/// Simulate `gyro` on `channel` once per seed over the whole record and measure both parts.
+/// Simulate `gyro` on `channel` once per seed over the whole record and measure both parts; `explained` is the
+/// model's [`temperature_response`] over the whole record, taken out for the temperature view.
 ///
 /// # Errors
 /// The model's [`SimError`] (a parameter out of range).
@@ -87,14 +88,14 @@ pub fn simulate(
     train_plan: &Plan,
     holdout_plan: Option<&Plan>,
     seeds: &[u64],
+    explained: Option<&[f64]>,
 ) -> Result<Ensemble, SimError> {
     // Fail early (and once) on a bad model.
     let d = rec.oversample.max(1);
     let fs_sim = rec.fs_hz * d as f64;
     VirtualGyro::new(gyro, *channel, fs_sim, 0)?;
     let table: Vec<f64> = (0..=channel.adc.max_code()).map(|c| channel.code_to_dps(c)).collect();
-    let response = temperature_response(gyro, rec);
-    let (resp_train, resp_hold) = match &response {
+    let (resp_train, resp_hold) = match explained {
         Some(r) => (Some(&r[..rec.n_train]), Some(&r[rec.n_train..])),
         None => (None, None),
     };

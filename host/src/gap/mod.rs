@@ -271,18 +271,24 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     progress("base fit", 1, total_steps);
 
     let run = |gyro: &GyroSim, ch: &Channel, name: &str| -> Result<Evaluated, GapError> {
-        let e = ensemble::simulate(gyro, ch, &rec, &train_plan, hold_plan.as_ref(), &seeds)
+        // A model with a temperature coupling is judged in the temperature view on what its coupling leaves, on
+        // the real record as on each member.
+        let explained = ensemble::temperature_response(gyro, &rec);
+        let e = ensemble::simulate(gyro, ch, &rec, &train_plan, hold_plan.as_ref(), &seeds, explained.as_deref())
             .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
-        // A model with a temperature coupling is judged in the temperature view on what its coupling leaves.
-        if let Some(resp) = ensemble::temperature_response(gyro, &rec) {
+        let remeasured = explained.as_ref().map(|resp| {
             let (resp_train, resp_hold) = resp.split_at(n_train);
-            let real_train = train_plan.measure_explained(training, rec.training_temp(), Some(resp_train), true);
-            let real_hold = hold_plan
+            let train = train_plan.measure_explained(training, rec.training_temp(), Some(resp_train), true);
+            let hold = hold_plan
                 .as_ref()
                 .map(|p| p.measure_explained(rec.holdout(), rec.holdout_temp(), Some(resp_hold), true));
-            return Ok(Evaluated::new(&train_plan, &real_train, hold_plan.as_ref(), real_hold.as_ref(), e));
-        }
-        Ok(Evaluated::new(&train_plan, &real_train, hold_plan.as_ref(), real_hold.as_ref(), e))
+            (train, hold)
+        });
+        let (train, hold) = match &remeasured {
+            Some((t, h)) => (t, h.as_ref()),
+            None => (&real_train, real_hold.as_ref()),
+        };
+        Ok(Evaluated::new(&train_plan, train, hold_plan.as_ref(), hold, e))
     };
     let base_eval = run(&base, &channel, "base")?;
     progress("base ensemble", 2, total_steps);
