@@ -766,4 +766,28 @@ mod tests {
         let m0 = plan.measure(&noise, Some(&temp), true);
         assert!(m0.values[3].iter().all(|v| v.tanh().abs() < 0.6), "{:?}", m0.values[3]);
     }
+
+    #[test]
+    fn a_model_coupling_is_taken_out_of_the_temperature_view_only() {
+        // rate = 0.5 T (lagged) + noise. Less the true response, it correlates with T no more than the noise does;
+        // less half of it, the other half still shows; the other views do not change.
+        let n = 40_000;
+        let temp: Vec<f64> = (0..n).map(|i| 20.0 + 3.0 * (i as f64 / 3000.0).sin()).collect();
+        let noise = white(n, 7);
+        let response: Vec<f64> = (0..n).map(|i| if i >= 500 { 0.5 * temp[i - 500] } else { 0.0 }).collect();
+        let rate: Vec<f64> = noise.iter().zip(&response).map(|(e, r)| 0.2 * e + r).collect();
+        let plan = Plan::new(&rate, Some(&temp), 1.0);
+        let whole = plan.measure(&rate, Some(&temp), true);
+        let rest = plan.measure_explained(&rate, Some(&temp), Some(&response), true);
+        let noise_only = plan.measure(&noise, Some(&temp), true);
+        for (r, e) in rest.values[3].iter().zip(&noise_only.values[3]) {
+            assert!((r - e).abs() < 1e-9, "{r} vs the noise's {e}");
+        }
+        let half: Vec<f64> = response.iter().map(|r| 0.5 * r).collect();
+        let part = plan.measure_explained(&rate, Some(&temp), Some(&half), true);
+        assert!(part.values[3].iter().all(|v| v.tanh() > 0.9), "{:?}", part.values[3]);
+        for k in 0..3 {
+            assert_eq!(format!("{:?}", rest.values[k]), format!("{:?}", whole.values[k]));
+        }
+    }
 }
