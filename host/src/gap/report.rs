@@ -168,13 +168,18 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         .min_by(|a, b| a.score.unwrap_or(f64::INFINITY).total_cmp(&b.score.unwrap_or(f64::INFINITY)));
     // A gap in the temperature view is a relation with a recorded channel: the coupling to that channel is the
     // first explanation, and one without a driver (a sinusoid at the temperature's cycle) wins only when it is
-    // clearly better.
+    // clearly better: the coupling is kept when it explains the total (below EXPLAINS of the base's) and either
+    // scores within DRIVER_PREFERENCE of the best or leaves no significant gap in the temperature view. The
+    // second clause matters because the coupling is judged there on what it leaves, which a 4% error in the
+    // coefficient over ten cycles already shows, while a sinusoid is judged on the raw correlation.
     let best = match (&location, best) {
         (Some(l), Some(b)) if l.view == ViewKind::Temperature && b.effect != Effect::Temperature => candidates
             .iter()
             .find(|c| {
                 c.effect == Effect::Temperature
-                    && c.score.is_some_and(|s| s < rank::EXPLAINS * total_before && s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0))
+                    && c.score.is_some_and(|s| s < rank::EXPLAINS * total_before)
+                    && (c.score.is_some_and(|s| s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0))
+                        || c.gap_after.is_some_and(|g| g < rank::SIGNIFICANT_GAP))
             })
             .or(Some(b)),
         (_, b) => b,
