@@ -1,0 +1,44 @@
+//! The bandwidth candidate: a first-order low-pass on the output, fitted on the short-tau Allan curve.
+
+use serde_json::json;
+
+use super::common::*;
+use super::curve::*;
+use super::{Effect, EffectFit, TrainingData};
+
+/// A first-order output bandwidth.
+///
+/// Method: the OADEV at octave tau (Greenhall EDFs) is fitted jointly with N (white noise through the sampled
+/// first-order low-pass, the exact AR(1) Allan form, which tends to `fit::lowpass_white_factor` when the corner
+/// is far below the sample rate), B, K and R, by weighted non-negative least squares (IRLS, every subset of
+/// terms), the corner f3dB on a log grid from fs/2000 to fs/2 refined by golden search. It counts when the
+/// log-domain chi-square falls by at least [`CURVE_DELTA_CHI2`] from the unfiltered fit. N, B, K, R and Q are
+/// re-fitted with the bandwidth in place (the base fit reads N low from the bent short taus).
+pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
+    let fs = d.fs_hz;
+    let pts = oadev_points(d.rate_dps, fs);
+    if pts.len() < 5 {
+        return None;
+    }
+    let with_q = d.base.q_deg > 0.0;
+    let score = |f: Option<f64>| joint_fit(&pts, &base_columns(&pts, fs, f, with_q));
+    let plain = score(None)?;
+    let (f, chi) = log_search(fs / 2000.0, fs / 2.0, 40, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
+    if !(chi + CURVE_DELTA_CHI2 < plain.chi2) {
+        return None;
+    }
+    let j = score(Some(f))?;
+    if !(j.theta[0] > 0.0) {
+        return None;
+    }
+    let mut gyro = with_base_terms(d.base, &j.theta);
+    gyro.bandwidth_hz = Some(f);
+    Some(EffectFit {
+        effect: Effect::Bandwidth,
+        params: json!({"bandwidth_hz": f, "n_deg_per_rt_s": gyro.n_deg_per_rt_s,
+                       "delta_chi2": plain.chi2 - chi}),
+        n_params: 1,
+        gyro,
+        channel: None,
+    })
+}

@@ -1,0 +1,113 @@
+//! The bias-steps candidate: random steps of the bias, found by a windowed scan of mean differences.
+
+use octavar_shared::sim::{BiasSteps, GyroSim};
+use serde_json::json;
+
+use super::common::*;
+use super::{Effect, EffectFit, TrainingData};
+
+/// Random bias steps.
+///
+/// Method: a moving-sum (MOSUM) change-point scan (Eichinger & Kirch 2018, Bernoulli 24): `D(t) = mean(x[t..t+L])
+/// - mean(x[t-L..t])` on a grid of L/8, with L the tau of the OADEV minimum (where the bias is best defined;
+/// between 16 samples and a 64th of the record). The scale of D is robust (1.4826 MAD, so flicker and random walk
+/// set it and the steps barely do), and a step is a local maximum of |D| beyond `max(5, sqrt(2 ln(N/L)) + 2)`
+/// scales, at least 2L from a larger one; its time and size are refined on a finer grid. Steps are Gaussian and
+/// the small ones go unseen: sigma comes from the truncated-normal likelihood of the sizes seen beyond the
+/// threshold, and the rate from the count divided by the detection probability (at least 0.2); fewer than three
+/// steps are events, not a process, and give no fit. The base terms are
+/// re-fitted on the record without the detected steps (the base fit took their random-walk-like Allan variance,
+/// `lambda sigma^2 tau / 3`, for K).
+/// Fewest detected steps for a bias-step process.
+pub(super) const MIN_STEPS: usize = 3;
+
+pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
+    let x = d.rate_dps;
+    let n = x.len();
+    let fs = d.fs_hz;
+    let pts = oadev_points(x, fs);
+    let tau_min = pts.iter().min_by(|a, b| a.avar.total_cmp(&b.avar)).map(|p| p.tau_s)?;
+    let l = ((tau_min * fs).round() as usize).clamp(16, (n / 64).max(16));
+    if n < 8 * l {
+        return None;
+    }
+    let mu = mean(x);
+    let mut pre = Vec::with_capacity(n + 1);
+    let mut acc = 0.0;
+    pre.push(0.0);
+    for v in x {
+        acc += v - mu;
+        pre.push(acc);
+    }
+    let dstat = |t: usize| (pre[t + l] - 2.0 * pre[t] + pre[t - l]) / l as f64;
+    let h = (l / 8).max(1);
+    let grid: Vec<usize> = (l..=n - l).step_by(h).collect();
+    let dv: Vec<f64> = grid.iter().map(|&t| dstat(t)).collect();
+    let abs: Vec<f64> = dv.iter().map(|v| v.abs()).collect();
+    let scale = 1.4826 * median(&abs);
+    if !(scale > 0.0) {
+        return None;
+    }
+    let kappa = (2.0 * (n as f64 / l as f64).ln()).sqrt().max(0.0) + 2.0;
+    let kappa = kappa.max(5.0);
+    let thr = kappa * scale;
+    let mut cand: Vec<usize> = (0..grid.len()).filter(|&i| abs[i] > thr).collect();
+    cand.sort_by(|&a, &b| abs[b].total_cmp(&abs[a]));
+    let mut steps: Vec<(usize, f64)> = Vec::new();
+    for i in cand {
+        let t = grid[i];
+        if steps.iter().all(|&(s, _)| s.abs_diff(t) >= 2 * l) {
+            // Refine on a finer grid within +-h.
+            let (a, b) = (t.saturating_sub(h).max(l), (t + h).min(n - l));
+            let hf = (h / 8).max(1);
+            let (tb, db) = (a..=b)
+                .step_by(hf)
+                .map(|u| (u, dstat(u)))
+                .max_by(|p, q| p.1.abs().total_cmp(&q.1.abs()))
+                .unwrap_or((t, dv[i]));
+            steps.push((tb, db));
+        }
+    }
+    // A rate and a size distribution need a few steps: one or two are events (a knock, a connector), not a
+    // process that a simulation could repeat; CATS gyro_y has one jump, and its gap is the temperature's.
+    if steps.len() < MIN_STEPS {
+        return None;
+    }
+    let sizes: Vec<f64> = steps.iter().map(|s| s.1).collect();
+    // Truncated-normal MLE of sigma given |s| > thr.
+    let nll = |sig: f64| -> f64 {
+        let pdet = (2.0 * normal_sf(thr / sig)).max(1e-300);
+        sizes.iter().map(|s| sig.ln() + s * s / (2.0 * sig * sig)).sum::<f64>() + sizes.len() as f64 * pdet.ln()
+    };
+    let (sigma, _) = log_search(thr * 0.05, thr * 100.0, 60, nll);
+    let pdet = (2.0 * normal_sf(thr / sigma)).max(0.2);
+    let hours = n as f64 / fs / 3600.0;
+    let per_hour = steps.len() as f64 / pdet / hours;
+    // The base terms re-fitted on the record without the detected steps (the base fit took them for K).
+    let mut order = steps.clone();
+    order.sort_by_key(|s| s.0);
+    let mut level = 0.0;
+    let mut next = 0;
+    let cleaned: Vec<f64> = x
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            while next < order.len() && order[next].0 <= i {
+                level += order[next].1;
+                next += 1;
+            }
+            v - level
+        })
+        .collect();
+    let refit = refit_base(d.base, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let gyro = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }), ..refit };
+    let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / fs).collect();
+    Some(EffectFit {
+        effect: Effect::BiasSteps,
+        params: json!({"per_hour": per_hour, "sigma_dps": sigma, "count": steps.len(), "at_s": at,
+                       "sizes_dps": sizes, "threshold_dps": thr}),
+        n_params: 2,
+        gyro,
+        channel: None,
+    })
+}

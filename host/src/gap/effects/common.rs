@@ -1,0 +1,118 @@
+//! Small helpers the estimators share: means and medians, block means, the octave OADEV as fit points, the
+//! IEEE re-fit of a cleaned record, the normal tail, one-dimensional searches (golden section, log grid) and the
+//! FFT.
+
+use octavar_shared::sim::GyroSim;
+use rustfft::num_complex::Complex;
+use rustfft::FftPlanner;
+
+use crate::fit::{fit, FitOptions, FitPoint};
+use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
+
+pub(super) fn mean(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    x.iter().sum::<f64>() / x.len() as f64
+}
+
+/// Median of a copy (O(n) selection).
+pub(super) fn median(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return f64::NAN;
+    }
+    let mut v = x.to_vec();
+    let k = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(k, f64::total_cmp);
+    *m
+}
+
+/// Block means of `x` over blocks of `m` samples (the last partial block dropped).
+pub(super) fn block_means(x: &[f64], m: usize) -> Vec<f64> {
+    let m = m.max(1);
+    x.chunks_exact(m).map(|c| c.iter().sum::<f64>() / m as f64).collect()
+}
+
+/// The overlapping Allan variance at octave tau, with Greenhall EDFs, as fit points.
+pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
+    let Ok(s) = Series::new(x, DataKind::Frequency, 1.0 / fs) else {
+        return Vec::new();
+    };
+    let opts = Options::default();
+    analyze_series(&s, Statistic::Oadev, &TauSpec::Octave, &opts)
+        .map(|rows| {
+            rows.iter()
+                .filter(|p| p.edf.is_finite() && p.edf > 0.0 && p.dev.is_finite() && p.dev > 0.0)
+                .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component: the
+/// base model with its Q, N, B, K, R replaced by the fitted terms of that fit, and the fit's squares.
+pub(super) fn refit_base(base: &GyroSim, cleaned: &[f64], fs: f64) -> Option<(GyroSim, [f64; 5])> {
+    let pts = oadev_points(cleaned, fs);
+    let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, ..Default::default() };
+    let f = fit(&pts, &opts).ok()?;
+    Some((f.sim_terms(base.clone()), f.squares))
+}
+
+/// The standard normal upper tail.
+pub(super) fn normal_sf(z: f64) -> f64 {
+    0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)
+}
+
+/// Golden-section minimisation of `f` on [lo, hi].
+pub(super) fn golden(mut lo: f64, mut hi: f64, iters: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let mut x1 = hi - g * (hi - lo);
+    let mut x2 = lo + g * (hi - lo);
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..iters {
+        if f1 <= f2 {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = f(x1);
+        } else {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = f(x2);
+        }
+    }
+    if f1 <= f2 {
+        (x1, f1)
+    } else {
+        (x2, f2)
+    }
+}
+
+/// Grid search over `ln x` on [lo, hi] (n points), then golden refinement between the best point's neighbours.
+pub(super) fn log_search(lo: f64, hi: f64, n: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    let (l0, l1) = (lo.ln(), hi.ln());
+    let grid: Vec<f64> = (0..n).map(|i| l0 + (l1 - l0) * i as f64 / (n - 1) as f64).collect();
+    let vals: Vec<f64> = grid.iter().map(|&u| f(u.exp())).collect();
+    let (ib, _) = vals.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).unwrap_or((0, &f64::INFINITY));
+    let a = grid[ib.saturating_sub(1)];
+    let b = grid[(ib + 1).min(n - 1)];
+    let (u, v) = golden(a, b, 24, |u| f(u.exp()));
+    if v <= vals[ib] {
+        (u.exp(), v)
+    } else {
+        (grid[ib].exp(), vals[ib])
+    }
+}
+
+/// In-place forward FFT of the complex sequence `re + i im` (rustfft; any length).
+pub(super) fn fft(re: &mut [f64], im: &mut [f64]) {
+    let mut buf: Vec<Complex<f64>> = re.iter().zip(im.iter()).map(|(&r, &i)| Complex::new(r, i)).collect();
+    FftPlanner::new().plan_fft_forward(buf.len()).process(&mut buf);
+    for ((r, i), c) in re.iter_mut().zip(im.iter_mut()).zip(&buf) {
+        *r = c.re;
+        *i = c.im;
+    }
+}

@@ -1,0 +1,198 @@
+//! Fitting effects on the Allan curve: the exact Allan forms of an AR(1), a Gauss-Markov process and low-passed
+//! white noise, the base-term columns (N, B, K, R, Q), and the weighted non-negative joint fit over subsets of
+//! terms that the bandwidth and Gauss-Markov estimators share.
+
+use octavar_shared::sim::GyroSim;
+
+use crate::fit::{FitPoint, FLICKER_AVAR_FACTOR};
+
+/// Allan variance at `m` samples of a unit-variance discrete AR(1) of pole `a` (autocovariance `a^|k|`):
+/// `[m (1+a)/(1-a) - a (2u + u^2)/(1-a)^2] / m^2`, `u = 1 - a^m` (the form in shared::sim::noise).
+pub(super) fn ar1_avar(a: f64, m: f64) -> f64 {
+    if a <= 0.0 {
+        return 1.0 / m;
+    }
+    let la = a.ln();
+    let oma = -la.exp_m1();
+    let u = -(m * la).exp_m1();
+    (m * (1.0 + a) / oma - a * (2.0 * u + u * u) / (oma * oma)) / (m * m)
+}
+
+/// Allan variance of a unit-variance Gauss-Markov process of correlation time `t_s`, sampled every `tau0`, at
+/// `tau`: the exact discrete AR(1) form while T is within a thousand samples, else the continuous form
+/// `2 T/tau [1 - T/(2 tau)(3 - 4 e^{-tau/T} + e^{-2 tau/T})]` (IEEE 952 Annex C; series at small tau/T).
+pub(super) fn gm_avar(t_s: f64, tau: f64, tau0: f64) -> f64 {
+    let m = (tau / tau0).round().max(1.0);
+    if t_s / tau0 <= 1000.0 {
+        return ar1_avar((-tau0 / t_s).exp(), m);
+    }
+    let x = tau / t_s;
+    let shape = if x < 1e-3 {
+        x * x / 3.0 - x * x * x / 4.0
+    } else {
+        1.0 - (4.0 * (-(-x).exp_m1()) - (-(-2.0 * x).exp_m1())) / (2.0 * x)
+    };
+    2.0 * shape / x
+}
+
+/// Allan variance of white rate noise of unit N (per-sample variance fs) through the sampled first-order
+/// low-pass `y = a y + (1 - a) x`, `a = exp(-2 pi f3dB / fs)`, as shared::sim applies it: an AR(1) of variance
+/// `fs (1 - a)/(1 + a)`. Tends to `fit::lowpass_white_factor(tau/T) / tau` when T >> tau0.
+pub(super) fn lowpass_white_avar(f3db: Option<f64>, tau: f64, fs: f64) -> f64 {
+    let m = (tau * fs).round().max(1.0);
+    match f3db {
+        Some(f) if f > 0.0 => {
+            let a = (-2.0 * std::f64::consts::PI * f / fs).exp();
+            fs * (1.0 - a) / (1.0 + a) * ar1_avar(a, m)
+        }
+        _ => fs / m,
+    }
+}
+
+/// A weighted non-negative least-squares fit of AVAR = sum theta_j col_j, weights from the model (IRLS), every
+/// subset of columns tried; the score is the log-domain chi-square sum (ln avar - ln model)^2 / (2/edf + e^2)
+/// that `fit::fit` minimises.
+pub(super) struct Joint {
+    pub(super) theta: Vec<f64>,
+    pub(super) chi2: f64,
+}
+
+pub(super) const MODEL_ERROR2: f64 = 0.03 * 0.03;
+
+pub(super) fn joint_fit(pts: &[FitPoint], cols: &[Vec<f64>]) -> Option<Joint> {
+    let p = cols.len();
+    let np = pts.len();
+    if np < 2 || p == 0 {
+        return None;
+    }
+    let rel: Vec<f64> = pts.iter().map(|q| 2.0 / q.edf + MODEL_ERROR2).collect();
+    let mut var: Vec<f64> = pts.iter().zip(&rel).map(|(q, r)| q.avar * q.avar * r).collect();
+    let mut best: Option<Vec<f64>> = None;
+    for _ in 0..5 {
+        let mut round: Option<(f64, Vec<f64>)> = None;
+        for mask in 1u32..(1 << p) {
+            let act: Vec<usize> = (0..p).filter(|j| mask & (1 << j) != 0).collect();
+            if act.len() > np {
+                continue;
+            }
+            let k = act.len();
+            let mut a = vec![vec![0.0; k]; k];
+            let mut b = vec![0.0; k];
+            let scale: Vec<f64> =
+                act.iter().map(|&j| (0..np).map(|i| cols[j][i] * cols[j][i] / var[i]).sum::<f64>().sqrt()).collect();
+            if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+                continue;
+            }
+            for i in 0..np {
+                for (r, &jr) in act.iter().enumerate() {
+                    let xr = cols[jr][i] / scale[r];
+                    b[r] += xr * pts[i].avar / var[i];
+                    for (c, &jc) in act.iter().enumerate() {
+                        a[r][c] += xr * cols[jc][i] / scale[c] / var[i];
+                    }
+                }
+            }
+            let Some(sol) = solve(a, b) else { continue };
+            if sol.iter().any(|v| *v < 0.0 || !v.is_finite()) {
+                continue;
+            }
+            let mut theta = vec![0.0; p];
+            for (r, &j) in act.iter().enumerate() {
+                theta[j] = sol[r] / scale[r];
+            }
+            let chi: f64 = (0..np)
+                .map(|i| {
+                    let m: f64 = (0..p).map(|j| theta[j] * cols[j][i]).sum();
+                    (pts[i].avar - m).powi(2) / var[i]
+                })
+                .sum();
+            // Akaike's penalty per active term: a term must buy more than 2 in chi-square (a ramp bending the
+            // top two octaves would otherwise trade against the flicker floor and a Gauss-Markov time).
+            let aic = chi + 2.0 * k as f64;
+            if round.as_ref().is_none_or(|(c, _)| aic < *c) {
+                round = Some((aic, theta));
+            }
+        }
+        let (_, theta) = round?;
+        for i in 0..np {
+            let m: f64 = (0..p).map(|j| theta[j] * cols[j][i]).sum();
+            let m = if m > 0.0 { m } else { pts[i].avar };
+            var[i] = m * m * rel[i];
+        }
+        best = Some(theta);
+    }
+    let theta = best?;
+    let chi2 = log_chi2(pts, |i| (0..p).map(|j| theta[j] * cols[j][i]).sum());
+    Some(Joint { theta, chi2 })
+}
+
+pub(super) fn log_chi2(pts: &[FitPoint], model: impl Fn(usize) -> f64) -> f64 {
+    pts.iter()
+        .enumerate()
+        .map(|(i, q)| {
+            let m = model(i).max(1e-300);
+            (q.avar.ln() - m.ln()).powi(2) / (2.0 / q.edf + MODEL_ERROR2)
+        })
+        .sum()
+}
+
+/// Gaussian elimination with partial pivoting; `None` when singular.
+pub(super) fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let n = b.len();
+    for c in 0..n {
+        let piv = (c..n).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))?;
+        if !(a[piv][c].abs() > 1e-13) {
+            return None;
+        }
+        a.swap(c, piv);
+        b.swap(c, piv);
+        for r in c + 1..n {
+            let f = a[r][c] / a[c][c];
+            if f != 0.0 {
+                for k in c..n {
+                    a[r][k] -= f * a[c][k];
+                }
+                b[r] -= f * b[c];
+            }
+        }
+    }
+    let mut x = vec![0.0; n];
+    for r in (0..n).rev() {
+        let s: f64 = (r + 1..n).map(|k| a[r][k] * x[k]).sum();
+        x[r] = (b[r] - s) / a[r][r];
+    }
+    Some(x)
+}
+
+/// Number of base-term columns ([`base_columns`]); an effect's own column comes after them.
+pub(super) const BASE_COLS: usize = 5;
+
+/// The columns of the base terms N (shaped by `bw`), B, K, R and Q at the points' taus, N per unit N^2. The Q
+/// column is all zero (so [`joint_fit`] never uses it) unless `with_q`: the base fit's choice, for at the
+/// shortest taus angle white noise and a low-pass corner or a fast Gauss-Markov trade against each other.
+pub(super) fn base_columns(pts: &[FitPoint], fs: f64, bw: Option<f64>, with_q: bool) -> Vec<Vec<f64>> {
+    let q = if with_q { 3.0 } else { 0.0 };
+    vec![
+        pts.iter().map(|p| lowpass_white_avar(bw, p.tau_s, fs)).collect(),
+        pts.iter().map(|_| FLICKER_AVAR_FACTOR).collect(),
+        pts.iter().map(|p| p.tau_s / 3.0).collect(),
+        pts.iter().map(|p| p.tau_s * p.tau_s / 2.0).collect(),
+        pts.iter().map(|p| q / (p.tau_s * p.tau_s)).collect(),
+    ]
+}
+
+/// The base model with its N, B, K, R and Q replaced by the fitted squares.
+pub(super) fn with_base_terms(base: &GyroSim, theta: &[f64]) -> GyroSim {
+    GyroSim {
+        n_deg_per_rt_s: theta[0].max(0.0).sqrt(),
+        b_dps: theta[1].max(0.0).sqrt(),
+        k_dps_per_rt_s: theta[2].max(0.0).sqrt(),
+        r_dps_per_s: theta[3].max(0.0).sqrt(),
+        q_deg: theta[4].max(0.0).sqrt(),
+        ..base.clone()
+    }
+}
+
+/// Minimum log-domain chi-square improvement for an effect fitted on the OADEV curve to count (the model-error
+/// floor of 3% already keeps the first octaves from dominating).
+pub(super) const CURVE_DELTA_CHI2: f64 = 30.0;

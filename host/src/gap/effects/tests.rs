@@ -1,0 +1,199 @@
+//! Each estimator on simulated records with its effect injected, and on clean ones.
+
+use super::common::oadev_points;
+use super::*;
+use crate::fit::{fit, FitOptions};
+use octavar_shared::sensor::{Channel, ADXRS300};
+use octavar_shared::sim::rng::SimRng;
+use octavar_shared::sim::temperature::Thermal;
+use octavar_shared::sim::{BiasSteps, GaussMarkovSim, Outliers, Sinusoid, TempCoupling};
+use octavar_shared::sim::{TemperatureProfile, VirtualGyro, Wander};
+
+/// The analog rate (and the bench temperature) of `model` for `n` samples.
+fn simulate(model: &GyroSim, fs: f64, n: usize, seed: u64, temp: Option<&TemperatureProfile>) -> (Vec<f64>, Vec<f64>) {
+    let mut g = VirtualGyro::new(model, Channel::bench(ADXRS300), fs, seed).unwrap();
+    let mut rng = SimRng::new(seed ^ 0xabcdef);
+    let p = temp.copied().unwrap_or_default();
+    let mut th = Thermal::new(&p, fs, &mut rng);
+    let mut x = Vec::with_capacity(n);
+    let mut t = Vec::with_capacity(n);
+    for _ in 0..n {
+        let tc = th.next(&mut rng);
+        x.push(g.next_rate(tc));
+        t.push(tc);
+    }
+    (x, t)
+}
+
+/// The base model as the diagnosis makes it: the IEEE fit on the OADEV, identifiable terms, the mean as bias.
+fn base_of(x: &[f64], fs: f64) -> (GyroSim, NoiseFit) {
+    let pts = oadev_points(x, fs);
+    let f = fit(&pts, &FitOptions::default()).unwrap();
+    (crate::gap::base_model(&f, x), f)
+}
+
+fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, fs: f64) -> Option<EffectFit> {
+    let (g, f) = base_of(x, fs);
+    let d = TrainingData { rate_dps: x, temp_c: t, fs_hz: fs, base: &g, base_fit: &f };
+    let t0 = std::time::Instant::now();
+    let out = estimate(effect, &d);
+    eprintln!("{effect}: {:?} in {:?}", out.as_ref().map(|e| &e.params), t0.elapsed());
+    out
+}
+
+fn base_model() -> GyroSim {
+    GyroSim { n_deg_per_rt_s: 0.01, b_dps: 0.005, k_dps_per_rt_s: 2e-5, ..Default::default() }
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a / b - 1.0).abs()
+}
+
+#[test]
+fn names_round_trip() {
+    for e in Effect::ALL {
+        assert_eq!(Effect::parse(e.name()), Some(e));
+    }
+    assert_eq!(Effect::parse("Gauss-Markov"), Some(Effect::GaussMarkov));
+    assert_eq!(Effect::parse("flicker"), None);
+}
+
+#[test]
+fn clean_data_has_no_effect() {
+    for seed in [1, 2] {
+        let fs: f64 = 100.0;
+        let temp = TemperatureProfile {
+            min_c: 22.0,
+            max_c: 25.0,
+            period_s: 3600.0,
+            wander: Some(Wander { sigma_c: 0.2, tau_s: 600.0 }),
+            ..Default::default()
+        };
+        let (x, t) = simulate(&base_model(), fs, 500_000, seed, Some(&temp));
+        let mut alarms = Vec::new();
+        for e in Effect::ALL {
+            let tc = (e == Effect::Temperature).then_some(&t[..]);
+            if let Some(r) = run(e, &x, tc, fs) {
+                alarms.push((e, r.params));
+            }
+        }
+        assert!(alarms.is_empty(), "seed {seed}: false alarms {alarms:?}");
+    }
+}
+
+#[test]
+fn temperature_recovers_coefficient_and_lag() {
+    let fs = 50.0;
+    let temp = TemperatureProfile {
+        min_c: 20.0,
+        max_c: 30.0,
+        period_s: 3600.0,
+        wander: Some(Wander { sigma_c: 0.5, tau_s: 600.0 }),
+        ..Default::default()
+    };
+    let m = GyroSim { temperature: Some(TempCoupling { dps_per_c: 0.02, ref_c: 25.0, lag_s: 300.0 }), ..base_model() };
+    let (x, t) = simulate(&m, fs, 500_000, 3, Some(&temp));
+    let e = run(Effect::Temperature, &x, Some(&t), fs).unwrap();
+    let c = e.gyro.temperature.unwrap();
+    // Tolerance: 5% on the coefficient, 20% on the lag.
+    assert!(rel(c.dps_per_c, 0.02) < 0.05, "{c:?}");
+    assert!(rel(c.lag_s, 300.0) < 0.2, "{c:?}");
+}
+
+#[test]
+fn sinusoids_recovered() {
+    let fs = 200.0;
+    let mut m = base_model();
+    m.sinusoids.push(Sinusoid { amplitude_dps: 0.02, period_s: 7.3, phase_rad: 0.4 }).unwrap();
+    m.sinusoids.push(Sinusoid { amplitude_dps: 0.05, period_s: 0.5, phase_rad: -1.0 }).unwrap();
+    let (x, _) = simulate(&m, fs, 1 << 20, 4, None);
+    let e = run(Effect::Sinusoid, &x, None, fs).unwrap();
+    assert_eq!(e.gyro.sinusoids.len(), 2, "{:?}", e.params);
+    let s = &e.gyro.sinusoids;
+    // Tolerance: 5% on amplitudes, 1e-3 on periods, 0.1 rad on phases.
+    assert!(rel(s[0].amplitude_dps, 0.05) < 0.05 && rel(s[0].period_s, 0.5) < 1e-3, "{s:?}");
+    assert!(rel(s[1].amplitude_dps, 0.02) < 0.05 && rel(s[1].period_s, 7.3) < 1e-3, "{s:?}");
+    assert!((s[0].phase_rad + 1.0).abs() < 0.1 && (s[1].phase_rad - 0.4).abs() < 0.1, "{s:?}");
+}
+
+#[test]
+fn long_period_sinusoid_with_decimation() {
+    // A day-long period in a 10-day record at 5 Hz (4.3 M samples: the periodogram is block-averaged).
+    let fs = 5.0;
+    let mut m = base_model();
+    m.sinusoids.push(Sinusoid { amplitude_dps: 0.03, period_s: 86_400.0, phase_rad: 1.0 }).unwrap();
+    let (x, _) = simulate(&m, fs, 4_320_000, 5, None);
+    let e = run(Effect::Sinusoid, &x, None, fs).unwrap();
+    let s = e.gyro.sinusoids[0];
+    // Flicker (B = 0.005) at 1/day leaves an amplitude error of about 0.0015 deg/s (1 sigma): 15%.
+    assert!(rel(s.amplitude_dps, 0.03) < 0.15 && rel(s.period_s, 86_400.0) < 0.02, "{s:?}");
+}
+
+#[test]
+fn bandwidth_recovered() {
+    for (fs, f3) in [(1000.0, 100.0), (1000.0, 20.0)] {
+        let m = GyroSim { bandwidth_hz: Some(f3), ..base_model() };
+        let (x, _) = simulate(&m, fs, 500_000, 6, None);
+        let e = run(Effect::Bandwidth, &x, None, fs).unwrap();
+        // Tolerance: 10% on f3dB, 3% on N.
+        assert!(rel(e.gyro.bandwidth_hz.unwrap(), f3) < 0.1, "{:?}", e.params);
+        assert!(rel(e.gyro.n_deg_per_rt_s, 0.01) < 0.03, "{:?}", e.params);
+    }
+}
+
+#[test]
+fn gauss_markov_recovered() {
+    for (fs, sigma, t) in [(100.0, 0.02, 2.0), (10.0, 0.004, 300.0)] {
+        let m = GyroSim { gauss_markov: Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t }), ..base_model() };
+        let (x, _) = simulate(&m, fs, 1_000_000, 7, None);
+        let e = run(Effect::GaussMarkov, &x, None, fs).unwrap();
+        let g = e.gyro.gauss_markov.unwrap();
+        // Tolerance: 25% on sigma, a factor 1.5 on T (the hump's position on an octave grid).
+        assert!(rel(g.sigma_dps, sigma) < 0.25, "{g:?}");
+        assert!((g.tau_s / t).ln().abs() < 1.5f64.ln(), "{g:?}");
+    }
+}
+
+#[test]
+fn quantization_recovered() {
+    let ch = Channel::bench(ADXRS300);
+    let q = ch.dps_per_code();
+    let fs: f64 = 500.0;
+    // Half a step of white noise, and a random walk that moves the offset over a few steps (the inversion
+    // assumes the offset wanders over the lattice).
+    let m = GyroSim { n_deg_per_rt_s: 0.5 * q / fs.sqrt(), k_dps_per_rt_s: 0.01, bias_dps: 0.1, ..Default::default() };
+    let mut g = VirtualGyro::new(&m, ch, fs, 8).unwrap();
+    let x: Vec<f64> = (0..1_000_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+    let e = run(Effect::Quantization, &x, None, fs).unwrap();
+    assert!(rel(e.params["step_dps"].as_f64().unwrap(), q) < 1e-6, "{:?}", e.params);
+    // The channel puts codes on the data's lattice.
+    let c = e.channel.unwrap();
+    for &v in x.iter().take(100) {
+        assert!((c.code_to_dps(c.dps_to_code(v)) - v).abs() < 1e-6 * q);
+    }
+    // The analog N is recovered within 15% from the quantised white noise.
+    assert!(rel(e.gyro.n_deg_per_rt_s, m.n_deg_per_rt_s) < 0.15, "{:?}", e.params);
+}
+
+#[test]
+fn bias_steps_recovered() {
+    let fs: f64 = 100.0;
+    let m = GyroSim { bias_steps: Some(BiasSteps { per_hour: 2.0, sigma_dps: 0.05 }), ..base_model() };
+    let (x, _) = simulate(&m, fs, 2_000_000, 9, None);
+    let e = run(Effect::BiasSteps, &x, None, fs).unwrap();
+    let b = e.gyro.bias_steps.unwrap();
+    // 11 expected steps in 5.6 h: Poisson and a handful of sizes, so factor-2 tolerances.
+    assert!((b.per_hour / 2.0).ln().abs() < 2f64.ln() && (b.sigma_dps / 0.05).ln().abs() < 2f64.ln(), "{b:?}");
+}
+
+#[test]
+fn outliers_recovered() {
+    let fs: f64 = 100.0;
+    let m = GyroSim { outliers: Some(Outliers { per_sample: 1e-4, size_dps: 0.0, size_sigma: 10.0 }), ..base_model() };
+    let (x, _) = simulate(&m, fs, 1_000_000, 10, None);
+    let e = run(Effect::Outliers, &x, None, fs).unwrap();
+    let o = e.gyro.outliers.unwrap();
+    let size = 10.0 * 0.01 * fs.sqrt();
+    // Tolerance: 25% on the rate (100 events), 5% on the size.
+    assert!(rel(o.per_sample, 1e-4) < 0.25 && rel(o.size_dps, size) < 0.05, "{o:?}");
+}
