@@ -101,7 +101,7 @@ pub struct GapReport {
 }
 
 /// How much worse a temperature coupling's score may be than the best candidate's and still be chosen, when the
-/// gap lies in the temperature view (see [`assemble`]).
+/// gap lies in the temperature view (see `assemble`).
 pub const DRIVER_PREFERENCE: f64 = 1.25;
 
 /// What [`assemble`] needs.

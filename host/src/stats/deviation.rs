@@ -162,7 +162,7 @@ pub fn estimate(series: &Series, stat: Statistic, m: usize) -> Option<Estimate> 
 }
 
 /// The fully overlapping estimates (OADEV, OHDEV) at many averaging factors in one cache-blocked pass: the
-/// record is cut into blocks of [`MANY_BLOCK`] start indices, and each block (processed in parallel) adds its terms
+/// record is cut into blocks of `MANY_BLOCK` start indices, and each block (processed in parallel) adds its terms
 /// for every m while its phase points are still in cache. Falls back to one pass per m for other statistics or
 /// records with gaps. Returns None for an m without terms.
 pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Option<Estimate>> {
