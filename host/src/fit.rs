@@ -235,7 +235,7 @@ pub struct NoiseFit {
 }
 
 impl NoiseFit {
-    /// `gyro` with its N, B, K and R replaced by this fit's fitted terms, so that a simulation of it has the
+    /// `gyro` with its Q, N, B, K and R replaced by this fit's fitted terms, so that a simulation of it has the
     /// fitted curve ([`NoiseFit::model_avar`]). A term in the model that is not identifiable keeps its fitted
     /// square: the report gives an upper bound for it, but dropping it would simulate a curve the fit did not
     /// draw (a poor fit, whose reduced chi-square inflates every interval, would lose its white noise).

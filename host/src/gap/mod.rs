@@ -278,10 +278,11 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
             .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
         let remeasured = explained.as_ref().map(|resp| {
             let (resp_train, resp_hold) = resp.split_at(n_train);
-            let train = train_plan.measure_explained(training, rec.training_temp(), Some(resp_train), true);
+            let train = train_plan.with_explained(&real_train, training, rec.training_temp(), resp_train);
             let hold = hold_plan
                 .as_ref()
-                .map(|p| p.measure_explained(rec.holdout(), rec.holdout_temp(), Some(resp_hold), true));
+                .zip(real_hold.as_ref())
+                .map(|(p, m)| p.with_explained(m, rec.holdout(), rec.holdout_temp(), resp_hold));
             (train, hold)
         });
         let (train, hold) = match &remeasured {
@@ -371,8 +372,8 @@ impl Evaluated {
     }
 }
 
-/// The base simulation model of a fit: its identifiable N, B, K, R (Q has no rate-domain simulation and is left
-/// out), with the mean of `training` as the bias.
+/// The base simulation model of a fit: every fitted term ([`NoiseFit::sim_terms`]), with the mean of `training`
+/// as the bias.
 pub fn base_model(f: &NoiseFit, training: &[f64]) -> GyroSim {
     let (sum, n) = training.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
     f.sim_terms(GyroSim { bias_dps: if n > 0 { sum / n as f64 } else { 0.0 }, ..Default::default() })

@@ -176,10 +176,12 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         (Some(l), Some(b)) if l.view == ViewKind::Temperature && b.effect != Effect::Temperature => candidates
             .iter()
             .find(|c| {
+                let clears = c.gap_after.is_some_and(|g| g < rank::SIGNIFICANT_GAP);
                 c.effect == Effect::Temperature
-                    && c.score.is_some_and(|s| s < rank::EXPLAINS * total_before)
-                    && (c.score.is_some_and(|s| s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0))
-                        || c.gap_after.is_some_and(|g| g < rank::SIGNIFICANT_GAP))
+                    && c.score.is_some_and(|s| {
+                        s < rank::EXPLAINS * total_before
+                            && (s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0) || clears)
+                    })
             })
             .or(Some(b)),
         (_, b) => b,

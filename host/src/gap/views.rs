@@ -324,7 +324,21 @@ impl Plan {
         let ln_adev = adev.iter().map(|v| if *v > 0.0 { v.ln() } else { f64::NAN }).collect();
         let psd = self.psd(x);
         let dist = self.distribution(x);
-        let temp = match temp_c {
+        let temp = self.temperature_view(x, temp_c, explained);
+        Measure { values: [ln_adev, psd, dist, temp], adev }
+    }
+
+    /// `measured` (this plan's [`Measure`] of `x`) with only its temperature view taken again, on `x` less
+    /// `explained`: what [`Plan::measure_explained`] gives, without measuring the other views a second time.
+    pub fn with_explained(&self, measured: &Measure, x: &[f64], temp_c: Option<&[f64]>, explained: &[f64]) -> Measure {
+        let mut m = measured.clone();
+        m.values[ViewKind::Temperature as usize] = self.temperature_view(x, temp_c, Some(explained));
+        m
+    }
+
+    /// The temperature view's values of `x` (less `explained`, when given); NaN without a temperature.
+    fn temperature_view(&self, x: &[f64], temp_c: Option<&[f64]>, explained: Option<&[f64]>) -> Vec<f64> {
+        match temp_c {
             Some(t) if !self.temp_scales.is_empty() => match explained {
                 Some(e) => {
                     let residual: Vec<f64> = x.iter().zip(e).map(|(v, c)| v - c).collect();
@@ -333,8 +347,7 @@ impl Plan {
                 None => self.temperature(x, t),
             },
             _ => vec![f64::NAN; self.temp_scales.len()],
-        };
-        Measure { values: [ln_adev, psd, dist, temp], adev }
+        }
     }
 
     fn adev(&self, x: &[f64], parallel: bool) -> Vec<f64> {
@@ -789,5 +802,8 @@ mod tests {
         for k in 0..3 {
             assert_eq!(format!("{:?}", rest.values[k]), format!("{:?}", whole.values[k]));
         }
+        // Re-taking only the temperature view of a measure gives the same, bit for bit.
+        let again = plan.with_explained(&whole, &rate, Some(&temp), &response);
+        assert_eq!(format!("{:?}", again.values), format!("{:?}", rest.values));
     }
 }
