@@ -534,8 +534,10 @@ fn difference_kurtosis(x: &[f64], ms: &[usize]) -> Vec<f64> {
     out
 }
 
-fn block_means(x: &[f64], b: usize) -> Vec<f64> {
-    x.chunks_exact(b).map(|c| c.iter().sum::<f64>() / b as f64).collect()
+/// Block means of `x` over blocks of `m` samples (the last partial block dropped); the estimators use it too.
+pub(crate) fn block_means(x: &[f64], m: usize) -> Vec<f64> {
+    let m = m.max(1);
+    x.chunks_exact(m).map(|c| c.iter().sum::<f64>() / m as f64).collect()
 }
 
 /// Pearson correlation over the pairs where both are finite (`None` with fewer than 8 pairs or no variance).

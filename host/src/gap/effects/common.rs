@@ -6,6 +6,7 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
+pub(super) use crate::gap::views::block_means;
 use crate::fit::{fit, FitOptions, FitPoint};
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
 
@@ -27,11 +28,6 @@ pub(super) fn median(x: &[f64]) -> f64 {
     *m
 }
 
-/// Block means of `x` over blocks of `m` samples (the last partial block dropped).
-pub(super) fn block_means(x: &[f64], m: usize) -> Vec<f64> {
-    let m = m.max(1);
-    x.chunks_exact(m).map(|c| c.iter().sum::<f64>() / m as f64).collect()
-}
 
 /// The overlapping Allan variance at octave tau, with Greenhall EDFs, as fit points.
 pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
