@@ -318,6 +318,10 @@ mod tests {
             ..Default::default()
         };
         assert!(VirtualGyro::new(&m, ch, 100.0, 1).is_err());
+        for q in [-1e-4, f64::NAN, f64::INFINITY] {
+            let m = GyroSim { q_deg: q, ..Default::default() };
+            assert_eq!(VirtualGyro::new(&m, ch, 100.0, 1).unwrap_err(), SimError::InvalidParameter("q_deg"));
+        }
     }
 
     #[test]
