@@ -1,7 +1,7 @@
 //! The `octavar` command from the outside: exit codes, error messages that locate the fault, pipelines.
 
 mod common;
-use common::{octavar, stderr};
+use common::{octavar, stderr, stdout};
 
 #[test]
 fn accumulate_rejects_bad_codes_with_the_line() {
@@ -168,4 +168,37 @@ fn gap_rejects_bad_input_with_located_errors() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("needs at least"), "{}", stderr(&o));
     assert!(!stderr(&o).contains("panicked"));
+}
+
+/// `octavar gap --holdout-check predictive` on white noise with a sinusoid: the sinusoid is named, and the JSON
+/// has the plain held-out check and the predictive one beside it, each cured by the sinusoid.
+#[test]
+fn gap_predictive_holdout_check_is_in_the_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rec.csv");
+    let json = dir.path().join("gap.json");
+    let mut s: u64 = 3;
+    let mut text = String::from("g\n");
+    for i in 0..16_384 {
+        let mut a = 0.0;
+        for _ in 0..12 {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            a += (s >> 11) as f64 / (1u64 << 53) as f64;
+        }
+        let t = i as f64 / 10.0;
+        text.push_str(&format!("{}\n", 0.1 * (a - 6.0) + 0.05 * (std::f64::consts::TAU * t / 50.0).sin()));
+    }
+    std::fs::write(&csv, text).unwrap();
+    let (c, j) = (csv.to_str().unwrap(), json.to_str().unwrap());
+    let args = ["gap", c, "--column", "g", "--rate", "10", "--seeds", "8", "--holdout-check", "predictive", "--json", j];
+    let o = octavar(&args, None);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("against the predictive ensembles"), "{}", stdout(&o));
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["effect"], "sinusoid");
+    for key in ["holdout", "holdout_predictive"] {
+        let h = &v[key];
+        let (b, a) = (h["gap_before"].as_f64().unwrap(), h["gap_after"].as_f64().unwrap());
+        assert!(b > 2.5 && a < 0.5 * b, "{key}: {h}");
+    }
 }

@@ -30,7 +30,7 @@
 //! effect and two controls; the full sweep (`full_sweep`, 10 seeds each) is `#[ignore]`d: `cargo test -p
 //! octavar-tests --release gap_withheld::full_sweep -- --ignored`.
 
-use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport};
+use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport, HoldoutCheck};
 use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::temperature::Thermal;
@@ -201,6 +201,9 @@ struct Outcome {
     band_s: Option<[f64; 2]>,
     view: String,
     shrink: f64,
+    /// Held-out gap before and after, and the shrink against the predictive ensembles (`GAP_PREDICTIVE=1`;
+    /// NaN without), for the line printed.
+    holdout: [f64; 3],
     band_ok: bool,
 }
 
@@ -208,7 +211,8 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
     let c = draw(effect, seed);
     let (x, t) = record(&c, seed);
     let input = GapInput::split(x, t, c.fs, 0.5).unwrap();
-    let r: GapReport = diagnose(&input, &GapOptions::default(), &|_, _, _| {}).unwrap();
+    let check = if std::env::var_os("GAP_PREDICTIVE").is_some() { HoldoutCheck::Predictive } else { HoldoutCheck::Plain };
+    let r: GapReport = diagnose(&input, &GapOptions { holdout_check: check, ..Default::default() }, &|_, _, _| {}).unwrap();
     let loc = r.location.as_ref();
     let band_s = loc.map(|l| l.band_s);
     let view = loc.map_or("-".to_string(), |l| format!("{:?}", l.view));
@@ -227,6 +231,11 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
         None => effect.is_none(),
     };
     let shrink = r.holdout.as_ref().map_or(f64::NAN, |h| h.shrink);
+    let holdout = [
+        r.holdout.map_or(f64::NAN, |h| h.gap_before),
+        r.holdout.map_or(f64::NAN, |h| h.gap_after),
+        r.holdout_predictive.map_or(f64::NAN, |h| h.shrink),
+    ];
     if std::env::var_os("GAP_WITHHELD_VERBOSE").is_some() {
         eprintln!("  base gap {:?} holdout {:?}\n  base model {:?}", r.training, r.holdout, r.base);
         eprintln!(
@@ -269,7 +278,7 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
             }
         }
     }
-    (c, Outcome { named: r.effect, band_s, view, shrink, band_ok })
+    (c, Outcome { named: r.effect, band_s, view, shrink, holdout, band_ok })
 }
 
 fn passes(effect: Option<Effect>, o: &Outcome) -> bool {
@@ -302,7 +311,7 @@ fn sweep_of(cases: &[Option<Effect>], seeds: std::ops::Range<u64>) -> Vec<String
                 min_shrink = min_shrink.min(o.shrink);
             }
             let line = format!(
-                "{:<13} seed {seed:>2} [{}] fs {:.3e}: named {:<13} view {:<12} band {:?} shrink {:.3} {} ({:.1?})",
+                "{:<13} seed {seed:>2} [{}] fs {:.3e}: named {:<13} view {:<12} band {:?} shrink {:.3} ({:.2} -> {:.2}; predictive {:.3}) {} ({:.1?})",
                 effect.map_or("none", Effect::name),
                 c.what,
                 c.fs,
@@ -310,6 +319,9 @@ fn sweep_of(cases: &[Option<Effect>], seeds: std::ops::Range<u64>) -> Vec<String
                 o.view,
                 o.band_s,
                 o.shrink,
+                o.holdout[0],
+                o.holdout[1],
+                o.holdout[2],
                 if pass { "ok" } else { "FAIL" },
                 t0.elapsed()
             );

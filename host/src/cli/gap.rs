@@ -48,6 +48,12 @@ pub struct Args {
     /// spectrum has the block mean's shape too (16 is enough for a long block).
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub oversample: u32,
+    /// How the held-out gap is judged: `plain`, against the ensembles of the models learnt from the real training
+    /// part (their spread is the noise's); `predictive` adds a check against predictive ensembles, whose members
+    /// each re-learn the model from a simulated training part, so their spread carries the error of the learnt
+    /// parameters too (JSON `holdout_predictive`; it costs two more ensembles and the estimator on each member).
+    #[arg(long, value_name = "CHECK", value_enum, default_value_t = gap::HoldoutCheck::Plain)]
+    pub holdout_check: gap::HoldoutCheck,
     /// Write the JSON document here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -81,7 +87,12 @@ impl Args {
         } else {
             GapInput::split(rec.channels.remove(0), rec.temp_c.take(), fs, self.holdout_fraction)?
         };
-        let opts = GapOptions { seeds: self.seeds, oversample: self.oversample as usize, ..Default::default() };
+        let opts = GapOptions {
+            seeds: self.seeds,
+            oversample: self.oversample as usize,
+            holdout_check: self.holdout_check,
+            ..Default::default()
+        };
         let bar = Mutex::new(None::<Progress>);
         let progress = |_stage: &str, done: usize, total: usize| {
             let mut b = bar.lock().expect("progress lock");

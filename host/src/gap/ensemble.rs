@@ -1,7 +1,8 @@
 //! The simulated ensemble: one model, many seeds, the whole record (training then holdout) per seed.
 //!
 //! Each member is a [`VirtualGyro`] run for as many samples as the record has, at its rate, through the model's
-//! ADC (the measured rate is `channel.code_to_dps(code)`, looked up in a table of every code), driven by the real
+//! ADC when it has one (the measured rate is `channel.code_to_dps(code)`, looked up in a table of every code;
+//! without one, the analog rate, as a record of unknown ADC is compared), driven by the real
 //! temperature sequence when there is one, so a temperature coupling acts through the temperature the sensor saw.
 //! Simulating training and holdout as one run keeps sinusoid phases and drifts continuous across the split; the
 //! real record's gaps are copied into each member, then each part is measured on its own [`Plan`] (the
@@ -83,7 +84,7 @@ const NO_TEMP_C: f64 = 25.0;
 /// The model's [`SimError`] (a parameter out of range).
 pub fn simulate(
     gyro: &GyroSim,
-    channel: &Channel,
+    channel: Option<&Channel>,
     rec: &Record,
     train_plan: &Plan,
     holdout_plan: Option<&Plan>,
@@ -91,10 +92,8 @@ pub fn simulate(
     explained: Option<&[f64]>,
 ) -> Result<Ensemble, SimError> {
     // Fail early (and once) on a bad model.
-    let d = rec.oversample.max(1);
-    let fs_sim = rec.fs_hz * d as f64;
-    VirtualGyro::new(gyro, *channel, fs_sim, 0)?;
-    let table: Vec<f64> = (0..=channel.adc.max_code()).map(|c| channel.code_to_dps(c)).collect();
+    VirtualGyro::new(gyro, adc_of(channel), rec.fs_hz * rec.oversample.max(1) as f64, 0)?;
+    let table = code_table(channel);
     let (resp_train, resp_hold) = match explained {
         Some(r) => (Some(&r[..rec.n_train]), Some(&r[rec.n_train..])),
         None => (None, None),
@@ -102,27 +101,7 @@ pub fn simulate(
     let members: Vec<(Measure, Option<Measure>)> = seeds
         .par_iter()
         .map(|&seed| {
-            let mut g = VirtualGyro::new(gyro, *channel, fs_sim, seed).expect("model checked above");
-            let mut one = |tc: f64| -> f64 {
-                if d == 1 {
-                    table[g.next(tc).code as usize]
-                } else {
-                    (0..d).map(|_| table[g.next(tc).code as usize]).sum::<f64>() / d as f64
-                }
-            };
-            let x: Vec<f64> = rec
-                .rate_dps
-                .iter()
-                .enumerate()
-                .map(|(i, &r)| {
-                    let v = one(rec.temp_c.map_or(NO_TEMP_C, |t| t[i]));
-                    if r.is_nan() {
-                        f64::NAN
-                    } else {
-                        v
-                    }
-                })
-                .collect();
+            let x = member(gyro, channel, &table, rec, rec.rate_dps.len(), seed);
             let train = train_plan.measure_explained(&x[..rec.n_train], rec.training_temp(), resp_train, false);
             let hold = holdout_plan
                 .map(|p| p.measure_explained(&x[rec.n_train..], rec.holdout_temp(), resp_hold, false));
@@ -137,6 +116,91 @@ pub fn simulate(
         }
     }
     Ok(out)
+}
+
+/// The first `n` samples of one member: `gyro` on `channel` (its code table `table`; the analog rate without a
+/// channel) at the record's rate (oversampled and block-averaged as the record says), driven by the record's
+/// temperature, with the record's gaps copied in. `gyro` must have been checked by [`VirtualGyro::new`].
+fn member(gyro: &GyroSim, channel: Option<&Channel>, table: &[f64], rec: &Record, n: usize, seed: u64) -> Vec<f64> {
+    let d = rec.oversample.max(1);
+    let mut g =
+        VirtualGyro::new(gyro, adc_of(channel), rec.fs_hz * d as f64, seed).expect("model checked by the caller");
+    let analog = channel.is_none();
+    let mut one = |tc: f64| if analog { g.next_rate(tc) } else { table[g.next(tc).code as usize] };
+    rec.rate_dps[..n]
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| {
+            let tc = rec.temp_c.map_or(NO_TEMP_C, |t| t[i]);
+            let v = if d == 1 { one(tc) } else { (0..d).map(|_| one(tc)).sum::<f64>() / d as f64 };
+            if r.is_nan() {
+                f64::NAN
+            } else {
+                v
+            }
+        })
+        .collect()
+}
+
+/// The code-to-rate table of every code of `channel` (empty without one).
+fn code_table(channel: Option<&Channel>) -> Vec<f64> {
+    channel.map_or_else(Vec::new, |ch| (0..=ch.adc.max_code()).map(|c| ch.code_to_dps(c)).collect())
+}
+
+/// The channel a [`VirtualGyro`] is built with: the model's, or, for the analog rate (its codes unused), any.
+fn adc_of(channel: Option<&Channel>) -> Channel {
+    channel.copied().unwrap_or(Channel::bench(octavar_shared::sensor::GENERIC))
+}
+
+/// What a member's training part teaches: the model (and its channel; `None`: the analog rate) that the
+/// diagnosis's own procedure learns from it.
+pub type Relearn<'a> = dyn Fn(&[f64]) -> (GyroSim, Option<Channel>) + Sync + 'a;
+
+/// Added to a member's seed for the simulation of the model it re-learnt, so its holdout is a fresh draw.
+pub(crate) const PREDICT_SALT: u64 = 0x5eed_0000_0000;
+
+/// The predictive ensemble of the holdout (a parametric bootstrap of train-then-predict): member `i` simulates
+/// the training part of `gyro` with seed `i`, re-learns the model from it with `relearn` (the same procedure that
+/// learnt `gyro` from the real training part), simulates that re-learnt model over the whole record with a fresh
+/// seed, and measures its holdout part, with `explained_hold` (the response of `gyro`, the model learnt from the
+/// real data, over the holdout) taken out for the temperature view as on the real holdout. Where the plain
+/// ensemble asks whether the holdout looks like `gyro`, this one asks whether it looks like what a model learnt
+/// from a training part like the real one predicts: the spread then carries the error of the learnt parameters,
+/// which the plain ensemble leaves out.
+///
+/// # Errors
+/// The model's [`SimError`] (a parameter out of range); a re-learnt model the simulator rejects falls back to
+/// `gyro`.
+pub fn predict_holdout(
+    gyro: &GyroSim,
+    channel: Option<&Channel>,
+    rec: &Record,
+    holdout_plan: &Plan,
+    seeds: &[u64],
+    explained_hold: Option<&[f64]>,
+    relearn: &Relearn,
+) -> Result<Vec<Measure>, SimError> {
+    let fs_sim = rec.fs_hz * rec.oversample.max(1) as f64;
+    VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
+    let table = code_table(channel);
+    Ok(seeds
+        .par_iter()
+        .map(|&seed| {
+            let train = member(gyro, channel, &table, rec, rec.n_train, seed);
+            let (mut g, ch) = relearn(&train);
+            // The bias enters no view; a member's own training mean, off by its drift, would only move the
+            // member towards the ADC's rails.
+            g.bias_dps = gyro.bias_dps;
+            let (g, ch, t) = match VirtualGyro::new(&g, adc_of(ch.as_ref()), fs_sim, 0) {
+                Ok(_) if ch.as_ref() == channel => (g, ch, None),
+                Ok(_) => (g, ch, Some(code_table(ch.as_ref()))),
+                Err(_) => (gyro.clone(), channel.copied(), None),
+            };
+            let table = t.as_deref().unwrap_or(&table);
+            let x = member(&g, ch.as_ref(), table, rec, rec.rate_dps.len(), seed.wrapping_add(PREDICT_SALT));
+            holdout_plan.measure_explained(&x[rec.n_train..], rec.holdout_temp(), explained_hold, false)
+        })
+        .collect())
 }
 
 /// One simulated record of `n` samples (for tests and examples): the measured rate of `gyro` on `channel`.

@@ -4,9 +4,10 @@
 //! 1. **Split**: training is the first part of the record, the holdout the rest ([`GapInput::split`]), or a
 //!    second record ([`GapInput::joined`]).
 //! 2. **Base model**: the IEEE 952 fit ([`crate::fit::fit`], default options) on the training OADEV at octave tau;
-//!    its identifiable N, B, K, R and the training mean as the bias, on the record's ADC when it is known
-//!    ([`GapOptions::channel`]), else on a fine 16-bit ADC over four times the record's 99.99th-percentile |rate|,
-//!    which adds no visible quantisation ([`crate::analyze::fine_channel`]).
+//!    its fitted terms and the training mean as the bias, on the record's ADC when it is known
+//!    ([`GapOptions::channel`]), else as the analog rate (no ADC: nothing quantises or clips it; a fine ADC over
+//!    a few times the record's range clipped members whose random walk or ramp wandered further than the
+//!    record's, and their stuck samples read as a heavy-tailed distribution).
 //! 3. **Ensemble** ([`ensemble`]): the model simulated with [`GapOptions::seeds`] seeds over the whole record,
 //!    driven by the real temperature; measured on each part.
 //! 4. **Views** ([`views`]): ADEV, PSD, distribution, temperature; z-scores of the real values against the
@@ -37,6 +38,7 @@
 
 pub mod effects;
 pub mod ensemble;
+pub mod holdout;
 pub mod rank;
 pub mod report;
 pub mod views;
@@ -45,12 +47,11 @@ use octavar_shared::sensor::Channel;
 use octavar_shared::sim::GyroSim;
 use rayon::prelude::*;
 
-use crate::analyze::fine_channel;
 use crate::fit::{fit, FitError, FitOptions, FitPoint, NoiseFit};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
 
 pub use effects::{Effect, EffectFit};
-pub use report::{CandidateResult, GapReport, PartGap};
+pub use report::{CandidateResult, GapReport, HoldoutCheck, PartGap};
 pub use views::{ViewGap, ViewKind};
 
 /// Fewest samples a part may have.
@@ -183,7 +184,7 @@ pub struct GapOptions {
     pub seeds: usize,
     /// The first seed; member i uses `first_seed + i`.
     pub first_seed: u64,
-    /// The record's ADC, when known (the demo's bench); `None`: a fine 16-bit ADC over four times the data's range.
+    /// The record's ADC, when known (the demo's bench); `None`: the ensembles simulate the analog rate.
     pub channel: Option<Channel>,
     /// The base fit's options.
     pub fit: FitOptions,
@@ -196,6 +197,9 @@ pub struct GapOptions {
     /// simulated at this many times the record's rate and averaged the same way (see
     /// [`ensemble::Record::oversample`]); 1 (the default) for a record at the sensor's own rate.
     pub oversample: usize,
+    /// How the holdout is judged: [`HoldoutCheck::Plain`] by default; [`HoldoutCheck::Predictive`] adds the check
+    /// against predictive ensembles (see [`holdout`]).
+    pub holdout_check: HoldoutCheck,
 }
 
 impl Default for GapOptions {
@@ -208,6 +212,7 @@ impl Default for GapOptions {
             effects: Effect::ALL.to_vec(),
             base_fit: None,
             oversample: 1,
+            holdout_check: HoldoutCheck::Plain,
         }
     }
 }
@@ -243,24 +248,18 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         n_train,
         oversample: opts.oversample.max(1),
     };
-    let total_steps = 2 + opts.effects.len();
+    let predictive = has_holdout && opts.holdout_check == HoldoutCheck::Predictive;
+    let total_steps = 2 + opts.effects.len() + usize::from(predictive);
     progress("base fit", 0, total_steps);
 
     // Base model on the training part.
     let training = rec.training();
-    let series = Series::new(training, DataKind::Frequency, 1.0 / fs)?;
-    let real_adev = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &Options::default())?;
-    let pts: Vec<FitPoint> = real_adev
-        .iter()
-        .filter(|p| p.edf.is_finite() && p.edf > 0.0)
-        .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
-        .collect();
-    let base_fit = match &opts.base_fit {
-        Some(f) => f.clone(),
-        None => fit(&pts, &opts.fit)?,
+    let (real_adev, base_fit) = match &opts.base_fit {
+        Some(f) => (training_adev(training, fs)?, f.clone()),
+        None => fit_base(training, fs, &opts.fit)?,
     };
     let base = base_model(&base_fit, training);
-    let channel = opts.channel.unwrap_or_else(|| fine_channel(4.0 * robust_range(&input.rate_dps).max(1e-3)));
+    let channel = opts.channel;
     let seeds: Vec<u64> = (0..opts.seeds as u64).map(|i| opts.first_seed + i).collect();
 
     // Plans and the real measures.
@@ -270,7 +269,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let real_hold = hold_plan.as_ref().map(|p| p.measure(rec.holdout(), rec.holdout_temp(), true));
     progress("base fit", 1, total_steps);
 
-    let run = |gyro: &GyroSim, ch: &Channel, name: &str| -> Result<Evaluated, GapError> {
+    let run = |gyro: &GyroSim, ch: Option<&Channel>, name: &str| -> Result<Evaluated, GapError> {
         // A model with a temperature coupling is judged in the temperature view on what its coupling leaves, on
         // the real record as on each member.
         let explained = ensemble::temperature_response(gyro, &rec);
@@ -291,7 +290,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         };
         Ok(Evaluated::new(&train_plan, train, hold_plan.as_ref(), hold, e))
     };
-    let base_eval = run(&base, &channel, "base")?;
+    let base_eval = run(&base, channel.as_ref(), "base")?;
     progress("base ensemble", 2, total_steps);
 
     // Candidates: estimate all (in parallel), then simulate each.
@@ -309,15 +308,14 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     for (i, (effect, f)) in fits.into_iter().enumerate() {
         let eval = match &f {
             Some(f) => {
-                let ch = f.channel.unwrap_or(channel);
-                Some(run(&f.gyro, &ch, effect.name())?)
+                Some(run(&f.gyro, f.channel.or(channel).as_ref(), effect.name())?)
             }
             None => None,
         };
         candidates.push((effect, f, eval));
         progress(effect.name(), 3 + i, total_steps);
     }
-    Ok(report::assemble(report::Parts {
+    let mut report = report::assemble(report::Parts {
         fs_hz: fs,
         n_train,
         n_holdout: n_hold,
@@ -329,7 +327,67 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         real_adev,
         base_eval,
         candidates,
-    }))
+    });
+
+    // The held-out check against predictive ensembles (see [`holdout`]).
+    if let (true, Some(hp), Some(real_hold)) = (predictive, hold_plan.as_ref(), real_hold.as_ref()) {
+        let learner = holdout::Learner {
+            fs_hz: fs,
+            temp_c: rec.training_temp(),
+            fit: &opts.fit,
+            fixed_base: opts.base_fit.as_ref(),
+            fallback: &report.base_fit,
+            channel,
+        };
+        // A base model not learnt from the record predicts what its plain ensemble does.
+        let base_views = match opts.base_fit {
+            Some(_) => None,
+            None => {
+                let relearn = |t: &[f64]| (learner.base(t).1, channel);
+                let m = ensemble::predict_holdout(&report.base, channel.as_ref(), &rec, hp, &seeds, None, &relearn)
+                    .map_err(|err| GapError::Sim { model: "base".into(), err })?;
+                Some(views::compare(hp, real_hold, &m))
+            }
+        };
+        let chosen_views = match report.chosen().and_then(|c| c.fit.as_ref()) {
+            Some(f) => {
+                let effect = f.effect;
+                let explained = ensemble::temperature_response(&f.gyro, &rec);
+                let resp_hold = explained.as_deref().map(|r| &r[n_train..]);
+                let real = match resp_hold {
+                    Some(r) => hp.with_explained(real_hold, rec.holdout(), rec.holdout_temp(), r),
+                    None => real_hold.clone(),
+                };
+                let relearn = |t: &[f64]| learner.with_effect(effect, t);
+                let ch = f.channel.or(channel);
+                let m = ensemble::predict_holdout(&f.gyro, ch.as_ref(), &rec, hp, &seeds, resp_hold, &relearn)
+                    .map_err(|err| GapError::Sim { model: effect.name().to_string(), err })?;
+                Some(views::compare(hp, &real, &m))
+            }
+            None => None,
+        };
+        report.apply_predictive(base_views, chosen_views);
+        progress("holdout check", total_steps, total_steps);
+    }
+    Ok(report)
+}
+
+/// The octave OADEV of a training part.
+fn training_adev(training: &[f64], fs_hz: f64) -> Result<Vec<DevPoint>, GapError> {
+    let series = Series::new(training, DataKind::Frequency, 1.0 / fs_hz)?;
+    Ok(analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &Options::default())?)
+}
+
+/// The base fit of a training part: its octave OADEV and the IEEE 952 fit of it.
+pub(crate) fn fit_base(training: &[f64], fs_hz: f64, opts: &FitOptions) -> Result<(Vec<DevPoint>, NoiseFit), GapError> {
+    let real_adev = training_adev(training, fs_hz)?;
+    let pts: Vec<FitPoint> = real_adev
+        .iter()
+        .filter(|p| p.edf.is_finite() && p.edf > 0.0)
+        .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
+        .collect();
+    let f = fit(&pts, opts)?;
+    Ok((real_adev, f))
 }
 
 /// One model's ensemble, compared with the real record on both parts.
@@ -377,17 +435,6 @@ impl Evaluated {
 pub fn base_model(f: &NoiseFit, training: &[f64]) -> GyroSim {
     let (sum, n) = training.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
     f.sim_terms(GyroSim { bias_dps: if n > 0 { sum / n as f64 } else { 0.0 }, ..Default::default() })
-}
-
-/// The 99.99th percentile of |x| (a few wild samples must not coarsen the fine ADC of the ensemble).
-pub fn robust_range(x: &[f64]) -> f64 {
-    let mut a: Vec<f64> = x.iter().filter(|v| v.is_finite()).map(|v| v.abs()).collect();
-    if a.is_empty() {
-        return 0.0;
-    }
-    let k = ((a.len() - 1) as f64 * 0.9999).round() as usize;
-    let (_, v, _) = a.select_nth_unstable_by(k, f64::total_cmp);
-    *v
 }
 
 /// A copy with NaN runs filled by linear interpolation between their neighbours (the ends by the nearest value);

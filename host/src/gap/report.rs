@@ -72,8 +72,14 @@ pub struct GapReport {
     pub worst: [f64; 4],
     /// Training gap before/after.
     pub training: PartGap,
-    /// Holdout gap before/after (`None` without a holdout).
+    /// Holdout gap before/after (`None` without a holdout), against the ensembles of the models learnt from the
+    /// real training part.
     pub holdout: Option<PartGap>,
+    /// With [`HoldoutCheck::Predictive`]: the holdout gap before/after against the predictive ensembles (see
+    /// [`super::holdout`]), whose spread carries the error of the parameters learnt on training.
+    pub holdout_predictive: Option<PartGap>,
+    /// The worst view's gap on the holdout against the predictive ensembles, before and after (NaN without).
+    pub holdout_predictive_worst: [f64; 2],
     /// Totals (RMS over views) before and after, training.
     pub total: [f64; 2],
     /// Every candidate, in vocabulary order.
@@ -82,8 +88,8 @@ pub struct GapReport {
     pub base: GyroSim,
     /// Its fit.
     pub base_fit: NoiseFit,
-    /// The ADC channel of the base ensemble.
-    pub channel: Channel,
+    /// The ADC channel of the base ensemble (`None`: the analog rate).
+    pub channel: Option<Channel>,
     /// The base model's comparison.
     pub base_eval: Evaluated,
     /// Real training OADEV (with intervals), for the plot.
@@ -100,6 +106,29 @@ pub struct GapReport {
     pub has_temperature: bool,
 }
 
+/// How the held-out gap is judged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum HoldoutCheck {
+    /// Against the ensembles of the models learnt from the real training part: their spread is the noise's.
+    #[default]
+    Plain,
+    /// Also against predictive ensembles: each member re-learns the model from a simulated training part and
+    /// predicts the holdout ([`super::ensemble::predict_holdout`]), so the spread carries the error of the
+    /// parameters learnt on training as well as the noise.
+    Predictive,
+}
+
+impl HoldoutCheck {
+    /// `predictive` or `plain`.
+    pub fn name(self) -> &'static str {
+        match self {
+            HoldoutCheck::Predictive => "predictive",
+            HoldoutCheck::Plain => "plain",
+        }
+    }
+}
+
 /// How much worse a temperature coupling's score may be than the best candidate's and still be chosen, when the
 /// gap lies in the temperature view (see `assemble`).
 pub const DRIVER_PREFERENCE: f64 = 1.25;
@@ -111,7 +140,7 @@ pub(crate) struct Parts {
     pub n_holdout: usize,
     pub seeds: usize,
     pub has_temperature: bool,
-    pub channel: Channel,
+    pub channel: Option<Channel>,
     pub base: GyroSim,
     pub base_fit: NoiseFit,
     pub real_adev: Vec<DevPoint>,
@@ -207,6 +236,8 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         worst,
         training: PartGap { gap_before, gap_after, shrink: rank::shrink(gap_before, gap_after) },
         holdout,
+        holdout_predictive: None,
+        holdout_predictive_worst: [f64::NAN; 2],
         total: [total_before, total_after],
         candidates,
         base: p.base,
@@ -223,6 +254,22 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
 }
 
 impl GapReport {
+    /// Add the held-out check against the predictive ensembles (see [`super::holdout`]): `base` is the base
+    /// model's holdout comparison (`None`: the plain one stands, which is the same distribution when the base
+    /// model is not re-learnt from the record), `chosen` the chosen effect's.
+    pub(crate) fn apply_predictive(&mut self, base: Option<Vec<ViewGap>>, chosen: Option<Vec<ViewGap>>) {
+        let loc = self.location.clone();
+        let in_view = |v: &[ViewGap]| loc.as_ref().and_then(|l| rank::band_gap(v, l));
+        let plain_after = self.chosen().and_then(|c| c.eval.as_ref()).map(|e| e.holdout.clone());
+        let base = base.unwrap_or_else(|| self.base_eval.holdout.clone());
+        let after = chosen.or(plain_after).unwrap_or_else(|| base.clone());
+        self.holdout_predictive = in_view(&base).map(|b| {
+            let a = in_view(&after).unwrap_or(b);
+            PartGap { gap_before: b, gap_after: a, shrink: rank::shrink(b, a) }
+        });
+        self.holdout_predictive_worst = [rank::gap_of(&base), rank::gap_of(&after)];
+    }
+
     /// The chosen effect's name, or `none`.
     pub fn effect_name(&self) -> &'static str {
         self.effect.map_or("none", Effect::name)
@@ -281,6 +328,9 @@ impl GapReport {
             "shrink": self.training.shrink,
             "holdout": self.holdout.map_or(Value::Null, |h| json!({
                 "gap_before": h.gap_before, "gap_after": h.gap_after, "shrink": h.shrink })),
+            "holdout_predictive": self.holdout_predictive.map_or(Value::Null, |h| json!({
+                "gap_before": h.gap_before, "gap_after": h.gap_after, "shrink": h.shrink,
+                "worst": [finite(self.holdout_predictive_worst[0]), finite(self.holdout_predictive_worst[1])] })),
             "candidates": candidates,
             "model": serde_json::to_value(self.model()).unwrap_or(Value::Null),
             "model_channel": self.chosen().and_then(|c| c.fit.as_ref()).and_then(|f| f.channel)
@@ -444,10 +494,19 @@ impl GapReport {
                 if let Some(h) = self.holdout {
                     let _ = write!(
                         s,
-                        "; held out, parameters frozen: {:.2} -> {:.2}, shrink {:.0}%",
+                        "; held out, parameters frozen: {:.2} -> {:.2}, shrink {:.0}%{}",
                         h.gap_before,
                         h.gap_after,
-                        100.0 * h.shrink
+                        100.0 * h.shrink,
+                        match self.holdout_predictive {
+                            Some(p) => format!(
+                                "; against the predictive ensembles, which carry the learnt parameters' error: {:.2} -> {:.2}, shrink {:.0}%",
+                                p.gap_before,
+                                p.gap_after,
+                                100.0 * p.shrink
+                            ),
+                            None => String::new(),
+                        }
                     );
                 }
                 let _ = writeln!(s, ")");

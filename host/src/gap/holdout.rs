@@ -1,0 +1,131 @@
+//! The held-out check's predictive ensembles: the diagnosis's own learning procedure, re-run on each member's
+//! simulated training part (a parametric bootstrap of train-then-predict).
+//!
+//! A model learnt from one training part carries that part's realisation: a coupling read 20% high because the
+//! noise happened to follow the temperature over four cycles, a sinusoid's period 2% off. The plain ensemble of
+//! that model spreads by the noise alone, so a correct effect learnt with such an error still reads as a gap on
+//! the holdout. The predictive ensemble asks the question the held-out check is about: does the holdout look like
+//! what a model learnt from a training part like the real one predicts? Member `i` simulates the training part
+//! of the learnt model, learns from it exactly as the diagnosis learnt from the real one ([`Learner`]: the base
+//! fit, then the effect's estimator), and simulates what it learnt over the holdout
+//! ([`super::ensemble::predict_holdout`]). Every parameter applied to the real holdout is still the one frozen
+//! from the real training part; only the ensemble it is judged against changes.
+
+use octavar_shared::sensor::Channel;
+use octavar_shared::sim::GyroSim;
+
+use super::effects::{self, Effect, TrainingData};
+use super::{base_model, fill_gaps, fit_base};
+use crate::fit::{FitOptions, NoiseFit};
+
+/// The diagnosis's learning procedure, to be re-run on simulated training parts.
+pub struct Learner<'a> {
+    /// Sample rate, Hz.
+    pub fs_hz: f64,
+    /// The training part's temperature (the members are driven by it too).
+    pub temp_c: Option<&'a [f64]>,
+    /// The base fit's options.
+    pub fit: &'a FitOptions,
+    /// A base fit made outside the record ([`super::GapOptions::base_fit`]): then it is not re-learnt.
+    pub fixed_base: Option<&'a NoiseFit>,
+    /// The base fit of the real training part, used when a member's own fit fails.
+    pub fallback: &'a NoiseFit,
+    /// The ensemble's channel (`None`: the analog rate).
+    pub channel: Option<Channel>,
+}
+
+impl Learner<'_> {
+    /// The base fit and model learnt from `train`.
+    pub fn base(&self, train: &[f64]) -> (NoiseFit, GyroSim) {
+        let f = match self.fixed_base {
+            Some(f) => f.clone(),
+            None => fit_base(train, self.fs_hz, self.fit).map(|(_, f)| f).unwrap_or_else(|_| self.fallback.clone()),
+        };
+        let g = base_model(&f, train);
+        (f, g)
+    }
+
+    /// The model with `effect` learnt from `train` (the base model alone when the estimator finds no trace), and
+    /// its channel.
+    pub fn with_effect(&self, effect: Effect, train: &[f64]) -> (GyroSim, Option<Channel>) {
+        let (f, base) = self.base(train);
+        let filled = fill_gaps(train);
+        let data =
+            TrainingData { rate_dps: &filled, temp_c: self.temp_c, fs_hz: self.fs_hz, base: &base, base_fit: &f };
+        match effects::estimate(effect, &data) {
+            Some(e) => (e.gyro, e.channel.or(self.channel)),
+            None => (base, self.channel),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gap::ensemble::{predict_holdout, simulate, Record};
+    use crate::gap::views::{Plan, ViewKind};
+
+    fn white_record(n: usize, sigma: f64) -> Vec<f64> {
+        crate::test_signals::white(n, 11).iter().map(|v| v * sigma).collect()
+    }
+
+    /// A re-learning that changes nothing: the predictive ensemble is the plain one of the same model with the
+    /// salted seeds, bit for bit (the holdout part, its measures, the salt).
+    #[test]
+    fn a_relearning_that_changes_nothing_is_the_plain_ensemble() {
+        let x = white_record(4096, 0.1);
+        let rec = Record { rate_dps: &x, temp_c: None, fs_hz: 10.0, n_train: 2048, oversample: 1 };
+        let gyro = GyroSim { n_deg_per_rt_s: 0.1 / 10f64.sqrt(), ..Default::default() };
+        let train = Plan::new(rec.training(), None, 10.0);
+        let hold = Plan::new(rec.holdout(), None, 10.0);
+        let seeds = [1u64, 2, 3];
+        let same = |_: &[f64]| (gyro.clone(), None);
+        let pred = predict_holdout(&gyro, None, &rec, &hold, &seeds, None, &same).unwrap();
+        let salted: Vec<u64> = seeds.iter().map(|s| s.wrapping_add(super::super::ensemble::PREDICT_SALT)).collect();
+        let plain = simulate(&gyro, None, &rec, &train, Some(&hold), &salted, None).unwrap();
+        let bits = |m: &[crate::gap::views::Measure]| -> Vec<Vec<u64>> {
+            m.iter().flat_map(|m| m.values.iter().map(|v| v.iter().map(|x| x.to_bits()).collect())).collect()
+        };
+        assert!(!pred.is_empty());
+        assert_eq!(bits(&pred), bits(&plain.holdout));
+    }
+
+    /// White noise: the predictive spread of the holdout's ln ADEV at tau0 is the plain one (the noise's) and the
+    /// spread of what the members re-learnt (the fitted curve's ln ADEV at tau0, closed form) in quadrature. The
+    /// re-learning is the diagnosis's own base fit, whose 3% model allowance makes N about as uncertain as the
+    /// curve at a few hundred samples, so the predictive spread is well above the plain one.
+    #[test]
+    fn the_predictive_spread_carries_the_learnt_parameters_error() {
+        let fs = 10.0;
+        let tau0 = 1.0 / fs;
+        let x = white_record(1 << 15, 0.1);
+        let rec = Record { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: 1 << 14, oversample: 1 };
+        let f = crate::gap::fit_base(rec.training(), fs, &FitOptions::default()).unwrap().1;
+        let gyro = base_model(&f, rec.training());
+        let learner =
+            Learner { fs_hz: fs, temp_c: None, fit: &FitOptions::default(), fixed_base: None, fallback: &f, channel: None };
+        let train = Plan::new(rec.training(), None, fs);
+        let hold = Plan::new(rec.holdout(), None, fs);
+        let seeds: Vec<u64> = (100..160).collect();
+        let learnt = std::sync::Mutex::new(Vec::new());
+        let relearn = |t: &[f64]| {
+            let (f, g) = learner.base(t);
+            learnt.lock().unwrap().push(0.5 * f.model_avar(tau0).ln());
+            (g, None)
+        };
+        let pred = predict_holdout(&gyro, None, &rec, &hold, &seeds, None, &relearn).unwrap();
+        let plain = simulate(&gyro, None, &rec, &train, Some(&hold), &seeds, None).unwrap().holdout;
+        let sd = |v: &[f64]| {
+            let mu = v.iter().sum::<f64>() / v.len() as f64;
+            (v.iter().map(|x| (x - mu) * (x - mu)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+        };
+        let at_tau0 = |m: &[crate::gap::views::Measure]| -> Vec<f64> {
+            m.iter().map(|m| m.values[ViewKind::Adev as usize][0]).collect()
+        };
+        let (sp, sn, sl) = (sd(&at_tau0(&pred)), sd(&at_tau0(&plain)), sd(&learnt.lock().unwrap()));
+        let expected = (sn * sn + sl * sl).sqrt();
+        assert!(sp > 1.3 * sn, "predictive {sp:.2e} against plain {sn:.2e}: the learnt error is missing");
+        // Each sd from 60 members is within 9% (1 sigma).
+        assert!((0.8..1.25).contains(&(sp / expected)), "predictive {sp:.2e}, plain (+) learnt {expected:.2e}");
+    }
+}
