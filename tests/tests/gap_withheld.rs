@@ -26,7 +26,8 @@
 //!   the training half's spikes, and two or three events are not one), 8-30 white sigmas (below ~6 sigma a spike
 //!   is not an outlier in a million Gaussian samples, and it adds under 1% to the variance).
 //!
-//! `GAP_WITHHELD_VERBOSE=1` prints every candidate's gap and parameters. The default run checks two seeds per
+//! `GAP_WITHHELD_VERBOSE=1` prints every candidate's gap and parameters; `GAP_PREDICTIVE=1` also runs the
+//! predictive held-out check and prints its shrink beside the plain one (the pass mark stays the plain one). The default run checks two seeds per
 //! effect and two controls; the full sweep (`full_sweep`, 10 seeds each) is `#[ignore]`d: `cargo test -p
 //! octavar-tests --release gap_withheld::full_sweep -- --ignored`.
 
