@@ -542,7 +542,7 @@ mod tests {
         for half_period_log2 in [0u32, 3, 9, 15, 16, 17] {
             let hp = 1usize << half_period_log2;
             let len = (1usize << 19).max(8 * hp);
-            let codes: Vec<u16> = (0..len).map(|i| if (i / hp) % 2 == 0 { 65535 } else { 0 }).collect();
+            let codes: Vec<u16> = (0..len).map(|i| if (i / hp).is_multiple_of(2) { 65535 } else { 0 }).collect();
             check_all::<1>(&codes);
             check_all::<8>(&codes);
             check_all::<64>(&codes);

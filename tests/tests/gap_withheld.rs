@@ -92,7 +92,7 @@ fn draw(effect: Option<Effect>, seed: u64) -> Case {
     let (signature_s, what);
     match effect {
         None => {
-            if seed % 2 == 0 {
+            if seed.is_multiple_of(2) {
                 temp = Some(TemperatureProfile {
                     min_c: 22.0,
                     max_c: 25.0,

@@ -1,7 +1,7 @@
 //! `octavar gap`: flags -> recording (training, holdout) -> diagnosis -> report, JSON, plot.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Mutex;
 
@@ -67,7 +67,7 @@ impl Args {
         self.reading.options(vec![self.column.clone()], self.temp_column.clone(), filters)
     }
 
-    fn read(&self, path: &PathBuf, filters: &[String]) -> anyhow::Result<Recording> {
+    fn read(&self, path: &Path, filters: &[String]) -> anyhow::Result<Recording> {
         let input = octavar::input::open(path)?;
         Ok(recording::read_csv(input.reader, &input.name, &self.csv_options(filters)?)?)
     }

@@ -681,7 +681,7 @@ unsafe fn sumsq_o3_avx2(x: &[f64], m: usize, count: usize) -> f64 {
 /// prefix sums (each window difference is formed before combining, so the error stays relative to the window).
 fn mod_sumsq(series: &Series, m: usize) -> (f64, usize) {
     let n_phase = series.x.len();
-    if n_phase + 1 <= 3 * m {
+    if n_phase < 3 * m {
         return (0.0, 0);
     }
     let count = n_phase + 1 - 3 * m;
