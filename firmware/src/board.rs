@@ -54,7 +54,8 @@ const _: () = assert!(VCO_HZ >= 100_000_000 && VCO_HZ <= 432_000_000);
 const _: () = assert!(SYSCLK_HZ == 168_000_000 && USB_HZ == 48_000_000);
 const _: () = assert!(APB1_HZ <= 42_000_000 && APB2_HZ <= 84_000_000);
 // TIM3 divides exactly down to the sample rate: 84 MHz / 2 kHz = 42 000 counts, in 16 bits.
-const _: () = assert!(TIM3_HZ.is_multiple_of(crate::config::SAMPLE_RATE_HZ) && TIM3_HZ / crate::config::SAMPLE_RATE_HZ <= 65_536);
+const _: () =
+    assert!(TIM3_HZ.is_multiple_of(crate::config::SAMPLE_RATE_HZ) && TIM3_HZ / crate::config::SAMPLE_RATE_HZ <= 65_536);
 // The field log's sectors are the ones memory.x reserves (0x080C_0000, 2 x 128 KiB).
 const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[0].address == 0x080C_0000);
 const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[1].address == 0x080E_0000);
@@ -126,7 +127,13 @@ pub fn init() -> Parts {
             adc: p.ADC1,
             dma: p.DMA2_CH0,
             tim: p.TIM3,
-            inputs: [p.PA0.degrade_adc(), p.PA1.degrade_adc(), p.PA2.degrade_adc(), p.PA3.degrade_adc(), p.PA4.degrade_adc()],
+            inputs: [
+                p.PA0.degrade_adc(),
+                p.PA1.degrade_adc(),
+                p.PA2.degrade_adc(),
+                p.PA3.degrade_adc(),
+                p.PA4.degrade_adc(),
+            ],
         },
         usb: UsbParts { otg: p.USB_OTG_FS, dp: p.PA12, dm: p.PA11 },
         store: StoreParts { flash: Flash::new_blocking(p.FLASH) },

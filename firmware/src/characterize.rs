@@ -19,7 +19,9 @@ use embassy_sync::signal::Signal;
 use embassy_sync::zerocopy_channel;
 use octavar_shared::acc::{OctaveAllan, Snapshot};
 use octavar_shared::estimate::{estimate, EstimateConfig};
-use octavar_shared::proto::{ChannelEstimate, ChannelInfo, Command, Estimate, Frame, Hello, Samples, SnapshotPart, Status};
+use octavar_shared::proto::{
+    ChannelEstimate, ChannelInfo, Command, Estimate, Frame, Hello, Samples, SnapshotPart, Status,
+};
 
 use crate::config::*;
 use crate::frames;

@@ -32,9 +32,9 @@ use core::sync::atomic::AtomicU32;
 use defmt::unwrap;
 use defmt_rtt as _;
 // The QEMU build starts no embassy-stm32 driver, but links its PAC's interrupt vector table.
+use embassy_executor::Spawner;
 #[cfg(feature = "qemu")]
 use embassy_stm32 as _;
-use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::zerocopy_channel;
 use static_cell::StaticCell;
@@ -67,7 +67,8 @@ static BLOCK_CHANNEL: StaticCell<zerocopy_channel::Channel<'static, NoopRawMutex
 
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
-    let blocks = BLOCK_CHANNEL.init(zerocopy_channel::Channel::new(BLOCKS.init([const { SampleBlock::EMPTY }; BLOCKS_IN_FLIGHT])));
+    let blocks = BLOCK_CHANNEL
+        .init(zerocopy_channel::Channel::new(BLOCKS.init([const { SampleBlock::EMPTY }; BLOCKS_IN_FLIGHT])));
     let (block_tx, block_rx) = blocks.split();
 
     #[cfg(not(feature = "qemu"))]

@@ -19,11 +19,11 @@ use core::sync::atomic::Ordering;
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_time::{Duration, Ticker, Timer};
 use octavar_shared::acc::OctaveAllan;
-use octavar_shared::proto::Command;
 use octavar_shared::fieldlog::{LogFlash, RamFlash, RamFlashError};
-use static_cell::StaticCell;
+use octavar_shared::proto::Command;
 use octavar_shared::sensor::{Channel, ADXRS300};
 use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim};
+use static_cell::StaticCell;
 
 use crate::characterize::{BlockSender, COMMANDS};
 use crate::config::*;

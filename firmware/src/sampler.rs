@@ -15,8 +15,8 @@ use core::sync::atomic::Ordering;
 
 use embassy_stm32::adc::{Adc, Exten, RingBufferedAdc, SampleTime};
 use embassy_stm32::peripherals::ADC1;
-use embassy_stm32::timer::low_level::{MasterMode, RoundTo, Timer as HwTimer};
 use embassy_stm32::time::Hertz;
+use embassy_stm32::timer::low_level::{MasterMode, RoundTo, Timer as HwTimer};
 use embassy_time::{with_timeout, Duration, Instant, Timer};
 use static_cell::StaticCell;
 

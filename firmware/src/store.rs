@@ -70,7 +70,12 @@ fn boot_checkpoint<F: LogFlash>(log: &mut FieldLog<F>, words: &mut [u32; CHECKPO
     match log.read_latest(words) {
         Ok(Some(seq)) => {
             let cp = GyroCheckpoint::decode::<()>(words).ok()?;
-            defmt::info!("field log: checkpoint {} of {} sessions, {} samples", seq, cp.sessions, cp.snapshots[0].samples);
+            defmt::info!(
+                "field log: checkpoint {} of {} sessions, {} samples",
+                seq,
+                cp.sessions,
+                cp.snapshots[0].samples
+            );
             Some(cp)
         }
         Ok(None) => {
@@ -109,7 +114,12 @@ fn checkpoint<F: LogFlash>(
 }
 
 /// The `i`-th field-log frame of the newest checkpoint, if its number is at least `from`.
-fn log_frame<F: LogFlash>(log: &mut FieldLog<F>, from: u32, words: &mut [u32; CHECKPOINT_WORDS], i: usize) -> Option<Frame> {
+fn log_frame<F: LogFlash>(
+    log: &mut FieldLog<F>,
+    from: u32,
+    words: &mut [u32; CHECKPOINT_WORDS],
+    i: usize,
+) -> Option<Frame> {
     let seq = log.read_latest(words).ok()??;
     if seq < from {
         return None;

@@ -20,8 +20,11 @@ fn main() {
     let capture = demo::snapshot_capture(&rounds);
     let snaps = demo::last_snapshots(&capture, rounds.len()).unwrap();
     let results = demo::analyse(&snaps, &model);
-    let gaps: Vec<_> =
-        runs.iter().zip(demo::TABLE1.iter()).map(|(r, p)| demo::diagnose_channel(r, p, &|_, _, _| {}).unwrap()).collect();
+    let gaps: Vec<_> = runs
+        .iter()
+        .zip(demo::TABLE1.iter())
+        .map(|(r, p)| demo::diagnose_channel(r, p, &|_, _, _| {}).unwrap())
+        .collect();
     let total = t0.elapsed().as_secs_f64();
     let per_s = samples as f64 * rounds.len() as f64 / t_sim;
     println!(
@@ -44,7 +47,12 @@ fn main() {
     }
     for (r, g) in results.iter().zip(&gaps) {
         let j = g.to_json();
-        println!("  {:<10} gap: {} (held-out shrink {:.1}%)", r.paper.label, g.effect_name(), 100.0 * j["holdout"]["shrink"].as_f64().unwrap_or(f64::NAN));
+        println!(
+            "  {:<10} gap: {} (held-out shrink {:.1}%)",
+            r.paper.label,
+            g.effect_name(),
+            100.0 * j["holdout"]["shrink"].as_f64().unwrap_or(f64::NAN)
+        );
     }
     assert!(total <= 60.0 || hours < 72.0, "the demo took {total:.1} s (floor: 60 s)");
 }

@@ -5,60 +5,28 @@
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use octavar_shared::sensor::{Channel, ADXRS300};
 use octavar_shared::sim::{
-    BenchSim, BiasSteps, ChannelSim, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling,
-    TemperatureProfile, VirtualGyro, Wander,
+    BenchSim, BiasSteps, ChannelSim, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling, TemperatureProfile,
+    VirtualGyro, Wander,
 };
 
 const BLOCK: u64 = 1 << 16;
 
 fn nbk() -> GyroSim {
-    GyroSim {
-        bias_dps: 0.2,
-        n_deg_per_rt_s: 0.046,
-        b_dps: 0.026,
-        k_dps_per_rt_s: 1e-4,
-        ..Default::default()
-    }
+    GyroSim { bias_dps: 0.2, n_deg_per_rt_s: 0.046, b_dps: 0.026, k_dps_per_rt_s: 1e-4, ..Default::default() }
 }
 
 fn full() -> GyroSim {
     let mut sinusoids = heapless::Vec::new();
-    sinusoids
-        .push(Sinusoid {
-            amplitude_dps: 0.05,
-            period_s: 0.02,
-            phase_rad: 0.0,
-        })
-        .unwrap();
-    sinusoids
-        .push(Sinusoid {
-            amplitude_dps: 0.01,
-            period_s: 0.3,
-            phase_rad: 1.0,
-        })
-        .unwrap();
+    sinusoids.push(Sinusoid { amplitude_dps: 0.05, period_s: 0.02, phase_rad: 0.0 }).unwrap();
+    sinusoids.push(Sinusoid { amplitude_dps: 0.01, period_s: 0.3, phase_rad: 1.0 }).unwrap();
     GyroSim {
         r_dps_per_s: 1e-6,
-        gauss_markov: Some(GaussMarkovSim {
-            sigma_dps: 0.01,
-            tau_s: 5.0,
-        }),
+        gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.01, tau_s: 5.0 }),
         bandwidth_hz: Some(40.0),
         sinusoids,
-        temperature: Some(TempCoupling {
-            dps_per_c: 0.01,
-            ref_c: 25.0,
-            lag_s: 600.0,
-        }),
-        bias_steps: Some(BiasSteps {
-            per_hour: 2.0,
-            sigma_dps: 0.01,
-        }),
-        outliers: Some(Outliers {
-            per_sample: 1e-5,
-            size_dps: 0.0,
-            size_sigma: 8.0,
-        }),
+        temperature: Some(TempCoupling { dps_per_c: 0.01, ref_c: 25.0, lag_s: 600.0 }),
+        bias_steps: Some(BiasSteps { per_hour: 2.0, sigma_dps: 0.01 }),
+        outliers: Some(Outliers { per_sample: 1e-5, size_dps: 0.0, size_sigma: 8.0 }),
         ..nbk()
     }
 }
@@ -76,13 +44,7 @@ fn sim(c: &mut Criterion) {
     let mut group = c.benchmark_group("sim");
     group.throughput(Throughput::Elements(BLOCK));
     for (name, model) in [
-        (
-            "white_only+adc",
-            GyroSim {
-                n_deg_per_rt_s: 0.046,
-                ..Default::default()
-            },
-        ),
+        ("white_only+adc", GyroSim { n_deg_per_rt_s: 0.046, ..Default::default() }),
         ("n_b_k+adc", nbk()),
         ("full+adc", full()),
     ] {
@@ -101,13 +63,7 @@ fn sim(c: &mut Criterion) {
     });
     let mut channels = heapless::Vec::new();
     for _ in 0..5 {
-        channels
-            .push(ChannelSim {
-                sensor: ADXRS300.kind,
-                channel: None,
-                gyro: full(),
-            })
-            .unwrap();
+        channels.push(ChannelSim { sensor: ADXRS300.kind, channel: None, gyro: full() }).unwrap();
     }
     let model = BenchSim {
         fs_hz: 2000.0,
@@ -115,10 +71,7 @@ fn sim(c: &mut Criterion) {
         temperature: TemperatureProfile {
             min_c: 22.0,
             max_c: 25.0,
-            wander: Some(Wander {
-                sigma_c: 0.1,
-                tau_s: 1800.0,
-            }),
+            wander: Some(Wander { sigma_c: 0.1, tau_s: 1800.0 }),
             ..Default::default()
         },
         channels,

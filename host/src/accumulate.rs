@@ -174,13 +174,7 @@ impl AccumulateReport {
                 Some(OctaveRow { m, tau_s: m as f64 / rate_hz, n: l.n, sum_sq: l.sum_sq, avar, adev: avar.sqrt() })
             })
             .collect();
-        AccumulateReport {
-            samples: snapshot.samples,
-            stride: usize::from(snapshot.stride),
-            rate_hz,
-            octaves,
-            snapshot,
-        }
+        AccumulateReport { samples: snapshot.samples, stride: usize::from(snapshot.stride), rate_hz, octaves, snapshot }
     }
 }
 
@@ -225,8 +219,7 @@ pub fn accumulate<R: BufRead>(
             let mut line_no = 0u64;
             for line in reader.lines() {
                 line_no += 1;
-                let line =
-                    line.map_err(|err| AccumulateError::Io { source_name: source_name.to_string(), err })?;
+                let line = line.map_err(|err| AccumulateError::Io { source_name: source_name.to_string(), err })?;
                 if line.trim().is_empty() {
                     continue;
                 }

@@ -175,7 +175,14 @@ pub fn table(stat: Statistic, points: &[DevPoint]) -> String {
     let _ = writeln!(
         s,
         "{:>10} {:>12} {:>10} {:>6} {:>12} {:>12} {:>12}   {}",
-        "AF", "tau (s)", "#", "alpha", "min sigma", "sigma", "max sigma", stat.name()
+        "AF",
+        "tau (s)",
+        "#",
+        "alpha",
+        "min sigma",
+        "sigma",
+        "max sigma",
+        stat.name()
     );
     for p in points {
         let _ = writeln!(
@@ -202,12 +209,9 @@ pub fn fit_report(f: &NoiseFit) -> String {
         let e = f.term(t);
         let (alt_unit, k) = t.alt_unit();
         let line = match (e.value, e.lo, e.hi) {
-            (Some(v), Some(lo), Some(hi)) => format!(
-                "{:>3} = {v:.4e} {} ({lo:.3e} .. {hi:.3e})   = {:.4e} {alt_unit}",
-                t.name(),
-                e.unit,
-                v * k
-            ),
+            (Some(v), Some(lo), Some(hi)) => {
+                format!("{:>3} = {v:.4e} {} ({lo:.3e} .. {hi:.3e})   = {:.4e} {alt_unit}", t.name(), e.unit, v * k)
+            }
             (_, _, Some(hi)) => format!("{:>3}   not identifiable (at most {hi:.3e} {})", t.name(), e.unit),
             _ => format!("{:>3}   not fitted", t.name()),
         };

@@ -238,7 +238,11 @@ pub fn last_snapshots(capture: &[u8], channels: usize) -> Result<Vec<Snapshot>, 
     }
     let stats = reader.stats();
     if stats.bad_frame_count() > 0 || stats.lost_frames > 0 {
-        return Err(format!("the demo capture decoded with {} bad and {} lost frames", stats.bad_frame_count(), stats.lost_frames));
+        return Err(format!(
+            "the demo capture decoded with {} bad and {} lost frames",
+            stats.bad_frame_count(),
+            stats.lost_frames
+        ));
     }
     last.into_iter()
         .enumerate()
@@ -336,15 +340,12 @@ pub fn analyse(snapshots: &[Snapshot], model: &BenchSim) -> Vec<ChannelResult> {
         .zip(TABLE1)
         .zip(&model.channels)
         .map(|((snap, paper), cs)| {
-            let channel = cs.channel.unwrap_or_else(|| {
-                Channel::bench(GyroModel::of(cs.sensor).expect("the paper's channels are gyros"))
-            });
+            let channel = cs
+                .channel
+                .unwrap_or_else(|| Channel::bench(GyroModel::of(cs.sensor).expect("the paper's channels are gyros")));
             let points = snapshot_points(snap, model.fs_hz, channel.dps_per_code(), 0.683);
-            let opts = FitOptions {
-                bandwidth_hz: cs.gyro.bandwidth_hz,
-                tau_min_s: 16.0 / model.fs_hz,
-                ..bench_fit_options()
-            };
+            let opts =
+                FitOptions { bandwidth_hz: cs.gyro.bandwidth_hz, tau_min_s: 16.0 / model.fs_hz, ..bench_fit_options() };
             let fit = fit(&fit_points(&points), &opts).expect("a 2 kS/s record has many octaves");
             ChannelResult { paper, channel, snapshot: *snap, points, fit }
         })

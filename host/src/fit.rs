@@ -427,13 +427,7 @@ fn log_domain_fit(pts: &[FitPoint], allowed: &[usize], bw: Option<f64>, seed: &[
 }
 
 /// Levenberg-Marquardt in u = ln(theta) on the residuals sqrt(edf/2) (ln avar - ln model).
-fn log_fit_subset(
-    pts: &[FitPoint],
-    active: &[usize],
-    bw: Option<f64>,
-    start: &[f64; 5],
-    e2: f64,
-) -> Option<Solution> {
+fn log_fit_subset(pts: &[FitPoint], active: &[usize], bw: Option<f64>, start: &[f64; 5], e2: f64) -> Option<Solution> {
     let p = active.len();
     let w: Vec<f64> = pts.iter().map(|q| 1.0 / (2.0 / q.edf + e2).sqrt()).collect();
     let basis: Vec<Vec<f64>> =
@@ -511,9 +505,8 @@ fn log_fit_subset(
     for (&j, v) in active.iter().zip(&u) {
         theta[j] = v.exp();
     }
-    let cov: Vec<Vec<f64>> = (0..p)
-        .map(|i| (0..p).map(|k| cov_u[i][k] * theta[active[i]] * theta[active[k]]).collect())
-        .collect();
+    let cov: Vec<Vec<f64>> =
+        (0..p).map(|i| (0..p).map(|k| cov_u[i][k] * theta[active[i]] * theta[active[k]]).collect()).collect();
     chi2.is_finite().then(|| Solution { theta, active: active.to_vec(), cov, chi2 })
 }
 
@@ -586,8 +579,7 @@ fn weighted_lsq(pts: &[FitPoint], var: &[f64], active: &[usize], bw: Option<f64>
     }
     let inv = invert(&a)?;
     let theta: Vec<f64> = (0..p).map(|i| (0..p).map(|j| inv[i][j] * b[j]).sum::<f64>() / scale[i]).collect();
-    let cov: Vec<Vec<f64>> =
-        (0..p).map(|i| (0..p).map(|j| inv[i][j] / (scale[i] * scale[j])).collect()).collect();
+    let cov: Vec<Vec<f64>> = (0..p).map(|i| (0..p).map(|j| inv[i][j] / (scale[i] * scale[j])).collect()).collect();
     Some((theta, cov))
 }
 

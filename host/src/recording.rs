@@ -385,7 +385,11 @@ pub fn read_csv_stream<R: BufRead>(
     Ok(info)
 }
 
-fn median_rate(rows: &[(u64, Vec<f64>, Option<f64>, f64)], path: &str, opts: &CsvOptions) -> Result<f64, RecordingError> {
+fn median_rate(
+    rows: &[(u64, Vec<f64>, Option<f64>, f64)],
+    path: &str,
+    opts: &CsvOptions,
+) -> Result<f64, RecordingError> {
     let mut steps: Vec<f64> = rows.windows(2).map(|w| w[1].3 - w[0].3).collect();
     for (w, step) in rows.windows(2).zip(&steps) {
         if !(*step > 0.0) {
@@ -430,7 +434,10 @@ mod tests {
         let mut o = opts(&["b", "a"]);
         o.unit = RateUnit::parse("deg/h").unwrap();
         let r = read_csv(text.as_bytes(), "f.csv", &o).unwrap();
-        assert_eq!(r.channels, vec![vec![2.0 * (1.0 / 3600.0), 4.0 * (1.0 / 3600.0)], vec![1.0 / 3600.0, 3.0 * (1.0 / 3600.0)]]);
+        assert_eq!(
+            r.channels,
+            vec![vec![2.0 * (1.0 / 3600.0), 4.0 * (1.0 / 3600.0)], vec![1.0 / 3600.0, 3.0 * (1.0 / 3600.0)]]
+        );
         assert_eq!(r.rate_hz, 10.0);
         let o = CsvOptions { unit: RateUnit::MradPerS, ..opts(&["a"]) };
         let r = read_csv("a\n1000\n".as_bytes(), "f.csv", &o).unwrap();
@@ -481,8 +488,12 @@ mod tests {
         assert_eq!(r.channels[0], vec![1.0, 2.0]);
         assert_eq!(r.temp_c, Some(vec![21.0, 22.0]));
         assert_eq!(r.info.filtered_out, 2);
-        let e = read_csv("p,g\n1,2\n".as_bytes(), "f.csv", &CsvOptions { filters: vec![RowFilter::parse("q=1").unwrap()], ..opts(&["g"]) })
-            .unwrap_err();
+        let e = read_csv(
+            "p,g\n1,2\n".as_bytes(),
+            "f.csv",
+            &CsvOptions { filters: vec![RowFilter::parse("q=1").unwrap()], ..opts(&["g"]) },
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("no column \"q\""), "{e}");
         assert!(RowFilter::parse("novalue").is_err());
     }

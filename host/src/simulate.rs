@@ -89,8 +89,7 @@ pub fn parse_duration(text: &str) -> Result<f64, SimulateError> {
 /// The file cannot be read, or is not a valid model (the message names the key and line).
 pub fn load_model(path: &Path) -> Result<BenchSim, SimulateError> {
     let name = path.display().to_string();
-    let text =
-        std::fs::read_to_string(path).map_err(|err| SimulateError::ReadModel { path: name.clone(), err })?;
+    let text = std::fs::read_to_string(path).map_err(|err| SimulateError::ReadModel { path: name.clone(), err })?;
     parse_model(&text, &name)
 }
 

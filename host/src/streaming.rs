@@ -37,8 +37,8 @@ use crate::analyze::ChannelAnalysis;
 use crate::decode::{CaptureReader, DecodeError, Record};
 use crate::fit::{fit, FitError, FitOptions, FitPoint};
 use crate::recording::{CsvOptions, RecordingError};
-use crate::stats::deviation::oadev_range_sums;
 use crate::snapshot_stats::{octave_points, StridedShape};
+use crate::stats::deviation::oadev_range_sums;
 use crate::stats::{DevPoint, Statistic};
 
 /// Start indices per chunk (a multiple of the coarse block).
@@ -313,15 +313,13 @@ impl StreamTotals {
     /// of the Allan variance (as [`crate::snapshot_stats`]).
     pub fn points(&self, tau0_s: f64, scale: f64, confidence: f64) -> Vec<DevPoint> {
         let m_stop = (self.samples - self.gaps) / Statistic::Oadev.stop_ratio();
-        let avars: Vec<Option<f64>> = (0..LEVELS)
-            .map(|k| self.avar(k).filter(|_| (1u64 << k) <= m_stop).map(|v| v * scale * scale))
-            .collect();
+        let avars: Vec<Option<f64>> =
+            (0..LEVELS).map(|k| self.avar(k).filter(|_| (1u64 << k) <= m_stop).map(|v| v * scale * scale)).collect();
         let n_phase = (self.samples - self.gaps) as f64 + 1.0;
         let shape = StridedShape { stride: self.stride as u64, n_phase, confidence };
         octave_points(&avars, |k| self.levels[k].n, |m| m * tau0_s, &shape)
     }
 }
-
 
 /// One chunk's contribution.
 struct ChunkOut {
@@ -830,9 +828,7 @@ pub fn analyze_capture<R: Read>(
         return Err(StreamError::BadRate(rate));
     }
     let tau0 = 1.0 / rate;
-    let ch_name = |c: usize| {
-        hello.channels.get(c).map_or_else(|| format!("ch{c}"), |i| i.name.as_str().to_string())
-    };
+    let ch_name = |c: usize| hello.channels.get(c).map_or_else(|| format!("ch{c}"), |i| i.name.as_str().to_string());
     let ch_scale = |c: usize| hello.channels.get(c).map_or(1.0, |i| crate::device_sim::dps_per_code(i.kind));
     let mut out = Vec::new();
     let have_samples = accs.iter().any(|a| a.samples() > 0);

@@ -56,7 +56,10 @@ fn simulate_is_deterministic_and_pipes_into_accumulate() {
     let b = octavar(&args, None);
     assert!(a.status.success(), "{}", stderr(&a));
     assert_eq!(a.stdout, b.stdout, "same seed, same codes");
-    let c = octavar(&["simulate", "--sensor", "adxrs300", "--n", "0.046", "--duration", "20s", "--seed", "6", "--codes"], None);
+    let c = octavar(
+        &["simulate", "--sensor", "adxrs300", "--n", "0.046", "--duration", "20s", "--seed", "6", "--codes"],
+        None,
+    );
     assert_ne!(a.stdout, c.stdout, "another seed, other codes");
     assert_eq!(a.stdout.iter().filter(|&&ch| ch == b'\n').count(), 40_000);
 
@@ -79,8 +82,11 @@ fn simulate_rejects_bad_flags_and_models() {
 
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("model.toml");
-    std::fs::write(&model, "fs_hz = 100.0\n[[channels]]\nsensor = \"adxrs300\"\n[channels.gyro]\nn_deg_per_rt_s = -1.0\n")
-        .unwrap();
+    std::fs::write(
+        &model,
+        "fs_hz = 100.0\n[[channels]]\nsensor = \"adxrs300\"\n[channels.gyro]\nn_deg_per_rt_s = -1.0\n",
+    )
+    .unwrap();
     let o = octavar(&["simulate", "--model", model.to_str().unwrap(), "--duration", "1s"], None);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
@@ -103,7 +109,10 @@ fn simulate_writes_temperature_when_the_model_has_it() {
     )
     .unwrap();
     let out = dir.path().join("sim.csv");
-    let o = octavar(&["simulate", "--model", model.to_str().unwrap(), "--duration", "60s", "-o", out.to_str().unwrap()], None);
+    let o = octavar(
+        &["simulate", "--model", model.to_str().unwrap(), "--duration", "60s", "-o", out.to_str().unwrap()],
+        None,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();
@@ -189,7 +198,8 @@ fn gap_predictive_holdout_check_is_in_the_json() {
     }
     std::fs::write(&csv, text).unwrap();
     let (c, j) = (csv.to_str().unwrap(), json.to_str().unwrap());
-    let args = ["gap", c, "--column", "g", "--rate", "10", "--seeds", "8", "--holdout-check", "predictive", "--json", j];
+    let args =
+        ["gap", c, "--column", "g", "--rate", "10", "--seeds", "8", "--holdout-check", "predictive", "--json", j];
     let o = octavar(&args, None);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stdout(&o).contains("against the predictive ensembles"), "{}", stdout(&o));

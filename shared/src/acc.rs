@@ -348,7 +348,6 @@ fn square32(d: u32) -> u64 {
     (d * d) as u64
 }
 
-
 /// Number of second differences at `level` after `count` samples with stride `stride`:
 /// `floor(count / d) - 2 m / d + 1` (zero if negative), with step `d = max(1, m / stride)`.
 pub const fn pairs_after(count: u64, level: usize, stride: usize) -> u64 {

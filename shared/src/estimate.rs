@@ -282,7 +282,8 @@ mod tests {
         let floor = 0.6643 * b_true;
         // White noise meeting a floor, then a random-walk rise: the minimum is the floor.
         let dps_per_code = 1e-4;
-        let snap = shaped(fs, |tau| ((n_true * n_true / tau) + floor * floor + (1e-6 * tau).powi(2)).sqrt() / dps_per_code);
+        let snap =
+            shaped(fs, |tau| ((n_true * n_true / tau) + floor * floor + (1e-6 * tau).powi(2)).sqrt() / dps_per_code);
         let cfg = EstimateConfig { sample_rate_hz: fs as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
         let e = estimate(&snap, &cfg);
         let b = e.b_dps.unwrap();
@@ -332,7 +333,12 @@ mod tests {
             for (g, (name, model, n_true, b_true)) in gyros.into_iter().enumerate() {
                 let channel = Channel::bench(model);
                 // A small rate random walk as on the QEMU bench (it does not reach the floor in 10 minutes).
-                let sim = GyroSim { n_deg_per_rt_s: n_true, b_dps: b_true, k_dps_per_rt_s: n_true * 1e-3, ..Default::default() };
+                let sim = GyroSim {
+                    n_deg_per_rt_s: n_true,
+                    b_dps: b_true,
+                    k_dps_per_rt_s: n_true * 1e-3,
+                    ..Default::default()
+                };
                 let mut gyro = VirtualGyro::new(&sim, channel, fs, seed).unwrap();
                 let mut acc = OctaveAllan::<8>::new();
                 let samples = 10 * 60 * 2000;

@@ -6,8 +6,8 @@
 //! measured by `cargo bench -p octavar --bench demo`, not here.
 
 use octavar::demo;
-use octavar::gap::{Effect, ViewKind};
 use octavar::demo::BENCH_RATE_HZ;
+use octavar::gap::{Effect, ViewKind};
 
 #[test]
 fn demo_recovers_table1_and_finds_the_temperature() {
@@ -25,7 +25,12 @@ fn demo_recovers_table1_and_finds_the_temperature() {
     let results = demo::analyse(&snaps, &model);
     for row in demo::table1(&results) {
         let (n, b) = (row.n.unwrap(), row.b.unwrap());
-        println!("{}: N {n:.4e} ({:+.1}%), B {b:.4e} ({:+.1}%)", row.channel, 100.0 * (n / row.paper_n - 1.0), 100.0 * (b / row.paper_b - 1.0));
+        println!(
+            "{}: N {n:.4e} ({:+.1}%), B {b:.4e} ({:+.1}%)",
+            row.channel,
+            100.0 * (n / row.paper_n - 1.0),
+            100.0 * (b / row.paper_b - 1.0)
+        );
         assert!((n / row.paper_n - 1.0).abs() < 0.05, "{row:?}");
         assert!((b / row.paper_b - 1.0).abs() < 0.15, "{row:?}");
     }
@@ -33,7 +38,16 @@ fn demo_recovers_table1_and_finds_the_temperature() {
         let report = demo::diagnose_channel(run, &r.paper, &|_, _, _| {}).unwrap();
         let loc = report.location.as_ref().unwrap();
         let h = report.holdout.unwrap();
-        println!("{}: {} in {:?} {:?}, held out {:.2} -> {:.2} ({:.0}%)", r.paper.label, report.effect_name(), loc.view, loc.band_s, h.gap_before, h.gap_after, 100.0 * h.shrink);
+        println!(
+            "{}: {} in {:?} {:?}, held out {:.2} -> {:.2} ({:.0}%)",
+            r.paper.label,
+            report.effect_name(),
+            loc.view,
+            loc.band_s,
+            h.gap_before,
+            h.gap_after,
+            100.0 * h.shrink
+        );
         assert_eq!(report.effect, Some(Effect::Temperature), "{}", report.text());
         assert_eq!(loc.view, ViewKind::Temperature);
         assert!(loc.band_s[1] >= 100.0, "{loc:?}");

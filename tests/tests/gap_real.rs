@@ -16,7 +16,14 @@ use octavar::recording::{read_csv, CsvOptions, RateUnit, RowFilter};
 
 use crate::util::data_dir;
 
-fn read(path: &Path, column: &str, unit: RateUnit, rate: f64, temp: Option<&str>, filter: Option<&str>) -> (Vec<f64>, Option<Vec<f64>>) {
+fn read(
+    path: &Path,
+    column: &str,
+    unit: RateUnit,
+    rate: f64,
+    temp: Option<&str>,
+    filter: Option<&str>,
+) -> (Vec<f64>, Option<Vec<f64>>) {
     let input = octavar::input::open(path).expect("open recording");
     let opts = CsvOptions {
         columns: vec![column.to_string()],
@@ -62,7 +69,19 @@ fn cats_gyro_y_is_temperature_and_the_fix_holds_on_run_2() {
     assert!(h.shrink > 0.7, "{h:?}");
     // The JSON has the documented keys.
     let j = r.to_json();
-    for k in ["effect", "view", "band_s", "sign", "gap_before", "gap_after", "shrink", "holdout", "candidates", "model", "effect_params"] {
+    for k in [
+        "effect",
+        "view",
+        "band_s",
+        "sign",
+        "gap_before",
+        "gap_after",
+        "shrink",
+        "holdout",
+        "candidates",
+        "model",
+        "effect_params",
+    ] {
         assert!(j.get(k).is_some(), "missing {k}");
     }
     assert_eq!(j["effect"], "temperature");

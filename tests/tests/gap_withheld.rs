@@ -108,7 +108,11 @@ fn draw(effect: Option<Effect>, seed: u64) -> Case {
             let p = log_uniform(&mut rng, 1.0, 86_400.0);
             fs = (N_SAMPLES as f64 / (16.0 * p)).min(200.0);
             let a = uniform(&mut rng, 3.0, 6.0) * base_adev(&model, 0.37 * p);
-            let _ = model.sinusoids.push(Sinusoid { amplitude_dps: a, period_s: p, phase_rad: uniform(&mut rng, -3.0, 3.0) });
+            let _ = model.sinusoids.push(Sinusoid {
+                amplitude_dps: a,
+                period_s: p,
+                phase_rad: uniform(&mut rng, -3.0, 3.0),
+            });
             signature_s = [0.1 * p, 3.0 * p];
             what = format!("A {a:.3e} P {p:.3e}");
         }
@@ -212,8 +216,10 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
     let c = draw(effect, seed);
     let (x, t) = record(&c, seed);
     let input = GapInput::split(x, t, c.fs, 0.5).unwrap();
-    let check = if std::env::var_os("GAP_PREDICTIVE").is_some() { HoldoutCheck::Predictive } else { HoldoutCheck::Plain };
-    let r: GapReport = diagnose(&input, &GapOptions { holdout_check: check, ..Default::default() }, &|_, _, _| {}).unwrap();
+    let check =
+        if std::env::var_os("GAP_PREDICTIVE").is_some() { HoldoutCheck::Predictive } else { HoldoutCheck::Plain };
+    let r: GapReport =
+        diagnose(&input, &GapOptions { holdout_check: check, ..Default::default() }, &|_, _, _| {}).unwrap();
     let loc = r.location.as_ref();
     let band_s = loc.map(|l| l.band_s);
     let view = loc.map_or("-".to_string(), |l| format!("{:?}", l.view));
@@ -239,12 +245,10 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
     ];
     if std::env::var_os("GAP_WITHHELD_VERBOSE").is_some() {
         eprintln!("  base gap {:?} holdout {:?}\n  base model {:?}", r.training, r.holdout, r.base);
-        eprintln!(
-            "  truth N {:.4e} B {:.4e} K {:.4e}",
-            c.model.n_deg_per_rt_s, c.model.b_dps, c.model.k_dps_per_rt_s
-        );
+        eprintln!("  truth N {:.4e} B {:.4e} K {:.4e}", c.model.n_deg_per_rt_s, c.model.b_dps, c.model.k_dps_per_rt_s);
         for v in &r.base_eval.training {
-            let zs: Vec<String> = v.points.iter().map(|p| format!("{}@{:.2e}:{:.1}", p.info.label, p.info.tau_s, p.z)).collect();
+            let zs: Vec<String> =
+                v.points.iter().map(|p| format!("{}@{:.2e}:{:.1}", p.info.label, p.info.tau_s, p.z)).collect();
             eprintln!("  view {:?} rms {:.2} gap {:.2}: {}", v.view, v.rms, v.gap, zs.join(" "));
         }
         let loc_view = r.location.as_ref().map(|l| l.view);
@@ -380,16 +384,35 @@ fn estimators_on_cases() {
         let (x, t) = record(&c, seed);
         let half = x.len() / 2;
         let tr = &x[..half];
-        let rows = analyze(tr, DataKind::Frequency, 1.0 / c.fs, Statistic::Oadev, &TauSpec::Octave, &Options::default()).unwrap();
-        let pts: Vec<FitPoint> = rows.iter().filter(|p| p.edf > 0.0).map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf }).collect();
+        let rows =
+            analyze(tr, DataKind::Frequency, 1.0 / c.fs, Statistic::Oadev, &TauSpec::Octave, &Options::default())
+                .unwrap();
+        let pts: Vec<FitPoint> = rows
+            .iter()
+            .filter(|p| p.edf > 0.0)
+            .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
+            .collect();
         let f = fit(&pts, &FitOptions::default()).unwrap();
         let base = octavar::gap::base_model(&f, tr);
-        let d = TrainingData { rate_dps: tr, temp_c: t.as_ref().map(|t| &t[..half]), fs_hz: c.fs, base: &base, base_fit: &f };
+        let d = TrainingData {
+            rate_dps: tr,
+            temp_c: t.as_ref().map(|t| &t[..half]),
+            fs_hz: c.fs,
+            base: &base,
+            base_fit: &f,
+        };
         eprintln!("{w}: {} base {:?}", c.what, base);
         eprintln!("  truth N {:.4e} B {:.4e} K {:.4e}", c.model.n_deg_per_rt_s, c.model.b_dps, c.model.k_dps_per_rt_s);
         for p in &pts {
             let model: f64 = f.model_avar(p.tau_s);
-            eprintln!("  tau {:>10.3e} adev {:.4e} edf {:>9.1} model {:.4e} ({:+.1}%)", p.tau_s, p.avar.sqrt(), p.edf, model.sqrt(), 100.0 * ((model / p.avar).sqrt() - 1.0));
+            eprintln!(
+                "  tau {:>10.3e} adev {:.4e} edf {:>9.1} model {:.4e} ({:+.1}%)",
+                p.tau_s,
+                p.avar.sqrt(),
+                p.edf,
+                model.sqrt(),
+                100.0 * ((model / p.avar).sqrt() - 1.0)
+            );
         }
         for e in Effect::ALL {
             let r = estimate(e, &d);

@@ -181,8 +181,7 @@ fn firmware_on_qemu_matches_the_host_replay() {
         })
         .collect();
     let before = reset_after / RATE;
-    let expect: Vec<u64> =
-        (1..=before).chain(1..=(total - reset_after) / RATE).map(|r| r * RATE).collect();
+    let expect: Vec<u64> = (1..=before).chain(1..=(total - reset_after) / RATE).map(|r| r * RATE).collect();
     assert_eq!(snapshot_samples, expect, "channel 0's snapshot sample counts (the reset restarts them)");
 
     // Estimates: one per round, N and B of every gyro in the last; N near the simulated Table 1 values.

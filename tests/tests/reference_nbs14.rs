@@ -77,7 +77,8 @@ fn nbs14_1000_point_published_values() {
         let (got, _) = dev_at(&y, DataKind::Frequency, stat, tau);
         let rel = ((got - want) / want).abs();
         if rel > 1e-6 {
-            failures.push(format!("{set} {} tau {tau}: got {got:.9e}, published {want:.7e} (rel {rel:.1e})", stat.name()));
+            failures
+                .push(format!("{set} {} tau {tau}: got {got:.9e}, published {want:.7e} (rel {rel:.1e})", stat.name()));
         }
         checked += 1;
     }
@@ -101,7 +102,10 @@ fn nbs14_10_point_published_values() {
             assert_eq!(n as usize, stat.terms(10, tau as usize), "{} tau {tau} terms", stat.name());
             let rel = ((got - want) / want).abs();
             if rel > 1e-6 {
-                failures.push(format!("{set} {kind:?} {} tau {tau}: got {got:.9e}, published {want} (rel {rel:.1e})", stat.name()));
+                failures.push(format!(
+                    "{set} {kind:?} {} tau {tau}: got {got:.9e}, published {want} (rel {rel:.1e})",
+                    stat.name()
+                ));
             }
             checked += 1;
         }

@@ -13,8 +13,8 @@ use octavar_shared::acc::OctaveAllan;
 use octavar_shared::sensor::{Adc, Channel, FrontEnd, SensorKind, GENERIC, IDG1215_X};
 use octavar_shared::sim::flicker::FlickerBank;
 use octavar_shared::sim::{
-    Bench, BenchSim, BiasSteps, ChannelSim, GaussMarkovSim, GyroSim, Outliers, Sinusoid,
-    TempCoupling, TemperatureProfile, VirtualGyro,
+    Bench, BenchSim, BiasSteps, ChannelSim, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling,
+    TemperatureProfile, VirtualGyro,
 };
 use std::f64::consts::{LN_2, PI};
 
@@ -67,10 +67,7 @@ fn octaves(lo: usize, n: usize, min_clusters: usize) -> Vec<usize> {
 
 /// The smallest Greenhall EDF over the candidate noise exponents (conservative for mixtures).
 fn edf(alphas: &[i32], m: f64, stride: f64, n_phase: f64) -> f64 {
-    alphas
-        .iter()
-        .map(|&a| greenhall_edf(a, 2, m, m, stride, n_phase))
-        .fold(f64::INFINITY, f64::min)
+    alphas.iter().map(|&a| greenhall_edf(a, 2, m, m, stride, n_phase)).fold(f64::INFINITY, f64::min)
 }
 
 /// Check `est` against `expected` at `dof` degrees of freedom with per-check error `p`:
@@ -81,14 +78,7 @@ fn within_chi2(what: &str, m: usize, est: f64, expected: f64, dof: f64, p: f64) 
 
 /// As [`within_chi2`] where the expectation is only known to lie in `lo_exp..=hi_exp`: the band runs from the
 /// lower quantile of the lowest to the upper quantile of the highest.
-fn within_chi2_range(
-    what: &str,
-    m: usize,
-    est: f64,
-    (lo_exp, hi_exp): (f64, f64),
-    dof: f64,
-    p: f64,
-) {
+fn within_chi2_range(what: &str, m: usize, est: f64, (lo_exp, hi_exp): (f64, f64), dof: f64, p: f64) {
     assert!(dof.is_finite() && dof > 0.0, "{what} m={m}: bad edf {dof}");
     let lo = lo_exp * chi2_quantile(p / 2.0, dof) / dof;
     let hi = hi_exp * chi2_quantile(1.0 - p / 2.0, dof) / dof;
@@ -122,8 +112,7 @@ fn check_oavar(
 /// Exact Allan variance at `m` samples of a stationary AR(1) sequence (variance `var`, lag-one correlation `a`),
 /// from its autocovariance `var a^|k|`: AVAR = (4 G(m) - G(2m)) / (2 m^2), G(n) = Var(sum of n samples).
 fn ar1_avar_exact(var: f64, a: f64, m: usize) -> f64 {
-    let g =
-        |n: f64| n * (1.0 + a) / (1.0 - a) - 2.0 * a * (1.0 - a.powf(n)) / ((1.0 - a) * (1.0 - a));
+    let g = |n: f64| n * (1.0 + a) / (1.0 - a) - 2.0 * a * (1.0 - a.powf(n)) / ((1.0 - a) * (1.0 - a));
     let m = m as f64;
     var * (4.0 * g(m) - g(2.0 * m)) / (2.0 * m * m)
 }
@@ -154,15 +143,10 @@ fn sine_avar_exact(amp: f64, f: f64, m: usize) -> f64 {
 #[test]
 fn sim_white_noise_is_n2_over_tau() {
     let nn = 0.01; // deg/sqrt(s): per-sample sd 0.1 deg/s at 100 Hz
-    let model = GyroSim {
-        n_deg_per_rt_s: nn,
-        ..Default::default()
-    };
+    let model = GyroSim { n_deg_per_rt_s: nn, ..Default::default() };
     let n = 1 << 20;
     let ms = octaves(1, n, 16);
-    check_oavar("white", &model, n, &[1, 2, 3], &ms, &[0], |m| {
-        nn * nn / (m as f64 / FS)
-    });
+    check_oavar("white", &model, n, &[1, 2, 3], &ms, &[0], |m| nn * nn / (m as f64 / FS));
 }
 
 #[test]
@@ -170,11 +154,7 @@ fn sim_angle_noise_is_3q2_over_tau2() {
     // White angle noise (IEEE 952 quantization noise): the rate is the differenced white angle, exactly
     // 3 Q^2 / tau^2 at every tau, plus N to show the two add.
     let (q, nn) = (2e-4, 1e-3); // deg, deg/sqrt(s)
-    let model = GyroSim {
-        q_deg: q,
-        n_deg_per_rt_s: nn,
-        ..Default::default()
-    };
+    let model = GyroSim { q_deg: q, n_deg_per_rt_s: nn, ..Default::default() };
     let n = 1 << 20;
     let ms = octaves(1, n, 16);
     check_oavar("angle", &model, n, &[4, 5], &ms, &[2, 0], |m| {
@@ -189,10 +169,7 @@ fn sim_flicker_floor_is_0_6643_b() {
     // from m = 32) widened by the holding ripple.
     let b = 0.02;
     let floor = 2.0 * LN_2 / PI * b * b;
-    let model = GyroSim {
-        b_dps: b,
-        ..Default::default()
-    };
+    let model = GyroSim { b_dps: b, ..Default::default() };
     let n = 1 << 22;
     let ms = octaves(1, n, 32);
     let seeds = [11, 12];
@@ -225,20 +202,9 @@ fn sim_flicker_over_eight_decades_through_the_adc() {
         temp_output: None,
         assumptions: &[],
     };
-    let ch = Channel {
-        gyro,
-        front: FrontEnd::WIRE,
-        adc: Adc {
-            bits: 16,
-            vref_mv: 65536.0,
-        },
-    };
+    let ch = Channel { gyro, front: FrontEnd::WIRE, adc: Adc { bits: 16, vref_mv: 65536.0 } };
     let (b, nn) = (1.0, 0.02);
-    let model = GyroSim {
-        b_dps: b,
-        n_deg_per_rt_s: nn,
-        ..Default::default()
-    };
+    let model = GyroSim { b_dps: b, n_deg_per_rt_s: nn, ..Default::default() };
     let mut g = VirtualGyro::new(&model, ch, FS, 99).unwrap();
     let mut acc = OctaveAllan::<8>::new();
     let n: u64 = 1 << 28;
@@ -256,10 +222,7 @@ fn sim_flicker_over_eight_decades_through_the_adc() {
         let est = snap.avar_codes2(k).unwrap();
         // White N^2/tau plus quantisation LSB^2/12 (both white); flicker within the bank's flatness.
         let white = nn * nn * FS / m * codes2 + 1.0 / 12.0 / m;
-        let band = (
-            floor * (1.0 - FLATNESS) * codes2 + white,
-            floor * (1.0 + FLATNESS) * codes2 + white,
-        );
+        let band = (floor * (1.0 - FLATNESS) * codes2 + white, floor * (1.0 + FLATNESS) * codes2 + white);
         let dof = edf(&[-1, 0], m, snap.stride_factor(k) as f64, (n + 1) as f64);
         within_chi2_range("flicker long run", 1 << k, est, band, dof, p);
     }
@@ -268,15 +231,10 @@ fn sim_flicker_over_eight_decades_through_the_adc() {
 #[test]
 fn sim_random_walk_is_k2_tau_over_3() {
     let k = 0.002;
-    let model = GyroSim {
-        k_dps_per_rt_s: k,
-        ..Default::default()
-    };
+    let model = GyroSim { k_dps_per_rt_s: k, ..Default::default() };
     let n = 1 << 20;
     let ms = octaves(1, n, 16);
-    check_oavar("random walk", &model, n, &[21, 22, 23], &ms, &[-2], |m| {
-        rw_avar_exact(k * k / FS, m)
-    });
+    check_oavar("random walk", &model, n, &[21, 22, 23], &ms, &[-2], |m| rw_avar_exact(k * k / FS, m));
     // The discrete form is the closed form plus K^2 tau0^2 / (6 tau): the same within 1% from m = 5.
     let tau = 8.0 / FS;
     assert!((rw_avar_exact(k * k / FS, 8) / (k * k * tau / 3.0) - 1.0).abs() < 0.01);
@@ -285,11 +243,7 @@ fn sim_random_walk_is_k2_tau_over_3() {
 #[test]
 fn sim_ramp_is_r2_tau2_over_2_exactly() {
     let r = 0.05;
-    let model = GyroSim {
-        r_dps_per_s: r,
-        bias_dps: 0.3,
-        ..Default::default()
-    };
+    let model = GyroSim { r_dps_per_s: r, bias_dps: 0.3, ..Default::default() };
     let n = 1 << 16;
     let y = rates(&model, n, 1);
     for m in octaves(1, n, 4) {
@@ -302,10 +256,7 @@ fn sim_ramp_is_r2_tau2_over_2_exactly() {
 
 #[test]
 fn sim_constant_bias_has_zero_allan_variance() {
-    let model = GyroSim {
-        bias_dps: 1.5,
-        ..Default::default()
-    };
+    let model = GyroSim { bias_dps: 1.5, ..Default::default() };
     let y = rates(&model, 4096, 1);
     assert!(y.iter().all(|&v| v == 1.5));
     assert_eq!(oavar(&y, 4).0, 0.0);
@@ -314,29 +265,14 @@ fn sim_constant_bias_has_zero_allan_variance() {
 #[test]
 fn sim_gauss_markov_matches_its_discrete_closed_form() {
     let (sigma, t_s) = (0.3, 0.2); // T = 20 samples
-    let model = GyroSim {
-        gauss_markov: Some(GaussMarkovSim {
-            sigma_dps: sigma,
-            tau_s: t_s,
-        }),
-        ..Default::default()
-    };
+    let model = GyroSim { gauss_markov: Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t_s }), ..Default::default() };
     let a = (-1.0 / (t_s * FS)).exp();
     let n = 1 << 21;
     let ms = octaves(1, n, 16);
-    check_oavar(
-        "gauss-markov",
-        &model,
-        n,
-        &[31, 32],
-        &ms,
-        &[0, -1, -2],
-        |m| ar1_avar_exact(sigma * sigma, a, m),
-    );
+    check_oavar("gauss-markov", &model, n, &[31, 32], &ms, &[0, -1, -2], |m| ar1_avar_exact(sigma * sigma, a, m));
     // Where T >> tau0 the discrete form approaches the continuous one (q_c = 2 sigma^2 / T).
     for m in [40usize, 200, 2000] {
-        let d = ar1_avar_exact(sigma * sigma, a, m) / gm_avar_continuous(sigma, t_s, m as f64 / FS)
-            - 1.0;
+        let d = ar1_avar_exact(sigma * sigma, a, m) / gm_avar_continuous(sigma, t_s, m as f64 / FS) - 1.0;
         assert!(d.abs() < 0.01, "m={m}: discrete vs continuous {d}");
     }
 }
@@ -344,19 +280,13 @@ fn sim_gauss_markov_matches_its_discrete_closed_form() {
 #[test]
 fn sim_first_order_bandwidth_is_gauss_markov_with_t_1_over_2_pi_f() {
     let (nn, f3) = (0.01, 2.0);
-    let model = GyroSim {
-        n_deg_per_rt_s: nn,
-        bandwidth_hz: Some(f3),
-        ..Default::default()
-    };
+    let model = GyroSim { n_deg_per_rt_s: nn, bandwidth_hz: Some(f3), ..Default::default() };
     let a = (-2.0 * PI * f3 / FS).exp(); // T = 1/(2 pi f3dB) = 7.96 samples
     let s2 = nn * nn * FS; // white input variance
     let var = s2 * (1.0 - a) / (1.0 + a);
     let n = 1 << 21;
     let ms = octaves(1, n, 16);
-    check_oavar("low-pass", &model, n, &[41, 42], &ms, &[0, -1, -2], |m| {
-        ar1_avar_exact(var, a, m)
-    });
+    check_oavar("low-pass", &model, n, &[41, 42], &ms, &[0, -1, -2], |m| ar1_avar_exact(var, a, m));
     // DC gain 1: at long tau it is the unfiltered N^2 / tau.
     let m = 4096;
     assert!((ar1_avar_exact(var, a, m) / (nn * nn * FS / m as f64) - 1.0).abs() < 0.01);
@@ -371,91 +301,45 @@ fn sine_rel_bound(f: f64, terms: usize) -> f64 {
 #[test]
 fn sim_sinusoids_match_the_closed_form() {
     let list = [
-        Sinusoid {
-            amplitude_dps: 0.3,
-            period_s: 0.37,
-            phase_rad: 0.4,
-        },
-        Sinusoid {
-            amplitude_dps: 0.1,
-            period_s: 5.3,
-            phase_rad: 2.0,
-        },
+        Sinusoid { amplitude_dps: 0.3, period_s: 0.37, phase_rad: 0.4 },
+        Sinusoid { amplitude_dps: 0.1, period_s: 5.3, phase_rad: 2.0 },
     ];
     let n = 1 << 20;
     for s in list {
-        let model = GyroSim {
-            sinusoids: [s].into_iter().collect(),
-            ..Default::default()
-        };
+        let model = GyroSim { sinusoids: [s].into_iter().collect(), ..Default::default() };
         let y = rates(&model, n, 1);
         let f = 1.0 / s.period_s;
         for m in octaves(1, n, 64) {
             let (est, terms) = oavar(&y, m);
             let want = sine_avar_exact(s.amplitude_dps, f, m);
             let tol = want * sine_rel_bound(f, terms) + 1e-12 * s.amplitude_dps.powi(2);
-            assert!(
-                (est - want).abs() <= tol,
-                "P={} m={m}: {est:e} vs {want:e} (tol {tol:e})",
-                s.period_s
-            );
+            assert!((est - want).abs() <= tol, "P={} m={m}: {est:e} vs {want:e} (tol {tol:e})", s.period_s);
         }
     }
     // Two sinusoids at once add their Allan variances (different frequencies), within the same bounds.
-    let model = GyroSim {
-        sinusoids: list.into_iter().collect(),
-        ..Default::default()
-    };
+    let model = GyroSim { sinusoids: list.into_iter().collect(), ..Default::default() };
     let y = rates(&model, n, 1);
     for m in [1usize, 16, 256] {
         let (est, terms) = oavar(&y, m);
-        let want: f64 = list
-            .iter()
-            .map(|s| sine_avar_exact(s.amplitude_dps, 1.0 / s.period_s, m))
-            .sum();
+        let want: f64 = list.iter().map(|s| sine_avar_exact(s.amplitude_dps, 1.0 / s.period_s, m)).sum();
         let slack: f64 = list
             .iter()
-            .map(|s| {
-                s.amplitude_dps.powi(2)
-                    * 4.0
-                    * sine_rel_bound(1.0 / s.period_s, terms).max(1.0 / terms as f64)
-            })
+            .map(|s| s.amplitude_dps.powi(2) * 4.0 * sine_rel_bound(1.0 / s.period_s, terms).max(1.0 / terms as f64))
             .sum();
-        assert!(
-            (est - want).abs() <= slack * 2.0,
-            "m={m}: {est:e} vs {want:e}"
-        );
+        assert!((est - want).abs() <= slack * 2.0, "m={m}: {est:e} vs {want:e}");
     }
 }
 
 #[test]
 fn sim_temperature_cycle_through_the_lag_is_a_sinusoid_of_known_amplitude() {
     let (t_min, t_max, period, lag, k) = (20.0, 30.0, 10.0, 0.5, 0.02);
-    let gyro = GyroSim {
-        temperature: Some(TempCoupling {
-            dps_per_c: k,
-            ref_c: 25.0,
-            lag_s: lag,
-        }),
-        ..Default::default()
-    };
+    let gyro =
+        GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c: 25.0, lag_s: lag }), ..Default::default() };
     let model = BenchSim {
         fs_hz: FS,
         seed: 5,
-        temperature: TemperatureProfile {
-            min_c: t_min,
-            max_c: t_max,
-            period_s: period,
-            phase_rad: 0.0,
-            wander: None,
-        },
-        channels: [ChannelSim {
-            sensor: SensorKind::Generic,
-            channel: None,
-            gyro,
-        }]
-        .into_iter()
-        .collect(),
+        temperature: TemperatureProfile { min_c: t_min, max_c: t_max, period_s: period, phase_rad: 0.0, wander: None },
+        channels: [ChannelSim { sensor: SensorKind::Generic, channel: None, gyro }].into_iter().collect(),
     };
     let mut bench = Bench::new(&model).unwrap();
     let w = 2.0 * PI / (period * FS); // rad per sample
@@ -465,10 +349,7 @@ fn sim_temperature_cycle_through_the_lag_is_a_sinusoid_of_known_amplitude() {
     let mag = (1.0 - a) / (re * re + im * im).sqrt();
     let phase = -im.atan2(re);
     let amp = k * 5.0 * mag;
-    assert!(
-        (mag - 1.0 / (1.0 + (2.0 * PI * lag / period).powi(2)).sqrt()).abs() < 1e-3,
-        "continuous limit"
-    );
+    assert!((mag - 1.0 / (1.0 + (2.0 * PI * lag / period).powi(2)).sqrt()).abs() < 1e-3, "continuous limit");
     let n = 1 << 18;
     let mut y = Vec::with_capacity(n);
     for i in 0..n {
@@ -478,11 +359,7 @@ fn sim_temperature_cycle_through_the_lag_is_a_sinusoid_of_known_amplitude() {
         let rate_want = amp * (w * i as f64 + phase).sin();
         if i > 2000 {
             // 40 thermal time constants: the start-up transient is below e^-40.
-            assert!(
-                (s.rate_dps[0] - rate_want).abs() < 1e-9,
-                "rate at {i}: {} vs {rate_want}",
-                s.rate_dps[0]
-            );
+            assert!((s.rate_dps[0] - rate_want).abs() < 1e-9, "rate at {i}: {} vs {rate_want}", s.rate_dps[0]);
         }
         y.push(s.rate_dps[0]);
     }
@@ -501,10 +378,7 @@ fn sim_quantization_adds_lsb2_over_12() {
     let ch = Channel::bench(IDG1215_X);
     let lsb = ch.dps_per_code();
     let sigma_codes = 1.0;
-    let model = GyroSim {
-        n_deg_per_rt_s: sigma_codes * lsb / FS.sqrt(),
-        ..Default::default()
-    };
+    let model = GyroSim { n_deg_per_rt_s: sigma_codes * lsb / FS.sqrt(), ..Default::default() };
     let n: u64 = 1 << 22;
     let seeds = [51u64, 52];
     let levels: Vec<usize> = (0..=16).collect();
@@ -541,20 +415,12 @@ fn sim_quantization_adds_lsb2_over_12() {
 fn sim_bias_steps_are_a_random_walk() {
     // p = 0.02 steps per sample (7200 per hour at 100 Hz), sd 0.05 deg/s: increments of variance p sigma^2.
     let (per_hour, sd) = (7200.0, 0.05);
-    let model = GyroSim {
-        bias_steps: Some(BiasSteps {
-            per_hour,
-            sigma_dps: sd,
-        }),
-        ..Default::default()
-    };
+    let model = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sd }), ..Default::default() };
     let p_step = per_hour / 3600.0 / FS;
     let n = 1 << 21;
     // From m = 512 a difference spans about 20 steps or more: close enough to Gaussian for the chi-square bound.
     let ms = octaves(512, n, 16);
-    check_oavar("bias steps", &model, n, &[61, 62], &ms, &[-2], |m| {
-        rw_avar_exact(p_step * sd * sd, m)
-    });
+    check_oavar("bias steps", &model, n, &[61, 62], &ms, &[-2], |m| rw_avar_exact(p_step * sd * sd, m));
     let mut g = VirtualGyro::new(&model, channel(), FS, 61).unwrap();
     for _ in 0..n {
         g.next_rate(25.0);
@@ -562,29 +428,20 @@ fn sim_bias_steps_are_a_random_walk() {
     // Binomial count: mean n p = 41943, sd 202; 5 sigma.
     let c = g.step_count() as f64;
     let mean = n as f64 * p_step;
-    assert!(
-        (c - mean).abs() < 5.0 * (mean * (1.0 - p_step)).sqrt(),
-        "{c} steps, expected {mean}"
-    );
+    assert!((c - mean).abs() < 5.0 * (mean * (1.0 - p_step)).sqrt(), "{c} steps, expected {mean}");
 }
 
 #[test]
 fn sim_outliers_are_white_with_variance_p_size2() {
     let (p_out, size) = (0.01, 1.0);
     let model = GyroSim {
-        outliers: Some(Outliers {
-            per_sample: p_out,
-            size_dps: size,
-            size_sigma: 0.0,
-        }),
+        outliers: Some(Outliers { per_sample: p_out, size_dps: size, size_sigma: 0.0 }),
         ..Default::default()
     };
     let n = 1 << 21;
     // From m = 2048 a cluster holds about 20 outliers: near Gaussian.
     let ms = octaves(2048, n, 16);
-    check_oavar("outliers", &model, n, &[71, 72], &ms, &[0], |m| {
-        p_out * size * size / m as f64
-    });
+    check_oavar("outliers", &model, n, &[71, 72], &ms, &[0], |m| p_out * size * size / m as f64);
     let y = rates(&model, n, 71);
     assert!(y.iter().all(|&v| v == 0.0 || v.abs() == size));
     let mut g = VirtualGyro::new(&model, channel(), FS, 71).unwrap();
@@ -595,11 +452,7 @@ fn sim_outliers_are_white_with_variance_p_size2() {
     // Size in sigma: with N the spike is size_sigma * N sqrt(fs).
     let m2 = GyroSim {
         n_deg_per_rt_s: 0.01,
-        outliers: Some(Outliers {
-            per_sample: 1.0,
-            size_dps: 0.0,
-            size_sigma: 8.0,
-        }),
+        outliers: Some(Outliers { per_sample: 1.0, size_dps: 0.0, size_sigma: 8.0 }),
         ..Default::default()
     };
     let with = rates(&m2, 10_000, 3);
@@ -617,32 +470,12 @@ fn sim_is_deterministic_bit_for_bit() {
         b_dps: 0.005,
         k_dps_per_rt_s: 1e-4,
         r_dps_per_s: 1e-5,
-        gauss_markov: Some(GaussMarkovSim {
-            sigma_dps: 0.01,
-            tau_s: 3.0,
-        }),
+        gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.01, tau_s: 3.0 }),
         bandwidth_hz: Some(20.0),
-        sinusoids: [Sinusoid {
-            amplitude_dps: 0.02,
-            period_s: 0.5,
-            phase_rad: 0.0,
-        }]
-        .into_iter()
-        .collect(),
-        temperature: Some(TempCoupling {
-            dps_per_c: 0.01,
-            ref_c: 25.0,
-            lag_s: 10.0,
-        }),
-        bias_steps: Some(BiasSteps {
-            per_hour: 100.0,
-            sigma_dps: 0.01,
-        }),
-        outliers: Some(Outliers {
-            per_sample: 1e-3,
-            size_dps: 0.5,
-            size_sigma: 0.0,
-        }),
+        sinusoids: [Sinusoid { amplitude_dps: 0.02, period_s: 0.5, phase_rad: 0.0 }].into_iter().collect(),
+        temperature: Some(TempCoupling { dps_per_c: 0.01, ref_c: 25.0, lag_s: 10.0 }),
+        bias_steps: Some(BiasSteps { per_hour: 100.0, sigma_dps: 0.01 }),
+        outliers: Some(Outliers { per_sample: 1e-3, size_dps: 0.5, size_sigma: 0.0 }),
     };
     let run = |seed| {
         let mut g = VirtualGyro::new(&model, channel(), FS, seed).unwrap();
@@ -656,40 +489,22 @@ fn sim_is_deterministic_bit_for_bit() {
     let (a, b, c) = (run(7), run(7), run(8));
     assert!(a == b, "same seed must give the same samples");
     let differ = a.iter().zip(&c).filter(|(x, y)| x.0 != y.0).count();
-    assert!(
-        differ > 199_000,
-        "another seed must give other samples ({differ} differ)"
-    );
+    assert!(differ > 199_000, "another seed must give other samples ({differ} differ)");
     let bench = BenchSim {
         fs_hz: FS,
         seed: 3,
         temperature: TemperatureProfile {
             min_c: 22.0,
             max_c: 25.0,
-            wander: Some(octavar_shared::sim::Wander {
-                sigma_c: 0.2,
-                tau_s: 60.0,
-            }),
+            wander: Some(octavar_shared::sim::Wander { sigma_c: 0.2, tau_s: 60.0 }),
             ..Default::default()
         },
-        channels: [ChannelSim {
-            sensor: SensorKind::Adxrs300,
-            channel: None,
-            gyro: model.clone(),
-        }]
-        .into_iter()
-        .collect(),
+        channels: [ChannelSim { sensor: SensorKind::Adxrs300, channel: None, gyro: model.clone() }]
+            .into_iter()
+            .collect(),
     };
-    let x: Vec<_> = Bench::new(&bench)
-        .unwrap()
-        .take(50_000)
-        .map(|s| (s.temp_c.to_bits(), s.codes[0]))
-        .collect();
-    let y: Vec<_> = Bench::new(&bench)
-        .unwrap()
-        .take(50_000)
-        .map(|s| (s.temp_c.to_bits(), s.codes[0]))
-        .collect();
+    let x: Vec<_> = Bench::new(&bench).unwrap().take(50_000).map(|s| (s.temp_c.to_bits(), s.codes[0])).collect();
+    let y: Vec<_> = Bench::new(&bench).unwrap().take(50_000).map(|s| (s.temp_c.to_bits(), s.codes[0])).collect();
     assert!(x == y);
 }
 

@@ -1,11 +1,11 @@
 //! octavar's end-to-end tests, built as one binary (one module per claim area).
 
 mod acc_allantools;
+mod corruption;
+mod demo_bench;
 mod fit_coverage;
 mod gap_real;
 mod gap_withheld;
-mod corruption;
-mod demo_bench;
 mod pipeline;
 mod qemu;
 mod reference_adis;

@@ -22,10 +22,7 @@ pub fn data_dir() -> Option<PathBuf> {
 #[allow(dead_code)]
 pub fn allantools_python() -> Option<PathBuf> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let candidates = [
-        std::env::var_os("OCTAVAR_PYTHON").map(PathBuf::from),
-        Some(root.join(".venv-ref/bin/python")),
-    ];
+    let candidates = [std::env::var_os("OCTAVAR_PYTHON").map(PathBuf::from), Some(root.join(".venv-ref/bin/python"))];
     for py in candidates.into_iter().flatten() {
         let ok = std::process::Command::new(&py)
             .args(["-c", "import allantools"])

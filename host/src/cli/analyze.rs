@@ -137,13 +137,7 @@ impl Args {
         let csv_opts = self.csv_options()?;
         let input = octavar::input::open(&self.input)?;
         let rec = recording::read_csv(input.reader, &input.name, &csv_opts)?;
-        let opts = AnalyzeOptions {
-            stats,
-            taus,
-            confidence: self.confidence,
-            fit: self.fit_options(),
-            no_fit: false,
-        };
+        let opts = AnalyzeOptions { stats, taus, confidence: self.confidence, fit: self.fit_options(), no_fit: false };
         let mut results: Vec<ChannelAnalysis> = Vec::new();
         for (name, data) in rec.names.iter().zip(&rec.channels) {
             results.push(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?);
@@ -200,7 +194,11 @@ impl Args {
         if let Some(path) = &self.plot {
             let series: Vec<plot::AdevSeries> = results
                 .iter()
-                .map(|c| plot::AdevSeries { name: c.name.clone(), points: c.fit_points.clone(), fit: c.fit.clone().ok() })
+                .map(|c| plot::AdevSeries {
+                    name: c.name.clone(),
+                    points: c.fit_points.clone(),
+                    fit: c.fit.clone().ok(),
+                })
                 .collect();
             let title = format!("Overlapping Allan deviation: {source}");
             let opts = plot::PlotOptions { title, ..Default::default() };
@@ -227,9 +225,10 @@ impl Args {
         let kind = match self.format.as_deref().map(|f| f.trim().to_ascii_lowercase()) {
             Some(f) if f == "csv" => None,
             Some(f) if f == "capture" => Some(StreamKind::Capture),
-            Some(f) => Some(StreamKind::Binary(octavar::streaming::BinaryFormat::parse(&f).with_context(|| {
-                format!("--format {f:?}: use csv, capture, f64le, f32le, i16le or u16le")
-            })?)),
+            Some(f) => Some(StreamKind::Binary(
+                octavar::streaming::BinaryFormat::parse(&f)
+                    .with_context(|| format!("--format {f:?}: use csv, capture, f64le, f32le, i16le or u16le"))?,
+            )),
             None if ext == "cap" || ext == "capture" => Some(StreamKind::Capture),
             None => None,
         };
@@ -286,11 +285,8 @@ impl Args {
             b.finish();
         }
         eprintln!("# {}", result.method);
-        let range = result
-            .channels
-            .iter()
-            .flat_map(|c| c.fit_points.first().map(|p| p.dev * 10.0))
-            .fold(0.0f64, f64::max);
+        let range =
+            result.channels.iter().flat_map(|c| c.fit_points.first().map(|p| p.dev * 10.0)).fold(0.0f64, f64::max);
         self.emit(&result.source, result.samples, result.rate_hz, range, &result.channels)
     }
 }

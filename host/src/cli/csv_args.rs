@@ -31,7 +31,12 @@ impl CsvArgs {
 
     /// The CSV options for `columns` (and a temperature column), with `filters` as the row filters (the
     /// `--where` flags, or another set such as gap's `--holdout-where`).
-    pub fn options(&self, columns: Vec<String>, temp_column: Option<String>, filters: &[String]) -> anyhow::Result<CsvOptions> {
+    pub fn options(
+        &self,
+        columns: Vec<String>,
+        temp_column: Option<String>,
+        filters: &[String],
+    ) -> anyhow::Result<CsvOptions> {
         Ok(CsvOptions {
             columns,
             temp_column,

@@ -122,7 +122,10 @@ impl Args {
 
         // The sim-to-real gap of each channel: its 1 Hz record and the bench temperature, later half held out.
         let mut out = std::io::stdout().lock();
-        writeln!(out, "\nSim-to-real gap (the IEEE model alone vs the bench; 1 Hz block means, the later half held out)")?;
+        writeln!(
+            out,
+            "\nSim-to-real gap (the IEEE model alone vs the bench; 1 Hz block means, the later half held out)"
+        )?;
         writeln!(
             out,
             "{:<10} {:>13} {:>12} {:>22} {:>24} {:>10}",
@@ -135,8 +138,12 @@ impl Args {
                 bar.set(done as u64);
             })?;
             bar.finish();
-            let slug: String =
-                r.paper.label.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' }).collect();
+            let slug: String = r
+                .paper
+                .label
+                .chars()
+                .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+                .collect();
             let path = self.out.join(format!("gap_{slug}.json"));
             std::fs::write(&path, serde_json::to_string_pretty(&report.to_json())?)
                 .with_context(|| format!("writing {}", path.display()))?;
@@ -147,11 +154,9 @@ impl Args {
             std::fs::write(&path, report.text()).with_context(|| format!("writing {}", path.display()))?;
             let j = report.to_json();
             let band = match j["band_s"].as_array() {
-                Some(b) if b.len() == 2 => format!(
-                    "{:.3e}..{:.3e}",
-                    b[0].as_f64().unwrap_or(f64::NAN),
-                    b[1].as_f64().unwrap_or(f64::NAN)
-                ),
+                Some(b) if b.len() == 2 => {
+                    format!("{:.3e}..{:.3e}", b[0].as_f64().unwrap_or(f64::NAN), b[1].as_f64().unwrap_or(f64::NAN))
+                }
                 _ => "-".to_string(),
             };
             let h = &j["holdout"];

@@ -83,7 +83,13 @@ impl Args {
             if (hold.rate_hz - fs).abs() > 1e-6 * fs {
                 bail!("the holdout is sampled at {} Hz, the training at {} Hz", hold.rate_hz, fs);
             }
-            GapInput::joined(rec.channels.remove(0), rec.temp_c.take(), hold.channels.remove(0), hold.temp_c.take(), fs)?
+            GapInput::joined(
+                rec.channels.remove(0),
+                rec.temp_c.take(),
+                hold.channels.remove(0),
+                hold.temp_c.take(),
+                fs,
+            )?
         } else {
             GapInput::split(rec.channels.remove(0), rec.temp_c.take(), fs, self.holdout_fraction)?
         };

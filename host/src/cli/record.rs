@@ -140,7 +140,13 @@ struct StatusLine {
 
 impl StatusLine {
     fn new() -> Self {
-        StatusLine { tty: std::io::stderr().is_terminal(), last: None, last_state: (0, false), drawn: false, unprinted: None }
+        StatusLine {
+            tty: std::io::stderr().is_terminal(),
+            last: None,
+            last_state: (0, false),
+            drawn: false,
+            unprinted: None,
+        }
     }
 
     fn show(&mut self, s: &LiveStats, source: &str) {

@@ -135,8 +135,7 @@ impl Args {
         let stats = if self.output.as_os_str() == "-" {
             simulate::simulate(&model, &opts, std::io::stdout().lock(), |n| bar.set(n))?
         } else {
-            let file =
-                File::create(&self.output).with_context(|| format!("creating {}", self.output.display()))?;
+            let file = File::create(&self.output).with_context(|| format!("creating {}", self.output.display()))?;
             simulate::simulate(&model, &opts, file, |n| bar.set(n))
                 .with_context(|| format!("writing {}", self.output.display()))?
         };

@@ -88,7 +88,8 @@ fn print_report(out: &mut dyn Write, r: &VerifyReport) -> std::io::Result<()> {
     let verdict = if r.passed() {
         format!("OK: all {} checked snapshots match the replay bit for bit", r.checked)
     } else if r.checked == 0 {
-        "FAILED: no snapshot could be checked (see why above; `octavar record --raw` streams the raw samples)".to_string()
+        "FAILED: no snapshot could be checked (see why above; `octavar record --raw` streams the raw samples)"
+            .to_string()
     } else {
         format!("FAILED: {} of {} checked snapshots differ from the replay", r.mismatched_snapshots, r.checked)
     };

@@ -103,8 +103,8 @@ pub fn simulate(
         .map(|&seed| {
             let x = member(gyro, channel, &table, rec, rec.rate_dps.len(), seed);
             let train = train_plan.measure_explained(&x[..rec.n_train], rec.training_temp(), resp_train, false);
-            let hold = holdout_plan
-                .map(|p| p.measure_explained(&x[rec.n_train..], rec.holdout_temp(), resp_hold, false));
+            let hold =
+                holdout_plan.map(|p| p.measure_explained(&x[rec.n_train..], rec.holdout_temp(), resp_hold, false));
             (train, hold)
         })
         .collect();

@@ -102,8 +102,14 @@ mod tests {
         let rec = Record { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: 1 << 14, oversample: 1 };
         let f = crate::gap::fit_base(rec.training(), fs, &FitOptions::default()).unwrap().1;
         let gyro = base_model(&f, rec.training());
-        let learner =
-            Learner { fs_hz: fs, temp_c: None, fit: &FitOptions::default(), fixed_base: None, fallback: &f, channel: None };
+        let learner = Learner {
+            fs_hz: fs,
+            temp_c: None,
+            fit: &FitOptions::default(),
+            fixed_base: None,
+            fallback: &f,
+            channel: None,
+        };
         let train = Plan::new(rec.training(), None, fs);
         let hold = Plan::new(rec.holdout(), None, fs);
         let seeds: Vec<u64> = (100..160).collect();

@@ -307,9 +307,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let mut candidates = Vec::new();
     for (i, (effect, f)) in fits.into_iter().enumerate() {
         let eval = match &f {
-            Some(f) => {
-                Some(run(&f.gyro, f.channel.or(channel).as_ref(), effect.name())?)
-            }
+            Some(f) => Some(run(&f.gyro, f.channel.or(channel).as_ref(), effect.name())?),
             None => None,
         };
         candidates.push((effect, f, eval));

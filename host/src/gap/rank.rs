@@ -200,7 +200,13 @@ mod tests {
             .map(|(i, &z)| {
                 let tau = 2f64.powi(i as i32);
                 PointZ {
-                    info: PointInfo { label: "tau", tau_s: tau, tau_lo_s: tau / 1.5, tau_hi_s: tau * 1.5, floor_sd: 0.0 },
+                    info: PointInfo {
+                        label: "tau",
+                        tau_s: tau,
+                        tau_lo_s: tau / 1.5,
+                        tau_hi_s: tau * 1.5,
+                        floor_sd: 0.0,
+                    },
                     real: 0.1 * z,
                     sim_mean: 0.0,
                     sd: 0.1,

@@ -209,8 +209,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
                 let clears = c.gap_after.is_some_and(|g| g < rank::SIGNIFICANT_GAP);
                 c.effect == Effect::Temperature
                     && c.score.is_some_and(|s| {
-                        s < rank::EXPLAINS * total_before
-                            && (s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0) || clears)
+                        s < rank::EXPLAINS * total_before && (s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0) || clears)
                     })
             })
             .or(Some(b)),
@@ -391,11 +390,7 @@ impl GapReport {
     /// A short text a person can read: what, where, how big, how sure, what the fix buys on held-out data.
     pub fn text(&self) -> String {
         let mut s = String::new();
-        let hold = if self.n_holdout > 0 {
-            format!("{} held out", self.n_holdout)
-        } else {
-            "no holdout".to_string()
-        };
+        let hold = if self.n_holdout > 0 { format!("{} held out", self.n_holdout) } else { "no holdout".to_string() };
         let _ = writeln!(
             s,
             "gap diagnosis: {} training samples at {} Hz, {hold}; ensemble of {} seeds{}",

@@ -183,9 +183,8 @@ impl Plan {
             if seg * 4 > nk {
                 break;
             }
-            let window: Vec<f64> = (0..seg)
-                .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / seg as f64).cos())
-                .collect();
+            let window: Vec<f64> =
+                (0..seg).map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / seg as f64).cos()).collect();
             levels.push(Level { decim, seg, fft: planner.plan_fft_forward(seg), window });
             decim *= DECIM;
         }
@@ -397,11 +396,7 @@ impl Plan {
     }
 
     fn distribution(&self, x: &[f64]) -> Vec<f64> {
-        let mut r: Vec<f64> = x
-            .windows(3)
-            .map(|w| w[1] - 0.5 * (w[0] + w[2]))
-            .filter(|v| v.is_finite())
-            .collect();
+        let mut r: Vec<f64> = x.windows(3).map(|w| w[1] - 0.5 * (w[0] + w[2])).filter(|v| v.is_finite()).collect();
         let k = if self.lattice_step.is_some() { 4 } else { 3 } + self.kurt_ms.len();
         if r.len() < 16 {
             return vec![f64::NAN; k];
@@ -773,7 +768,8 @@ mod tests {
         let n = 40_000;
         let temp: Vec<f64> = (0..n).map(|i| 20.0 + 3.0 * (i as f64 / 3000.0).sin()).collect();
         let noise = white(n, 7);
-        let rate: Vec<f64> = (0..n).map(|i| 0.2 * noise[i] + if i >= 500 { 0.5 * temp[i - 500] } else { 0.0 }).collect();
+        let rate: Vec<f64> =
+            (0..n).map(|i| 0.2 * noise[i] + if i >= 500 { 0.5 * temp[i - 500] } else { 0.0 }).collect();
         let plan = Plan::new(&rate, Some(&temp), 1.0);
         assert!(!plan.points[3].is_empty());
         let m = plan.measure(&rate, Some(&temp), true);

@@ -207,11 +207,8 @@ pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Opti
                 for (k, &m) in ms.iter().enumerate() {
                     let end = (i0 + MANY_BLOCK).min(counts[k]);
                     if end > i0 {
-                        acc[k] += if d == 2 {
-                            sumsq_o2(&x[i0..], m, end - i0)
-                        } else {
-                            sumsq_o3(&x[i0..], m, end - i0)
-                        };
+                        acc[k] +=
+                            if d == 2 { sumsq_o2(&x[i0..], m, end - i0) } else { sumsq_o3(&x[i0..], m, end - i0) };
                     }
                 }
                 acc
@@ -858,7 +855,9 @@ mod tests {
             let w = want[ms.iter().position(|&k| k == m).unwrap()];
             assert!((got - w).abs() <= 1e-12 * w, "m={m}: {got} vs {w}");
         }
-        for (a, b) in estimate_many(&plain, Statistic::Oadev, &ms).iter().zip(estimate_many(&fused, Statistic::Oadev, &ms)) {
+        for (a, b) in
+            estimate_many(&plain, Statistic::Oadev, &ms).iter().zip(estimate_many(&fused, Statistic::Oadev, &ms))
+        {
             let (a, b) = (a.unwrap(), b.unwrap());
             assert_eq!(a.n, b.n);
             assert!(((a.dev - b.dev) / a.dev).abs() < 1e-12);

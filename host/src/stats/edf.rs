@@ -468,7 +468,10 @@ mod tests {
             let s = if overlapping { m } else { 1.0 };
             let edf = greenhall_edf(0, d, m, f, s, 1001.0);
             let (glo, ghi) = confidence_interval(sigma, edf, 0.683);
-            assert!(rel(glo, lo) < 1e-3 && rel(ghi, hi) < 1e-3, "d={d} mod={modified} ovl={overlapping} m={m}: edf {edf} -> ({glo}, {ghi}) vs ({lo}, {hi})");
+            assert!(
+                rel(glo, lo) < 1e-3 && rel(ghi, hi) < 1e-3,
+                "d={d} mod={modified} ovl={overlapping} m={m}: edf {edf} -> ({glo}, {ghi}) vs ({lo}, {hi})"
+            );
         }
     }
 

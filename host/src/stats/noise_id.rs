@@ -107,9 +107,7 @@ pub(crate) fn acf_noise_id_from(
 fn averages(series: &Series, m: usize, j0: usize, j1: usize) -> Vec<f64> {
     let x = &series.x;
     match series.kind {
-        DataKind::Phase => {
-            (j0..j1).map(|j| j * m).map(|k| if series.is_gap(k) { f64::NAN } else { x[k] }).collect()
-        }
+        DataKind::Phase => (j0..j1).map(|j| j * m).map(|k| if series.is_gap(k) { f64::NAN } else { x[k] }).collect(),
         DataKind::Frequency => {
             let scale = 1.0 / (m as f64 * series.tau0_s);
             let bad = series.bad.as_deref();

@@ -27,10 +27,7 @@ use super::analysis::{row, DevPoint, Options};
 use super::deviation::{estimate, far_sums, oadev_range_sums, Estimate, Statistic, FAR_PITCH, FAR_WIDTH};
 use super::error::StatsError;
 use super::noise_id::{acf_noise_id_from, b1_decide, NoiseMethod};
-use super::series::{
-    mvar_from_coarse, DataKind, Series, COARSE, COARSE_MIN_POINTS, FUSED_MAX_M, GROUP_LEN,
-    LANES,
-};
+use super::series::{mvar_from_coarse, DataKind, Series, COARSE, COARSE_MIN_POINTS, FUSED_MAX_M, GROUP_LEN, LANES};
 use super::taus::{averaging_factors, TauSpec};
 
 /// Records from this many samples on take this path (shorter ones: the phase array, which is cheap there).
@@ -133,8 +130,7 @@ fn prepare<'a>(
 ) -> Option<(Record<'a>, Vec<(usize, f64)>)> {
     let n_phase = y.len() + 1;
     let levels = |near: bool| {
-        let mut v: Vec<usize> =
-            ms.iter().copied().filter(|&m| 2 * m < n_phase && (m <= FUSED_MAX_M) == near).collect();
+        let mut v: Vec<usize> = ms.iter().copied().filter(|&m| 2 * m < n_phase && (m <= FUSED_MAX_M) == near).collect();
         v.sort_unstable();
         v.dedup();
         v
@@ -221,7 +217,8 @@ fn prepare<'a>(
         dec.extend(o.dec.iter().enumerate().map(|(j, v)| x_s0 + v + slope * ((k0 + j) * DEC - o.s0) as f64));
         for (k, v) in o.coarse.iter().enumerate() {
             let b = o.coarse_first + k;
-            let (a, e) = ((b * COARSE).max(if o.s0 == 0 { 0 } else { o.s0 + 1 }), (b * COARSE + COARSE - 1).min(o.s0 + o.n));
+            let (a, e) =
+                ((b * COARSE).max(if o.s0 == 0 { 0 } else { o.s0 + 1 }), (b * COARSE + COARSE - 1).min(o.s0 + o.n));
             // sum over p in a..=e of x_s0 + slope (p - s0), added to the buffer's part.
             let cnt = (e + 1 - a) as f64;
             let mid = (a + e) as f64 / 2.0 - o.s0 as f64;
@@ -255,7 +252,7 @@ fn fill_column(y: &[f64], dec: &[f64], mean: f64, tau0_s: f64, r0: usize, buf: &
                     // SAFETY: a prefetch hint on an address inside y; nothing is read or written.
                     unsafe {
                         std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                            y.as_ptr().add(a + l) as *const i8,
+                            y.as_ptr().add(a + l) as *const i8
                         )
                     };
                 }

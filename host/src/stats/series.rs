@@ -263,8 +263,7 @@ impl Series {
                 out[0].write(0.0);
                 // LANES segments at a time on each thread, interleaved: LANES independent running sums; then,
                 // while that group's phase is in cache, the OADEV terms that lie inside it.
-                let mut ms: Vec<usize> =
-                    if bad.is_none() { oadev_ms(n_phase) } else { Vec::new() };
+                let mut ms: Vec<usize> = if bad.is_none() { oadev_ms(n_phase) } else { Vec::new() };
                 ms.retain(|&m| m > 0 && m <= FUSED_MAX_M && 2 * m < n_phase);
                 ms.sort_unstable();
                 ms.dedup();

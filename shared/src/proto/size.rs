@@ -15,8 +15,8 @@
 use heapless::{String, Vec};
 
 use super::{
-    ChannelEstimate, ChannelInfo, Command, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples,
-    SnapshotPart, Status, MAX_BODY,
+    ChannelEstimate, ChannelInfo, Command, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotPart,
+    Status, MAX_BODY,
 };
 use crate::acc::LevelSum;
 use crate::sensor::SensorKind;
@@ -123,13 +123,7 @@ sum_of_fields!(ChannelEstimate {
     tau_b_s: Option<f32>,
 });
 sum_of_fields!(Estimate { samples: u64, channels: Vec<ChannelEstimate, { super::MAX_CHANNELS }> });
-sum_of_fields!(FieldLogRecord {
-    checkpoint: u32,
-    time_s: u32,
-    sessions: u32,
-    adc_overruns: u32,
-    part: SnapshotPart,
-});
+sum_of_fields!(FieldLogRecord { checkpoint: u32, time_s: u32, sessions: u32, adc_overruns: u32, part: SnapshotPart });
 sum_of_fields!(FieldLogEnd { checkpoints: u32 });
 
 impl MaxSize for Frame {

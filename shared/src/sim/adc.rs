@@ -23,12 +23,7 @@ impl Quantizer {
         let gain = ch.front.gain * ch.gyro.sensitivity_mv_per_dps / per_code;
         let offset = ch.front.apply(ch.gyro.null_mv) / per_code;
         let max_code = ch.adc.max_code();
-        Quantizer {
-            offset,
-            gain,
-            max_code,
-            max_f: f64::from(max_code) + 1.0,
-        }
+        Quantizer { offset, gain, max_code, max_f: f64::from(max_code) + 1.0 }
     }
 
     /// Unquantised code for a rate (before clipping).
@@ -73,10 +68,7 @@ mod tests {
                 let x = ch.dps_to_code_f(r);
                 if code != want {
                     // Only where the two roundings straddle a code edge.
-                    assert!(
-                        (x - libm::round(x)).abs() < 1e-9,
-                        "{gyro:?} {r}: {code} vs {want}"
-                    );
+                    assert!((x - libm::round(x)).abs() < 1e-9, "{gyro:?} {r}: {code} vs {want}");
                     edge += 1;
                 }
                 assert_eq!(clipped, !(0.0..4096.0).contains(&x), "{gyro:?} {r} {x}");

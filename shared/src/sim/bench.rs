@@ -57,14 +57,8 @@ impl Bench {
             return Err(SimError::InvalidSampleRate);
         }
         let t = &model.temperature;
-        let ok = t.min_c.is_finite()
-            && t.max_c.is_finite()
-            && t.phase_rad.is_finite()
-            && t.period_s > 0.0;
-        if !ok
-            || t.wander
-                .is_some_and(|w| !(w.sigma_c >= 0.0 && w.tau_s > 0.0))
-        {
+        let ok = t.min_c.is_finite() && t.max_c.is_finite() && t.phase_rad.is_finite() && t.period_s > 0.0;
+        if !ok || t.wander.is_some_and(|w| !(w.sigma_c >= 0.0 && w.tau_s > 0.0)) {
             return Err(SimError::InvalidParameter("temperature"));
         }
         let mut rng = SimRng::new(SimRng::derive_seed(model.seed, u64::MAX));
@@ -76,23 +70,12 @@ impl Bench {
                 Some(ch) => ch,
                 None => Channel::bench(GyroModel::of(c.sensor).ok_or(SimError::NotAGyro)?),
             };
-            let g = VirtualGyro::new(
-                &c.gyro,
-                channel,
-                fs,
-                SimRng::derive_seed(model.seed, i as u64),
-            )?;
+            let g = VirtualGyro::new(&c.gyro, channel, fs, SimRng::derive_seed(model.seed, i as u64))?;
             // Capacities match the model's own list, so neither push can fail.
             let _ = gyros.push(g);
             let _ = channels.push(channel);
         }
-        Ok(Bench {
-            thermal,
-            rng,
-            gyros,
-            channels,
-            fs_hz: fs,
-        })
+        Ok(Bench { thermal, rng, gyros, channels, fs_hz: fs })
     }
 
     /// A bench that runs only channel `index` of `model`, with the same seeds and the same temperature: its
@@ -163,8 +146,8 @@ impl Iterator for Bench {
 #[cfg(test)]
 mod only_channel_tests {
     use super::*;
-    use crate::sim::model::{ChannelSim, GyroSim, TemperatureProfile, Wander};
     use crate::sensor::SensorKind;
+    use crate::sim::model::{ChannelSim, GyroSim, TemperatureProfile, Wander};
 
     #[test]
     fn one_channel_alone_equals_that_channel_of_the_bench() {
@@ -202,27 +185,13 @@ mod tests {
     fn model(channels: &[(SensorKind, f64)]) -> BenchSim {
         let mut list = heapless::Vec::new();
         for &(sensor, n) in channels {
-            let gyro = GyroSim {
-                n_deg_per_rt_s: n,
-                b_dps: 0.01,
-                ..Default::default()
-            };
-            list.push(ChannelSim {
-                sensor,
-                channel: None,
-                gyro,
-            })
-            .unwrap();
+            let gyro = GyroSim { n_deg_per_rt_s: n, b_dps: 0.01, ..Default::default() };
+            list.push(ChannelSim { sensor, channel: None, gyro }).unwrap();
         }
         BenchSim {
             fs_hz: 100.0,
             seed: 3,
-            temperature: TemperatureProfile {
-                min_c: 22.0,
-                max_c: 25.0,
-                period_s: 50.0,
-                ..Default::default()
-            },
+            temperature: TemperatureProfile { min_c: 22.0, max_c: 25.0, period_s: 50.0, ..Default::default() },
             channels: list,
         }
     }
@@ -230,11 +199,7 @@ mod tests {
     #[test]
     fn adding_a_channel_leaves_the_others_alone() {
         let mut a = Bench::new(&model(&[(SensorKind::Adxrs300, 0.05)])).unwrap();
-        let mut b = Bench::new(&model(&[
-            (SensorKind::Adxrs300, 0.05),
-            (SensorKind::Idg1215X, 0.003),
-        ]))
-        .unwrap();
+        let mut b = Bench::new(&model(&[(SensorKind::Adxrs300, 0.05), (SensorKind::Idg1215X, 0.003)])).unwrap();
         for _ in 0..1000 {
             let (x, y) = (a.next_sample(), b.next_sample());
             assert_eq!(x.codes()[0], y.codes()[0]);
@@ -245,9 +210,6 @@ mod tests {
 
     #[test]
     fn temperature_channel_is_not_a_gyro() {
-        assert_eq!(
-            Bench::new(&model(&[(SensorKind::Temperature, 0.0)])).unwrap_err(),
-            SimError::NotAGyro
-        );
+        assert_eq!(Bench::new(&model(&[(SensorKind::Temperature, 0.0)])).unwrap_err(), SimError::NotAGyro);
     }
 }

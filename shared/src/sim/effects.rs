@@ -27,13 +27,7 @@ pub struct Sinusoids {
 impl Sinusoids {
     /// The sinusoids of a model, sampled every `tau0_s`.
     pub fn new(list: &[Sinusoid], tau0_s: f64) -> Self {
-        let zero = Phasor {
-            c: 1.0,
-            s: 0.0,
-            cos_d: 1.0,
-            sin_d: 0.0,
-            amplitude: 0.0,
-        };
+        let zero = Phasor { c: 1.0, s: 0.0, cos_d: 1.0, sin_d: 0.0, amplitude: 0.0 };
         let mut phasors = [zero.clone(), zero.clone(), zero.clone(), zero];
         let len = list.len().min(MAX_SINUSOIDS);
         for (p, s) in phasors.iter_mut().zip(list) {
@@ -64,11 +58,7 @@ impl Sinusoids {
             let c = p.c * p.cos_d - p.s * p.sin_d;
             let s = p.s * p.cos_d + p.c * p.sin_d;
             // One Newton step towards |phasor| = 1 (no sqrt): the rounding drift never accumulates.
-            let g = if renorm {
-                1.5 - 0.5 * (c * c + s * s)
-            } else {
-                1.0
-            };
+            let g = if renorm { 1.5 - 0.5 * (c * c + s * s) } else { 1.0 };
             p.c = c * g;
             p.s = s * g;
         }
@@ -93,13 +83,7 @@ impl Steps {
     /// Steps as the model gives them, at `fs_hz`.
     pub fn new(m: &BiasSteps, fs_hz: f64, rng: &mut SimRng) -> Self {
         let p = (m.per_hour / 3600.0 / fs_hz).min(1.0);
-        Steps {
-            p,
-            sigma: m.sigma_dps,
-            left: rng.gap(p),
-            level: 0.0,
-            count: 0,
-        }
+        Steps { p, sigma: m.sigma_dps, left: rng.gap(p), level: 0.0, count: 0 }
     }
 
     /// The accumulated bias after this sample, in deg/s.
@@ -135,12 +119,7 @@ impl Spikes {
     /// Outliers as the model gives them; `white_sigma` is the per-sample sd of the white noise N.
     pub fn new(m: &Outliers, white_sigma: f64, rng: &mut SimRng) -> Self {
         let p = m.per_sample.min(1.0);
-        Spikes {
-            p,
-            size: m.size_dps + m.size_sigma * white_sigma,
-            left: rng.gap(p),
-            count: 0,
-        }
+        Spikes { p, size: m.size_dps + m.size_sigma * white_sigma, left: rng.gap(p), count: 0 }
     }
 
     /// The spike on this sample (usually 0), in deg/s.
@@ -173,19 +152,14 @@ mod tests {
 
     #[test]
     fn phasor_tracks_sin_for_a_long_time() {
-        let s = Sinusoid {
-            amplitude_dps: 2.0,
-            period_s: 0.37,
-            phase_rad: 0.3,
-        };
+        let s = Sinusoid { amplitude_dps: 2.0, period_s: 0.37, phase_rad: 0.3 };
         let tau0 = 1e-3;
         let mut sines = Sinusoids::new(&[s], tau0);
         let mut worst: f64 = 0.0;
         for n in 0..2_000_000u64 {
             let got = sines.next(n);
             if n % 9973 == 0 {
-                let want =
-                    2.0 * libm::sin(2.0 * core::f64::consts::PI * n as f64 * tau0 / 0.37 + 0.3);
+                let want = 2.0 * libm::sin(2.0 * core::f64::consts::PI * n as f64 * tau0 / 0.37 + 0.3);
                 worst = worst.max((got - want).abs());
             }
         }
@@ -196,15 +170,7 @@ mod tests {
     #[test]
     fn event_counts_follow_the_rate() {
         let mut rng = SimRng::new(9);
-        let mut spikes = Spikes::new(
-            &Outliers {
-                per_sample: 1e-3,
-                size_dps: 5.0,
-                size_sigma: 0.0,
-            },
-            1.0,
-            &mut rng,
-        );
+        let mut spikes = Spikes::new(&Outliers { per_sample: 1e-3, size_dps: 5.0, size_sigma: 0.0 }, 1.0, &mut rng);
         let n = 1_000_000;
         let mut sum_abs = 0.0;
         for _ in 0..n {

@@ -173,10 +173,7 @@ mod tests {
             };
             let direct = (4.0 * g(m) - g(2 * m)) / (2.0 * (m * m) as f64);
             let closed = ar1_avar(1.0, t, m as f64);
-            assert!(
-                (closed / direct - 1.0).abs() < 1e-9,
-                "t {t} m {m}: {closed} vs {direct}"
-            );
+            assert!((closed / direct - 1.0).abs() < 1e-9, "t {t} m {m}: {closed} vs {direct}");
         }
     }
 
@@ -196,9 +193,6 @@ mod tests {
 
     #[test]
     fn floor_constant() {
-        assert!(
-            (FLICKER_FLOOR - (2.0 * core::f64::consts::LN_2 / core::f64::consts::PI).sqrt()).abs()
-                < 1e-15
-        );
+        assert!((FLICKER_FLOOR - (2.0 * core::f64::consts::LN_2 / core::f64::consts::PI).sqrt()).abs() < 1e-15);
     }
 }

@@ -30,15 +30,11 @@ pub enum SimError {
 impl core::fmt::Display for SimError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            SimError::InvalidSampleRate => {
-                f.write_str("sample rate must be a positive finite number of Hz")
-            }
+            SimError::InvalidSampleRate => f.write_str("sample rate must be a positive finite number of Hz"),
             SimError::InvalidParameter(field) => {
                 write!(f, "model parameter `{field}` is out of range")
             }
-            SimError::NotAGyro => {
-                f.write_str("a bench channel must be a gyro, not a temperature sensor")
-            }
+            SimError::NotAGyro => f.write_str("a bench channel must be a gyro, not a temperature sensor"),
         }
     }
 }
@@ -115,17 +111,11 @@ impl GyroSim {
             positive(f, "bandwidth_hz")?;
         }
         for s in &self.sinusoids {
-            check(
-                s.amplitude_dps.is_finite() && s.phase_rad.is_finite(),
-                "sinusoids.amplitude_dps",
-            )?;
+            check(s.amplitude_dps.is_finite() && s.phase_rad.is_finite(), "sinusoids.amplitude_dps")?;
             positive(s.period_s, "sinusoids.period_s")?;
         }
         if let Some(t) = &self.temperature {
-            check(
-                t.dps_per_c.is_finite() && t.ref_c.is_finite(),
-                "temperature.dps_per_c",
-            )?;
+            check(t.dps_per_c.is_finite() && t.ref_c.is_finite(), "temperature.dps_per_c")?;
             nonneg(t.lag_s, "temperature.lag_s")?;
         }
         if let Some(b) = &self.bias_steps {
@@ -133,14 +123,8 @@ impl GyroSim {
             nonneg(b.sigma_dps, "bias_steps.sigma_dps")?;
         }
         if let Some(o) = &self.outliers {
-            check(
-                o.per_sample.is_finite() && (0.0..=1.0).contains(&o.per_sample),
-                "outliers.per_sample",
-            )?;
-            check(
-                o.size_dps.is_finite() && o.size_sigma.is_finite(),
-                "outliers.size_dps",
-            )?;
+            check(o.per_sample.is_finite() && (0.0..=1.0).contains(&o.per_sample), "outliers.per_sample")?;
+            check(o.size_dps.is_finite() && o.size_sigma.is_finite(), "outliers.size_dps")?;
         }
         Ok(())
     }
@@ -165,14 +149,8 @@ impl VirtualGyro {
             .gauss_markov
             .filter(|g| g.sigma_dps > 0.0)
             .map(|g| GaussMarkov::new(g.sigma_dps, g.tau_s, tau0, &mut rng));
-        let steps = model
-            .bias_steps
-            .filter(|b| b.per_hour > 0.0)
-            .map(|b| Steps::new(&b, fs_hz, &mut rng));
-        let spikes = model
-            .outliers
-            .filter(|o| o.per_sample > 0.0)
-            .map(|o| Spikes::new(&o, n_sigma, &mut rng));
+        let steps = model.bias_steps.filter(|b| b.per_hour > 0.0).map(|b| Steps::new(&b, fs_hz, &mut rng));
+        let spikes = model.outliers.filter(|o| o.per_sample > 0.0).map(|o| Spikes::new(&o, n_sigma, &mut rng));
         // The angle drawn "before" sample 0, so the first difference is stationary too (no draw without Q).
         let last_angle = if model.q_deg > 0.0 { rng.normal() } else { 0.0 };
         Ok(VirtualGyro {
@@ -248,11 +226,7 @@ impl VirtualGyro {
         let rate_dps = self.next_rate(temp_c);
         let (code, clipped) = self.adc.quantize(rate_dps);
         self.clipped += u64::from(clipped);
-        Sample {
-            rate_dps,
-            code,
-            clipped,
-        }
+        Sample { rate_dps, code, clipped }
     }
 
     /// Fill `codes` with consecutive ADC codes at a constant temperature.
@@ -301,22 +275,10 @@ mod tests {
     #[test]
     fn rejects_bad_parameters() {
         let ch = Channel::bench(ADXRS300);
-        assert_eq!(
-            VirtualGyro::new(&GyroSim::default(), ch, 0.0, 1).unwrap_err(),
-            SimError::InvalidSampleRate
-        );
-        let m = GyroSim {
-            n_deg_per_rt_s: -1.0,
-            ..Default::default()
-        };
-        assert_eq!(
-            VirtualGyro::new(&m, ch, 100.0, 1).unwrap_err(),
-            SimError::InvalidParameter("n_deg_per_rt_s")
-        );
-        let m = GyroSim {
-            bandwidth_hz: Some(f64::NAN),
-            ..Default::default()
-        };
+        assert_eq!(VirtualGyro::new(&GyroSim::default(), ch, 0.0, 1).unwrap_err(), SimError::InvalidSampleRate);
+        let m = GyroSim { n_deg_per_rt_s: -1.0, ..Default::default() };
+        assert_eq!(VirtualGyro::new(&m, ch, 100.0, 1).unwrap_err(), SimError::InvalidParameter("n_deg_per_rt_s"));
+        let m = GyroSim { bandwidth_hz: Some(f64::NAN), ..Default::default() };
         assert!(VirtualGyro::new(&m, ch, 100.0, 1).is_err());
         for q in [-1e-4, f64::NAN, f64::INFINITY] {
             let m = GyroSim { q_deg: q, ..Default::default() };
@@ -327,10 +289,7 @@ mod tests {
     #[test]
     fn constant_bias_gives_a_constant_code() {
         let ch = Channel::bench(IDG1215_X);
-        let m = GyroSim {
-            bias_dps: 1.25,
-            ..Default::default()
-        };
+        let m = GyroSim { bias_dps: 1.25, ..Default::default() };
         let mut g = VirtualGyro::new(&m, ch, 100.0, 1).unwrap();
         let want = ch.dps_to_code(1.25);
         for _ in 0..100 {
@@ -342,17 +301,11 @@ mod tests {
     #[test]
     fn clipping_is_counted() {
         let ch = Channel::bench(IDG1215_X);
-        let m = GyroSim {
-            bias_dps: 500.0,
-            ..Default::default()
-        };
+        let m = GyroSim { bias_dps: 500.0, ..Default::default() };
         let mut g = VirtualGyro::new(&m, ch, 100.0, 1).unwrap();
         let s = g.next(25.0);
         assert_eq!((s.code, s.clipped), (4095, true));
-        let m = GyroSim {
-            bias_dps: -500.0,
-            ..Default::default()
-        };
+        let m = GyroSim { bias_dps: -500.0, ..Default::default() };
         let mut g = VirtualGyro::new(&m, ch, 100.0, 1).unwrap();
         for _ in 0..9 {
             assert_eq!(g.next(25.0).code, 0);

@@ -59,6 +59,6 @@ pub mod temperature;
 pub use bench::{Bench, BenchSample};
 pub use gyro::{Sample, SimError, VirtualGyro};
 pub use model::{
-    BenchSim, BiasSteps, ChannelSim, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling,
-    TemperatureProfile, Wander, MAX_CHANNELS, MAX_SINUSOIDS,
+    BenchSim, BiasSteps, ChannelSim, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling, TemperatureProfile,
+    Wander, MAX_CHANNELS, MAX_SINUSOIDS,
 };

@@ -152,13 +152,7 @@ pub struct TemperatureProfile {
 
 impl Default for TemperatureProfile {
     fn default() -> Self {
-        TemperatureProfile {
-            min_c: 25.0,
-            max_c: 25.0,
-            period_s: 86_400.0,
-            phase_rad: 0.0,
-            wander: None,
-        }
+        TemperatureProfile { min_c: 25.0, max_c: 25.0, period_s: 86_400.0, phase_rad: 0.0, wander: None }
     }
 }
 

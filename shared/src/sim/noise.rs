@@ -17,10 +17,7 @@ pub struct RandomWalk {
 impl RandomWalk {
     /// K in deg/s/sqrt(s) at a sample interval of `tau0_s`.
     pub fn new(k_dps_per_rt_s: f64, tau0_s: f64) -> Self {
-        RandomWalk {
-            x: 0.0,
-            step: k_dps_per_rt_s * libm::sqrt(tau0_s),
-        }
+        RandomWalk { x: 0.0, step: k_dps_per_rt_s * libm::sqrt(tau0_s) }
     }
 
     /// The next value, in deg/s.
@@ -48,11 +45,7 @@ impl GaussMarkov {
     /// Stationary standard deviation `sigma` and correlation time `tau_s`, sampled every `tau0_s`.
     pub fn new(sigma: f64, tau_s: f64, tau0_s: f64, rng: &mut SimRng) -> Self {
         let a = libm::exp(-tau0_s / tau_s);
-        GaussMarkov {
-            x: sigma * rng.normal(),
-            a,
-            b: sigma * libm::sqrt(1.0 - a * a),
-        }
+        GaussMarkov { x: sigma * rng.normal(), a, b: sigma * libm::sqrt(1.0 - a * a) }
     }
 
     /// The next value.
@@ -83,11 +76,7 @@ pub struct LowPass {
 impl LowPass {
     /// A low-pass with its -3 dB corner at `f3db_hz`, sampled at `fs_hz`.
     pub fn new(f3db_hz: f64, fs_hz: f64) -> Self {
-        LowPass {
-            y: 0.0,
-            a: libm::exp(-2.0 * core::f64::consts::PI * f3db_hz / fs_hz),
-            started: false,
-        }
+        LowPass { y: 0.0, a: libm::exp(-2.0 * core::f64::consts::PI * f3db_hz / fs_hz), started: false }
     }
 
     /// The pole `a`.

@@ -106,11 +106,7 @@ mod tests {
         let n = n as f64;
         assert!((s1 / n).abs() < 5e-3);
         assert!((s2 / n - 1.0).abs() < 5.0 * (2.0 / n).sqrt());
-        assert!(
-            (s4 / n - 3.0).abs() < 5.0 * (96.0 / n).sqrt(),
-            "kurtosis {}",
-            s4 / n
-        );
+        assert!((s4 / n - 3.0).abs() < 5.0 * (96.0 / n).sqrt(), "kurtosis {}", s4 / n);
     }
 
     #[test]

@@ -25,26 +25,13 @@ impl Thermal {
     /// The profile sampled at `fs_hz`; the wander draws from `rng`.
     pub fn new(p: &TemperatureProfile, fs_hz: f64, rng: &mut SimRng) -> Self {
         let half = 0.5 * (p.max_c - p.min_c);
-        let cycle = Sinusoid {
-            amplitude_dps: half,
-            period_s: p.period_s,
-            phase_rad: p.phase_rad,
-        };
-        let list: &[Sinusoid] = if half != 0.0 && p.period_s > 0.0 {
-            &[cycle]
-        } else {
-            &[]
-        };
+        let cycle = Sinusoid { amplitude_dps: half, period_s: p.period_s, phase_rad: p.phase_rad };
+        let list: &[Sinusoid] = if half != 0.0 && p.period_s > 0.0 { &[cycle] } else { &[] };
         let wander = p.wander.filter(|w| w.sigma_c > 0.0).map(|w| {
             let t = w.tau_s * fs_hz;
             HeldGaussMarkov::new(w.sigma_c, t, hold_log2(t), rng)
         });
-        Thermal {
-            mid: 0.5 * (p.max_c + p.min_c),
-            cycle: Sinusoids::new(list, 1.0 / fs_hz),
-            wander,
-            n: 0,
-        }
+        Thermal { mid: 0.5 * (p.max_c + p.min_c), cycle: Sinusoids::new(list, 1.0 / fs_hz), wander, n: 0 }
     }
 
     /// The temperature of the next sample, degC.
@@ -73,18 +60,8 @@ pub struct ThermalLag {
 impl ThermalLag {
     /// The coupling of a model, sampled every `tau0_s`.
     pub fn new(c: &TempCoupling, tau0_s: f64) -> Self {
-        let a = if c.lag_s > 0.0 {
-            libm::exp(-tau0_s / c.lag_s)
-        } else {
-            0.0
-        };
-        ThermalLag {
-            a,
-            y: 0.0,
-            k: c.dps_per_c,
-            ref_c: c.ref_c,
-            started: false,
-        }
+        let a = if c.lag_s > 0.0 { libm::exp(-tau0_s / c.lag_s) } else { 0.0 };
+        ThermalLag { a, y: 0.0, k: c.dps_per_c, ref_c: c.ref_c, started: false }
     }
 
     /// The pole `a` of the lag.
@@ -112,13 +89,7 @@ mod tests {
 
     #[test]
     fn cycle_spans_min_to_max() {
-        let p = TemperatureProfile {
-            min_c: 22.0,
-            max_c: 25.0,
-            period_s: 100.0,
-            phase_rad: 0.0,
-            wander: None,
-        };
+        let p = TemperatureProfile { min_c: 22.0, max_c: 25.0, period_s: 100.0, phase_rad: 0.0, wander: None };
         let mut rng = SimRng::new(1);
         let mut th = Thermal::new(&p, 10.0, &mut rng);
         let (mut lo, mut hi) = (f64::MAX, f64::MIN);
@@ -127,33 +98,17 @@ mod tests {
             lo = lo.min(t);
             hi = hi.max(t);
         }
-        assert!(
-            (lo - 22.0).abs() < 1e-3 && (hi - 25.0).abs() < 1e-3,
-            "{lo} {hi}"
-        );
+        assert!((lo - 22.0).abs() < 1e-3 && (hi - 25.0).abs() < 1e-3, "{lo} {hi}");
     }
 
     #[test]
     fn wander_moves_and_lag_settles() {
-        let p = TemperatureProfile {
-            wander: Some(Wander {
-                sigma_c: 0.5,
-                tau_s: 10.0,
-            }),
-            ..Default::default()
-        };
+        let p = TemperatureProfile { wander: Some(Wander { sigma_c: 0.5, tau_s: 10.0 }), ..Default::default() };
         let mut rng = SimRng::new(2);
         let mut th = Thermal::new(&p, 100.0, &mut rng);
         let xs: [f64; 4000] = core::array::from_fn(|_| th.next(&mut rng));
         assert!(xs.iter().any(|&x| (x - xs[0]).abs() > 0.05));
-        let mut lag = ThermalLag::new(
-            &TempCoupling {
-                dps_per_c: 0.1,
-                ref_c: 25.0,
-                lag_s: 1.0,
-            },
-            0.01,
-        );
+        let mut lag = ThermalLag::new(&TempCoupling { dps_per_c: 0.1, ref_c: 25.0, lag_s: 1.0 }, 0.01);
         assert_eq!(lag.next(30.0), 0.5);
         for _ in 0..2000 {
             lag.next(27.0);

@@ -6,8 +6,8 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
-pub(super) use crate::gap::views::block_means;
 use crate::fit::{fit, FitOptions, FitPoint};
+pub(super) use crate::gap::views::block_means;
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
 
 pub(super) fn mean(x: &[f64]) -> f64 {
@@ -27,7 +27,6 @@ pub(super) fn median(x: &[f64]) -> f64 {
     let (_, m, _) = v.select_nth_unstable_by(k, f64::total_cmp);
     *m
 }
-
 
 /// The overlapping Allan variance at octave tau, with Greenhall EDFs, as fit points.
 pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {

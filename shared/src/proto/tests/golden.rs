@@ -62,10 +62,8 @@ const COMMANDS: [&[u8]; 5] = [
 
 /// `bytes` as a Rust slice literal, 18 to a line.
 fn rust_bytes(bytes: &[u8]) -> String {
-    let lines: Vec<String> = bytes
-        .chunks(18)
-        .map(|c| c.iter().map(|b| format!("{b:#04x},")).collect::<Vec<_>>().join(" "))
-        .collect();
+    let lines: Vec<String> =
+        bytes.chunks(18).map(|c| c.iter().map(|b| format!("{b:#04x},")).collect::<Vec<_>>().join(" ")).collect();
     format!("&[\n    {}\n],", lines.join("\n    "))
 }
 

@@ -186,9 +186,8 @@ pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
         }
         2 | 5 => {
             let count = rng.below(LEVELS_PER_PART + 1);
-            let levels: heapless::Vec<LevelSum, LEVELS_PER_PART> = (0..count)
-                .map(|_| LevelSum { n: r(rng, 40), sum_sq: u128::from(r(rng, 64)) << r(rng, 6) })
-                .collect();
+            let levels: heapless::Vec<LevelSum, LEVELS_PER_PART> =
+                (0..count).map(|_| LevelSum { n: r(rng, 40), sum_sq: u128::from(r(rng, 64)) << r(rng, 6) }).collect();
             let part = SnapshotPart {
                 channel: rng.byte() & 7,
                 stride: 8,
