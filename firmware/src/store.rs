@@ -2,10 +2,10 @@
 //! them back for the host after a power cycle.
 //!
 //! The log logic (record format, recovery, write order, power-cut safety) is `octavar_shared::fieldlog`, tested
-//! on the host. Here: the flash driver behind its `LogFlash` trait, and the policy. At boot the newest checkpoint
-//! is read back; every checkpoint of this session pools it with the session's snapshots
-//! (`Checkpoint::merge_session`), so the log always covers the whole deployment, and a power cut loses at most the
-//! samples since the last checkpoint.
+//! on the host, and so is the policy (`octavar_shared::fieldlog::Recorder`): at boot, and after a host reset, the
+//! newest checkpoint is read back, and every checkpoint of the session pools it with the session's snapshots
+//! (`Checkpoint::merge_session`), so the log always covers the whole deployment, and a power cut or a reset loses
+//! at most the samples since the last checkpoint. Here: the flash driver behind its `LogFlash` trait.
 //!
 //! On the board the log lives in flash sectors 10 and 11 (0x080C_0000 and 0x080E_0000, 128 KiB each), which the
 //! root `memory.x` keeps out of the program's FLASH region. The STM32F405 has one flash bank: while a sector is
@@ -16,10 +16,10 @@
 use embassy_futures::select::{select, Either};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::signal::Signal;
-use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogFlash};
+use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogFlash, Recorded, Recorder};
 use octavar_shared::proto::{FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
 
-use crate::characterize::{Round, SNAPSHOT_READY};
+use crate::characterize::SNAPSHOT_READY;
 use crate::config::*;
 use crate::frames;
 
@@ -33,20 +33,37 @@ pub static LOG_READ: Signal<CriticalSectionRawMutex, u32> = Signal::new();
 
 /// Checkpoints snapshot rounds and answers field-log reads; generic over the flash (real or RAM).
 ///
-/// Only the log, the boot checkpoint and one record's words live across the waits (this future is a static).
+/// Only the log, the recorder (with its base checkpoint) and one record's words live across the waits (this
+/// future is a static).
 pub async fn run<F: LogFlash>(flash: F) -> ! {
     let mut words = [0u32; CHECKPOINT_WORDS];
     let mut log = match FieldLog::open(flash, CHECKPOINT_WORDS) {
         Ok(log) => log,
         Err(e) => defmt::panic!("field log: {}", defmt::Debug2Format(&e)),
     };
-    let base = boot_checkpoint(&mut log, &mut words);
-    let mut last_checkpoint_samples: Option<u64> = None;
+    let (mut recorder, boot) = Recorder::<GYROS>::open(&mut log, &mut words, CHECKPOINT_EVERY_SETS);
+    match (boot, recorder.base()) {
+        (Ok(Some(seq)), Some(cp)) => {
+            defmt::info!("field log: checkpoint {} of {} sessions, {} samples", seq, cp.sessions, cp.snapshots[0].samples)
+        }
+        (Ok(_), _) => defmt::info!("field log: empty"),
+        (Err(e), _) => defmt::warn!("field log: {}", defmt::Debug2Format(&e)),
+    }
     loop {
         // The round is handled inside the match (no await there), so it is not kept across the read-out's waits.
         let read_from = match select(SNAPSHOT_READY.wait(), LOG_READ.wait()).await {
             Either::First(round) => {
-                checkpoint(&mut log, base.as_ref(), &round, &mut words, &mut last_checkpoint_samples);
+                match recorder.round(&mut log, &mut words, &round.snapshots, round.adc_overruns, round.samples) {
+                    Ok(Recorded::Written { seq, sessions, new_session }) => defmt::info!(
+                        "field log: checkpoint {} ({} samples this session, {} sessions{})",
+                        seq,
+                        round.samples,
+                        sessions,
+                        if new_session { ", after a reset" } else { "" }
+                    ),
+                    Ok(Recorded::NotDue) => {}
+                    Err(e) => defmt::warn!("field log: checkpoint failed: {}", defmt::Debug2Format(&e)),
+                }
                 None
             }
             Either::Second(from) => Some(from),
@@ -62,54 +79,6 @@ pub async fn run<F: LogFlash>(flash: F) -> ! {
             }
             frames::send_wait(Frame::FieldLogEnd(FieldLogEnd { checkpoints: sent })).await;
         }
-    }
-}
-
-/// Read the newest checkpoint at boot: this session pools with it.
-fn boot_checkpoint<F: LogFlash>(log: &mut FieldLog<F>, words: &mut [u32; CHECKPOINT_WORDS]) -> Option<GyroCheckpoint> {
-    match log.read_latest(words) {
-        Ok(Some(seq)) => {
-            let cp = GyroCheckpoint::decode::<()>(words).ok()?;
-            defmt::info!(
-                "field log: checkpoint {} of {} sessions, {} samples",
-                seq,
-                cp.sessions,
-                cp.snapshots[0].samples
-            );
-            Some(cp)
-        }
-        Ok(None) => {
-            defmt::info!("field log: empty");
-            None
-        }
-        Err(e) => {
-            defmt::warn!("field log: {}", defmt::Debug2Format(&e));
-            None
-        }
-    }
-}
-
-/// Write a checkpoint of `round` (pooled with the boot checkpoint) if the last one is old enough.
-fn checkpoint<F: LogFlash>(
-    log: &mut FieldLog<F>,
-    base: Option<&GyroCheckpoint>,
-    round: &Round,
-    words: &mut [u32; CHECKPOINT_WORDS],
-    last: &mut Option<u64>,
-) {
-    if last.is_some_and(|s| round.samples < s + CHECKPOINT_EVERY_SETS) {
-        return;
-    }
-    let cp = GyroCheckpoint::merge_session(base, &round.snapshots, round.adc_overruns);
-    if cp.encode::<()>(words).is_err() {
-        return;
-    }
-    match log.append(words) {
-        Ok(seq) => {
-            *last = Some(round.samples);
-            defmt::info!("field log: checkpoint {} ({} samples this session)", seq, round.samples);
-        }
-        Err(e) => defmt::warn!("field log: append failed: {}", defmt::Debug2Format(&e)),
     }
 }
 

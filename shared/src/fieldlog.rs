@@ -592,6 +592,9 @@ impl<const W: usize> LogFlash for RamFlash<W> {
     }
 }
 
+mod recorder;
+pub use recorder::{Recorded, Recorder};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,185 @@
+//! The field log's policy: when to write a checkpoint and what to pool into it, across power cycles and host
+//! resets. The firmware's store task runs it on the board's flash; the tests run it on [`super::RamFlash`].
+
+use super::{Checkpoint, FieldLog, LogError, LogFlash};
+use crate::acc::Snapshot;
+
+/// Writes the checkpoints of a deployment: each one pools every earlier session (the newest checkpoint in the
+/// log when the session began) with the current session's snapshots, at most one per `every` samples.
+///
+/// A session begins at power-on ([`Recorder::open`]) and at a host reset, which empties the accumulators and
+/// restarts the session's sample count. The recorder sees a reset as a round with fewer samples than its last
+/// checkpoint had, and then takes the log's newest checkpoint (the one that pooled the session just ended) as
+/// the new base, so the log keeps covering the whole deployment. Without that, a reset made every later
+/// checkpoint pool only the power-on base (the ended session vanished from the log) and held off the next
+/// checkpoint until the new session had as many samples as the old one had at its last checkpoint. As with a
+/// power cut, what the ended session gathered after its last checkpoint is not in the log.
+///
+/// Only the base lives in RAM (no copy of the last checkpoint written: a reset reads it back from the log).
+pub struct Recorder<const CH: usize> {
+    base: Option<Checkpoint<CH>>,
+    last: Option<u64>,
+    every: u64,
+}
+
+/// What [`Recorder::round`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Recorded {
+    /// The last checkpoint is too recent; nothing written.
+    NotDue,
+    /// A checkpoint was written with this sequence number; `new_session` when a reset was seen first.
+    Written {
+        /// Its sequence number in the log.
+        seq: u32,
+        /// Sessions it pools.
+        sessions: u32,
+        /// Whether this round began a new session (a host reset).
+        new_session: bool,
+    },
+}
+
+impl<const CH: usize> Recorder<CH> {
+    /// At power-on: the log's newest checkpoint (if any, and readable) is the base of this session. `words` is a
+    /// buffer of [`Checkpoint::WORDS`] words. Returns the recorder and the base's sequence number.
+    ///
+    /// # Errors
+    /// The log's [`LogError`] when it cannot be read; the recorder then starts without a base.
+    pub fn open<F: LogFlash>(
+        log: &mut FieldLog<F>,
+        words: &mut [u32],
+        every: u64,
+    ) -> (Self, Result<Option<u32>, LogError<F::Error>>) {
+        let mut r = Recorder { base: None, last: None, every };
+        let read = r.reload(log, words);
+        (r, read)
+    }
+
+    /// The base this session pools with.
+    pub fn base(&self) -> Option<&Checkpoint<CH>> {
+        self.base.as_ref()
+    }
+
+    /// A round of snapshots of the current session (`samples` scans since the session began): writes the pooled
+    /// checkpoint when the last one is at least `every` samples old (or there is none this session).
+    ///
+    /// # Errors
+    /// The log's [`LogError`]: encoding or appending failed (the round is not checkpointed; the next one tries
+    /// again).
+    pub fn round<F: LogFlash>(
+        &mut self,
+        log: &mut FieldLog<F>,
+        words: &mut [u32],
+        snapshots: &[Snapshot; CH],
+        adc_overruns: u32,
+        samples: u64,
+    ) -> Result<Recorded, LogError<F::Error>> {
+        let new_session = self.last.is_some_and(|s| samples < s);
+        if new_session {
+            // A reset: the checkpoint last written pooled the session that ended.
+            self.reload(log, words)?;
+        }
+        if self.last.is_some_and(|s| samples < s + self.every) {
+            return Ok(Recorded::NotDue);
+        }
+        let cp = Checkpoint::merge_session(self.base.as_ref(), snapshots, adc_overruns);
+        cp.encode(words)?;
+        let seq = log.append(words)?;
+        self.last = Some(samples);
+        Ok(Recorded::Written { seq, sessions: cp.sessions, new_session })
+    }
+
+    /// Take the log's newest checkpoint as the base (none when the log is empty or it does not decode) and
+    /// start a session.
+    fn reload<F: LogFlash>(&mut self, log: &mut FieldLog<F>, words: &mut [u32]) -> Result<Option<u32>, LogError<F::Error>> {
+        self.last = None;
+        self.base = None;
+        let seq = log.read_latest(words)?;
+        if seq.is_some() {
+            self.base = Checkpoint::decode::<F::Error>(words).ok();
+        }
+        Ok(seq)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::acc::OctaveAllan;
+    use crate::fieldlog::RamFlash;
+
+    const EVERY: u64 = 1000;
+
+    /// `n` more samples into both accumulators.
+    fn feed(accs: &mut [OctaveAllan<8>; 2], n: u32, salt: u32) {
+        for i in 0..n {
+            accs[0].push((2048 + (i * 7919 + salt) % 61) as u16);
+            accs[1].push((1000 + (i * 104_729 + salt) % 4000) as u16);
+        }
+    }
+
+    fn snaps(accs: &[OctaveAllan<8>; 2]) -> [Snapshot; 2] {
+        [accs[0].snapshot(), accs[1].snapshot()]
+    }
+
+    fn newest(log: &mut FieldLog<RamFlash<4096>>) -> Checkpoint<2> {
+        let mut w = vec![0u32; Checkpoint::<2>::WORDS];
+        log.read_latest(&mut w).unwrap().expect("a checkpoint");
+        Checkpoint::decode::<()>(&w).unwrap()
+    }
+
+    #[test]
+    fn checkpoints_come_every_interval_and_pool_power_cycles() {
+        let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
+        let mut w = vec![0u32; Checkpoint::<2>::WORDS];
+        let (mut rec, read) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        assert_eq!(read, Ok(None));
+        let mut accs = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
+        let mut written = 0;
+        for k in 1..=10u32 {
+            feed(&mut accs, 300, k);
+            let r = rec.round(&mut log, &mut w, &snaps(&accs), 0, u64::from(300 * k)).unwrap();
+            written += usize::from(matches!(r, Recorded::Written { .. }));
+        }
+        // At 300 (the first), 1500, 2700: every 1000 samples at the earliest.
+        assert_eq!(written, 3);
+        assert_eq!(newest(&mut log).snapshots[0].samples, 2700);
+        // Power cycle: the new session pools with the newest checkpoint.
+        let mut log = FieldLog::open(log.into_flash(), Checkpoint::<2>::WORDS).unwrap();
+        let (mut rec, read) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        assert!(matches!(read, Ok(Some(_))));
+        let mut fresh = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
+        feed(&mut fresh, 500, 99);
+        let r = rec.round(&mut log, &mut w, &snaps(&fresh), 2, 500).unwrap();
+        assert!(matches!(r, Recorded::Written { sessions: 2, new_session: false, .. }), "{r:?}");
+        let cp = newest(&mut log);
+        assert_eq!((cp.sessions, cp.adc_overruns, cp.snapshots[1].samples), (2, 2, 3200));
+    }
+
+    /// A host reset restarts the session's count: the next round is checkpointed at once, pooled with the
+    /// checkpoint that covered the ended session (not only with the power-on base).
+    #[test]
+    fn a_reset_starts_a_session_pooled_with_the_one_it_ended() {
+        let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
+        let mut w = vec![0u32; Checkpoint::<2>::WORDS];
+        let (mut rec, _) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        let mut accs = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
+        feed(&mut accs, 5000, 1);
+        rec.round(&mut log, &mut w, &snaps(&accs), 1, 5000).unwrap();
+        feed(&mut accs, 200, 2);
+        assert_eq!(rec.round(&mut log, &mut w, &snaps(&accs), 1, 5200).unwrap(), Recorded::NotDue);
+        // Reset: empty accumulators, the count from 0.
+        let mut after = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
+        feed(&mut after, 300, 3);
+        let r = rec.round(&mut log, &mut w, &snaps(&after), 0, 300).unwrap();
+        assert!(matches!(r, Recorded::Written { sessions: 2, new_session: true, .. }), "{r:?}");
+        let cp = newest(&mut log);
+        // 5000 logged before the reset (the 200 after the last checkpoint are lost, as in a power cut) + 300.
+        assert_eq!((cp.sessions, cp.adc_overruns, cp.snapshots[0].samples), (2, 1, 5300));
+        // The next checkpoint of the new session comes EVERY samples later and still pools the ended one.
+        feed(&mut after, 1000, 4);
+        let r = rec.round(&mut log, &mut w, &snaps(&after), 0, 1300).unwrap();
+        assert!(matches!(r, Recorded::Written { sessions: 2, new_session: false, .. }), "{r:?}");
+        assert_eq!(newest(&mut log).snapshots[1].samples, 6300);
+    }
+}
