@@ -358,7 +358,7 @@ fn withheld_effects_are_found() {
 /// (gauss_markov seeds 3 and 8, sinusoid seed 5, temperature seed 7: 0.27 to 0.66). In each the training part's
 /// realisation misleads a parameter (a flicker floor read 20% low beside a Gauss-Markov hump; a coupling read 30%
 /// high from noise that happened to follow four temperature cycles) or the holdout shows little gap to shrink
-/// (gauss_markov seed 3: 1.8 before). About 100 s in release: `cargo test -p octavar-tests --release
+/// (gauss_markov seed 3: 1.8 before). About 80 s in release: `cargo test -p octavar-tests --release
 /// gap_withheld::full_sweep -- --ignored`.
 #[test]
 #[ignore = "issue 5 floor, not met at every seed: run with --ignored"]
