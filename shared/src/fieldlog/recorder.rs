@@ -118,6 +118,13 @@ mod tests {
         }
     }
 
+    /// Two fresh accumulators with `n` samples each.
+    fn fed(n: u32, salt: u32) -> [OctaveAllan<8>; 2] {
+        let mut accs = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
+        feed(&mut accs, n, salt);
+        accs
+    }
+
     fn snaps(accs: &[OctaveAllan<8>; 2]) -> [Snapshot; 2] {
         [accs[0].snapshot(), accs[1].snapshot()]
     }
@@ -148,9 +155,7 @@ mod tests {
         let mut log = FieldLog::open(log.into_flash(), Checkpoint::<2>::WORDS).unwrap();
         let (mut rec, read) = Recorder::<2>::open(&mut log, &mut w, EVERY);
         assert!(matches!(read, Ok(Some(_))));
-        let mut fresh = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
-        feed(&mut fresh, 500, 99);
-        let r = rec.round(&mut log, &mut w, &snaps(&fresh), 2, 500).unwrap();
+        let r = rec.round(&mut log, &mut w, &snaps(&fed(500, 99)), 2, 500).unwrap();
         assert!(matches!(r, Recorded::Written { sessions: 2, new_session: false, .. }), "{r:?}");
         let cp = newest(&mut log);
         assert_eq!((cp.sessions, cp.adc_overruns, cp.snapshots[1].samples), (2, 2, 3200));
@@ -163,14 +168,12 @@ mod tests {
         let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
         let mut w = vec![0u32; Checkpoint::<2>::WORDS];
         let (mut rec, _) = Recorder::<2>::open(&mut log, &mut w, EVERY);
-        let mut accs = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
-        feed(&mut accs, 5000, 1);
+        let mut accs = fed(5000, 1);
         rec.round(&mut log, &mut w, &snaps(&accs), 1, 5000).unwrap();
         feed(&mut accs, 200, 2);
         assert_eq!(rec.round(&mut log, &mut w, &snaps(&accs), 1, 5200).unwrap(), Recorded::NotDue);
         // Reset: empty accumulators, the count from 0.
-        let mut after = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
-        feed(&mut after, 300, 3);
+        let mut after = fed(300, 3);
         let r = rec.round(&mut log, &mut w, &snaps(&after), 0, 300).unwrap();
         assert!(matches!(r, Recorded::Written { sessions: 2, new_session: true, .. }), "{r:?}");
         let cp = newest(&mut log);
