@@ -184,7 +184,8 @@ pub struct GapOptions {
     pub seeds: usize,
     /// The first seed; member i uses `first_seed + i`.
     pub first_seed: u64,
-    /// The record's ADC, when known (the demo's bench); `None`: the ensembles simulate the analog rate.
+    /// The record's ADC, when known and the record is its codes at the sensor's rate; `None`: the ensembles
+    /// simulate the analog rate (the CLI, and the demo, whose 1 Hz means of 2000 codes show no ADC step).
     pub channel: Option<Channel>,
     /// The base fit's options.
     pub fit: FitOptions,
