@@ -5,8 +5,9 @@
 //! degC): the diagnosis must name `temperature`, and the gap it locates must shrink on run 2 with every parameter
 //! frozen from run 1. gyro_x hardly follows the temperature: it must not come out as `temperature`. gyro_z is
 //! reported (it follows weakly, and run 2 has the tag turned, gravity on x). The ADIS16405 session (1,000,000
-//! samples at 100 Hz) is the 1-million-sample timing floor (30 s); it takes about 10 s a channel in release on
-//! two cores, so it is `#[ignore]`d: `cargo test -p octavar-tests --release gap_real -- --ignored --nocapture`.
+//! samples at 100 Hz, half held out) is reported too; at 2-6 s a channel in release it is `#[ignore]`d:
+//! `cargo test -p octavar-tests --release gap_real -- --ignored --nocapture`. Its time against the floor (30 s a
+//! million samples) is measured by the benchmark `cargo bench -p octavar --bench gap`, not here.
 
 use std::path::Path;
 use std::time::Instant;
@@ -110,8 +111,8 @@ fn cats_gyro_x_and_z_are_reported() {
 }
 
 #[test]
-#[ignore = "1,000,000 samples x 3 channels, about 30 s in release: run with --ignored"]
-fn adis16405_session_within_the_time_floor() {
+#[ignore = "1,000,000 samples x 3 channels, about 10 s in release: run with --ignored"]
+fn adis16405_session_is_reported() {
     let Some(dir) = data_dir() else { return };
     let path = dir.join("imu/adis16405_session1.csv.gz");
     for axis in ["x", "y", "z"] {
@@ -122,6 +123,9 @@ fn adis16405_session_within_the_time_floor() {
         let r = diagnose(&input, &GapOptions::default(), &|_, _, _| {}).unwrap();
         let secs = t0.elapsed().as_secs_f64();
         println!("== ADIS16405 gyro_{axis} ({secs:.1} s)\n{}", r.text());
-        assert!(secs < 30.0, "{secs} s for a million samples");
+        // The part's internal filter bends x and y below 0.3 s; z has a PSD gap no candidate explains.
+        if axis != "z" {
+            assert_eq!(r.effect, Some(Effect::Bandwidth), "{}", r.text());
+        }
     }
 }
