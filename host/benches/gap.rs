@@ -36,7 +36,10 @@ fn main() {
     if std::env::args().any(|a| a == "--list") {
         return; // `cargo test --benches` asks for a list
     }
-    println!("octavar gap on a million samples ({} threads; floor {FLOOR_S} s, plain check):", rayon::current_num_threads());
+    println!(
+        "octavar gap on a million samples ({} threads; floor {FLOOR_S} s, plain check):",
+        rayon::current_num_threads()
+    );
     let mut worst: f64 = 0.0;
     let data = std::env::var_os("OCTAVAR_DATA")
         .map(PathBuf::from)

@@ -90,14 +90,16 @@ impl<const CH: usize> Recorder<CH> {
     }
 
     /// Take the log's newest checkpoint as the base (none when the log is empty or it does not decode) and
-    /// start a session.
-    fn reload<F: LogFlash>(&mut self, log: &mut FieldLog<F>, words: &mut [u32]) -> Result<Option<u32>, LogError<F::Error>> {
-        self.last = None;
-        self.base = None;
+    /// start a session. When the log cannot be read, nothing changes: after a reset the next round sees it again
+    /// and tries again, rather than checkpointing the new session without the deployment's history.
+    fn reload<F: LogFlash>(
+        &mut self,
+        log: &mut FieldLog<F>,
+        words: &mut [u32],
+    ) -> Result<Option<u32>, LogError<F::Error>> {
         let seq = log.read_latest(words)?;
-        if seq.is_some() {
-            self.base = Checkpoint::decode::<F::Error>(words).ok();
-        }
+        self.base = seq.and_then(|_| Checkpoint::decode::<F::Error>(words).ok());
+        self.last = None;
         Ok(seq)
     }
 }
