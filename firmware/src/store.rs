@@ -44,7 +44,12 @@ pub async fn run<F: LogFlash>(flash: F) -> ! {
     let (mut recorder, boot) = Recorder::<GYROS>::open(&mut log, &mut words, CHECKPOINT_EVERY_SETS);
     match (boot, recorder.base()) {
         (Ok(Some(seq)), Some(cp)) => {
-            defmt::info!("field log: checkpoint {} of {} sessions, {} samples", seq, cp.sessions, cp.snapshots[0].samples)
+            defmt::info!(
+                "field log: checkpoint {} of {} sessions, {} samples",
+                seq,
+                cp.sessions,
+                cp.snapshots[0].samples
+            )
         }
         (Ok(_), _) => defmt::info!("field log: empty"),
         (Err(e), _) => defmt::warn!("field log: {}", defmt::Debug2Format(&e)),
