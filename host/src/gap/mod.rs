@@ -348,20 +348,18 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                 Some(views::compare(hp, real_hold, &m))
             }
         };
-        let chosen_views = match report.chosen().and_then(|c| c.fit.as_ref()) {
-            Some(f) => {
+        let chosen = report.chosen().and_then(|c| c.fit.as_ref().zip(c.eval.as_ref()));
+        let chosen_views = match chosen {
+            Some((f, eval)) => {
                 let effect = f.effect;
                 let explained = ensemble::temperature_response(&f.gyro, &rec);
                 let resp_hold = explained.as_deref().map(|r| &r[n_train..]);
-                let real = match resp_hold {
-                    Some(r) => hp.with_explained(real_hold, rec.holdout(), rec.holdout_temp(), r),
-                    None => real_hold.clone(),
-                };
                 let relearn = |t: &[f64]| learner.with_effect(effect, t);
                 let ch = f.channel.or(channel);
                 let m = ensemble::predict_holdout(&f.gyro, ch.as_ref(), &rec, hp, &seeds, resp_hold, &relearn)
                     .map_err(|err| GapError::Sim { model: effect.name().to_string(), err })?;
-                Some(views::compare(hp, &real, &m))
+                // The real holdout as this model was judged on it (less its own temperature response).
+                eval.real_holdout.as_ref().map(|real| views::compare(hp, real, &m))
             }
             None => None,
         };
@@ -398,6 +396,9 @@ pub struct Evaluated {
     pub holdout: Vec<ViewGap>,
     /// The ensemble's OADEV band on the training part: (tau, min, max).
     pub adev_band: Vec<(f64, f64, f64)>,
+    /// The real holdout's measure this model was compared with (for a model with a temperature coupling, less
+    /// the coupling's response); `None` without a holdout.
+    pub real_holdout: Option<views::Measure>,
 }
 
 impl Evaluated {
@@ -425,7 +426,7 @@ impl Evaluated {
                 })
             })
             .collect();
-        Evaluated { training, holdout, adev_band }
+        Evaluated { training, holdout, adev_band, real_holdout: real_hold.cloned() }
     }
 }
 

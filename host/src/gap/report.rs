@@ -35,6 +35,13 @@ pub struct PartGap {
     pub shrink: f64,
 }
 
+impl PartGap {
+    /// Before and after, with their shrink.
+    pub fn new(gap_before: f64, gap_after: f64) -> PartGap {
+        PartGap { gap_before, gap_after, shrink: rank::shrink(gap_before, gap_after) }
+    }
+}
+
 /// One candidate effect's result.
 #[derive(Clone, Debug)]
 pub struct CandidateResult {
@@ -220,7 +227,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
     let total_after = chosen.and_then(|c| c.total_after).unwrap_or(total_before);
     let holdout = hold_before.map(|b| {
         let a = chosen.and_then(|c| c.holdout_after).unwrap_or(b);
-        PartGap { gap_before: b, gap_after: a, shrink: rank::shrink(b, a) }
+        PartGap::new(b, a)
     });
     let hold_worst = if has_holdout { rank::gap_of(&p.base_eval.holdout) } else { f64::NAN };
     let worst = [
@@ -234,7 +241,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         significant,
         location,
         worst,
-        training: PartGap { gap_before, gap_after, shrink: rank::shrink(gap_before, gap_after) },
+        training: PartGap::new(gap_before, gap_after),
         holdout,
         holdout_predictive: None,
         holdout_predictive_worst: [f64::NAN; 2],
@@ -265,7 +272,7 @@ impl GapReport {
         let after = chosen.or(plain_after).unwrap_or_else(|| base.clone());
         self.holdout_predictive = in_view(&base).map(|b| {
             let a = in_view(&after).unwrap_or(b);
-            PartGap { gap_before: b, gap_after: a, shrink: rank::shrink(b, a) }
+            PartGap::new(b, a)
         });
         self.holdout_predictive_worst = [rank::gap_of(&base), rank::gap_of(&after)];
     }
