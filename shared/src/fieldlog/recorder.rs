@@ -187,4 +187,28 @@ mod tests {
         assert!(matches!(r, Recorded::Written { sessions: 2, new_session: false, .. }), "{r:?}");
         assert_eq!(newest(&mut log).snapshots[1].samples, 6300);
     }
+
+    /// A reset seen while the log cannot be read changes nothing: the next round sees the reset again and pools
+    /// the ended session once the log reads (rather than checkpointing the new session alone).
+    #[test]
+    fn a_reset_met_by_an_unreadable_log_is_retried() {
+        let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
+        let mut w = vec![0u32; Checkpoint::<2>::WORDS];
+        let (mut rec, _) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        let accs = fed(5000, 1);
+        rec.round(&mut log, &mut w, &snaps(&accs), 0, 5000).unwrap();
+        // The power fails during the next checkpoint: the flash reads nothing until it is powered on again.
+        let mut flash = log.into_flash();
+        flash.cut_after(1, 7);
+        let mut log = FieldLog::open(flash, Checkpoint::<2>::WORDS).unwrap();
+        assert!(rec.round(&mut log, &mut w, &snaps(&fed(6100, 2)), 0, 6100).is_err());
+        // A reset now: the log cannot be read back.
+        assert!(rec.round(&mut log, &mut w, &snaps(&fed(300, 3)), 0, 300).is_err());
+        let mut flash = log.into_flash();
+        flash.power_on();
+        let mut log = FieldLog::open(flash, Checkpoint::<2>::WORDS).unwrap();
+        let r = rec.round(&mut log, &mut w, &snaps(&fed(400, 4)), 0, 400).unwrap();
+        assert!(matches!(r, Recorded::Written { sessions: 2, new_session: true, .. }), "{r:?}");
+        assert_eq!(newest(&mut log).snapshots[0].samples, 5400);
+    }
 }
