@@ -218,3 +218,33 @@ pub fn one_record(
     let mut g = VirtualGyro::new(gyro, *channel, fs_hz, seed)?;
     Ok((0..n).map(|i| channel.code_to_dps(g.next(temp_c.map_or(NO_TEMP_C, |t| t[i])).code)).collect())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gap::views::ViewKind;
+
+    /// A record of unknown ADC is compared with the analog rate: a member whose ramp carries it a hundred times
+    /// beyond the record's range keeps its white noise on the holdout, whose Allan deviation at tau0 is the closed
+    /// form N / sqrt(tau0) (the ramp adds R tau0 / sqrt(2), a thousandth of it). An ADC sized from the record's
+    /// range clipped such a member flat.
+    #[test]
+    fn members_of_a_record_of_unknown_adc_are_not_clipped() {
+        let fs = 10.0;
+        let n = 1 << 14;
+        let x: Vec<f64> = crate::test_signals::white(n, 3).iter().map(|v| 0.1 * v).collect();
+        let rec = Record { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: n / 2, oversample: 1 };
+        let n_coef = 0.1 / fs.sqrt();
+        // 0.02 deg/s^2 over 1638 s: 33 deg/s, against a record within +-0.5.
+        let gyro = GyroSim { n_deg_per_rt_s: n_coef, r_dps_per_s: 0.02, ..Default::default() };
+        let train = Plan::new(rec.training(), None, fs);
+        let hold = Plan::new(rec.holdout(), None, fs);
+        let e = simulate(&gyro, None, &rec, &train, Some(&hold), &[1, 2, 3], None).unwrap();
+        let closed = (n_coef * fs.sqrt()).ln();
+        for m in &e.holdout {
+            let got = m.values[ViewKind::Adev as usize][0];
+            // ln ADEV at tau0 from 8192 samples: sd 0.008.
+            assert!((got - closed).abs() < 0.04, "holdout ln ADEV at tau0 {got:.4}, closed form {closed:.4}");
+        }
+    }
+}
