@@ -26,7 +26,8 @@
 //!   the training half's spikes, and two or three events are not one), 8-30 white sigmas (below ~6 sigma a spike
 //!   is not an outlier in a million Gaussian samples, and it adds under 1% to the variance).
 //!
-//! `GAP_WITHHELD_VERBOSE=1` prints every candidate's gap and parameters; `GAP_PREDICTIVE=1` also runs the
+//! `NOISE_SEED=k` redraws every case's gyro noise (the effect's parameters and the temperature stay), to see
+//! how an estimator scatters over the realisations of one case. `GAP_WITHHELD_VERBOSE=1` prints every candidate's gap and parameters; `GAP_PREDICTIVE=1` also runs the
 //! predictive held-out check and prints its shrink beside the plain one (the pass mark stays the plain one). The default run checks two seeds per
 //! effect and two controls; the full sweep (`full_sweep`, 10 seeds each) is `#[ignore]`d: `cargo test -p
 //! octavar-tests --release gap_withheld::full_sweep -- --ignored`.
@@ -184,7 +185,9 @@ fn draw(effect: Option<Effect>, seed: u64) -> Case {
 /// The samples (deg/s) and, where the case has one, the temperature column.
 fn record(c: &Case, seed: u64) -> (Vec<f64>, Option<Vec<f64>>) {
     let ch = c.channel.unwrap_or_else(|| coarse_channel(1e-6));
-    let mut g = VirtualGyro::new(&c.model, ch, c.fs, 7_000 + seed).unwrap();
+    // `NOISE_SEED=k` (diagnostic): the same case with another draw of the gyro's noise.
+    let noise: u64 = std::env::var("NOISE_SEED").map_or(0, |v| v.parse().unwrap_or(0));
+    let mut g = VirtualGyro::new(&c.model, ch, c.fs, 7_000 + seed + 1_000_000 * noise).unwrap();
     let mut rng = SimRng::new(8_000 + seed);
     let profile = c.temp.unwrap_or_default();
     let mut th = Thermal::new(&profile, c.fs, &mut rng);
