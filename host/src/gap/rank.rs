@@ -11,7 +11,7 @@
 //!   that cures one view must not look useless while an unrelated view stays the worst.
 //! - **Where** ([`locate`]): the worst view's worst window: its tau band in seconds, the sign of its summed z
 //!   (real above or below the ensemble) and its size (RMS z in the band, and for ADEV and PSD the ratio of real to
-//!   simulated there, for the temperature view the correlations).
+//!   simulated there, for the temperature view the coherences).
 //! - **Ranking** ([`score`]): `score = total_after * (1 + PARAM_PENALTY * n_params)`; the best candidate has the
 //!   lowest score and must be below [`EXPLAINS`] (3/4) of the base model's total (`n_params = 0`). The penalty, 5% per parameter, is what
 //!   an extra parameter must buy: an effect with three parameters must cut the total by more than 15% against an
@@ -76,11 +76,12 @@ pub struct Location {
     pub z_rms: f64,
     /// Points in the band.
     pub points: usize,
-    /// Labels of the band's points (the distribution's statistics, or `tau`/`band`/`block`).
+    /// Labels of the band's points (the distribution's statistics, or `tau`/`band`).
     pub labels: Vec<&'static str>,
     /// Real / simulated in the band: Allan deviation ratio (adev), power ratio (psd); `None` otherwise.
     pub ratio: Option<f64>,
-    /// Real and mean simulated correlation with temperature at the band's strongest point (temperature view).
+    /// Real and mean simulated coherence with the temperature (its magnitude: the correlation of the two within
+    /// the band at the best phase) at the band's strongest point (temperature view).
     pub correlation: Option<[f64; 2]>,
 }
 

@@ -208,7 +208,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
     // clearly better: the coupling is kept when it explains the total (below EXPLAINS of the base's) and either
     // scores within DRIVER_PREFERENCE of the best or leaves no significant gap in the temperature view. The
     // second clause matters because the coupling is judged there on what it leaves, which a 4% error in the
-    // coefficient over ten cycles already shows, while a sinusoid is judged on the raw correlation.
+    // coefficient over ten cycles already shows, while a sinusoid is judged on the raw coherence.
     let best = match (&location, best) {
         (Some(l), Some(b)) if l.view == ViewKind::Temperature && b.effect != Effect::Temperature => candidates
             .iter()
@@ -433,7 +433,7 @@ impl GapReport {
             let size = match (l.ratio, l.correlation) {
                 (Some(r), _) if l.view == ViewKind::Adev => format!(", real/sim Allan deviation x{r:.3}"),
                 (Some(r), _) => format!(", real/sim power x{r:.3}"),
-                (_, Some([a, b])) => format!(", correlation with temperature {a:.2} real vs {b:.2} simulated"),
+                (_, Some([a, b])) => format!(", coherence with temperature {a:.2} real vs {b:.2} simulated"),
                 _ => format!(" ({})", l.labels.join(", ")),
             };
             let _ = writeln!(
