@@ -27,7 +27,7 @@ pub struct Args {
     /// How to read the recording.
     #[command(flatten)]
     pub reading: CsvArgs,
-    /// A temperature column (degC): the ensemble is driven by it and the temperature view compares correlations.
+    /// A temperature column (degC): the ensemble is driven by it and the temperature view compares coherences.
     #[arg(long, value_name = "NAME")]
     pub temp_column: Option<String>,
     /// A separate held-out recording with the same columns (default: the later part of INPUT).
