@@ -88,9 +88,10 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         (sxr / sxx, srr - sxr * sxr / sxx, sxx)
     };
     let record = nb as f64 * dt;
+    let unlagged = transform(&t);
     let best_lag = |s: &[f64]| -> f64 {
         let (lag, crit) = log_search(dt, 3.0 * record, 40, |lag| gls(&transform(&lagged(lag)), s).1);
-        if gls(&transform(&t), s).1 <= crit {
+        if gls(&unlagged, s).1 <= crit {
             0.0
         } else {
             lag
