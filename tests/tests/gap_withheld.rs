@@ -27,9 +27,10 @@
 //!   is not an outlier in a million Gaussian samples, and it adds under 1% to the variance).
 //!
 //! `NOISE_SEED=k` redraws every case's gyro noise (the effect's parameters and the temperature stay), to see
-//! how an estimator scatters over the realisations of one case. `GAP_WITHHELD_VERBOSE=1` prints every candidate's gap and parameters; `GAP_PREDICTIVE=1` also runs the
-//! predictive held-out check and prints its shrink beside the plain one (the pass mark stays the plain one). The default run checks two seeds per
-//! effect and two controls; the full sweep (`full_sweep`, 10 seeds each) is `#[ignore]`d: `cargo test -p
+//! how an estimator scatters over the realisations of one case. `GAP_WITHHELD_VERBOSE=1` prints every
+//! candidate's gap and parameters; `GAP_PREDICTIVE=1` also runs the predictive held-out check and prints its
+//! shrink beside the plain one (the pass mark stays the plain one). The default run checks two seeds per effect
+//! and two controls; the full sweep (`full_sweep`, 10 seeds each) is `#[ignore]`d: `cargo test -p
 //! octavar-tests --release gap_withheld::full_sweep -- --ignored`.
 
 use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport, HoldoutCheck};
@@ -357,7 +358,7 @@ fn withheld_effects_are_found() {
 }
 
 /// The full seed sweep (10 seeds per effect and 10 controls), the issue's floor, not met at every seed yet (issue 5
-/// stays open): every effect is named and placed at every seed, but four held-out shrinks fall short of 70% here
+/// stays open): every effect is named and placed at every seed, but three held-out shrinks fall short of 70% here
 /// (gauss_markov seeds 3 and 8, sinusoid seed 5: 0.27 to 0.66; seeds 10-19 add gauss_markov 13 and 15 and
 /// sinusoid 12 and 16). A sinusoid is judged in the Allan deviation, where the base fit took most of its hump and
 /// what is left are the nulls at tau = P, 2P on a handful of clusters; a Gauss-Markov hump is half copied by the
