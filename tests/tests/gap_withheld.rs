@@ -258,7 +258,17 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
         let loc_view = r.location.as_ref().map(|l| l.view);
         let show = |tag: &str, views: &[octavar::gap::ViewGap]| {
             for v in views.iter().filter(|v| Some(v.view) == loc_view) {
-                let zs: Vec<String> = v.points.iter().map(|p| format!("{:.2e}:{:.1}", p.info.tau_s, p.z)).collect();
+                let zs: Vec<String> = v
+                    .points
+                    .iter()
+                    .map(|p| {
+                        if std::env::var_os("GAP_SD").is_some() {
+                            format!("{:.2e}:{:.1}[{:.2}/{:.2}]", p.info.tau_s, p.z, p.real - p.sim_mean, p.sd)
+                        } else {
+                            format!("{:.2e}:{:.1}", p.info.tau_s, p.z)
+                        }
+                    })
+                    .collect();
                 eprintln!("  {tag} {:?}: {}", v.view, zs.join(" "));
             }
         };

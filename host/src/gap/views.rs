@@ -8,7 +8,7 @@
 //! | view | points | value |
 //! |------|--------|-------|
 //! | `adev` | octave taus of the overlapping Allan deviation | ln OADEV |
-//! | `psd` | log-spaced frequency bands (5 per decade), low ones through block-mean decimation by 8 | ln of the Welch-averaged periodogram (Hann, 50% overlap) over the band's bins |
+//! | `psd` | log-spaced frequency bands (5 per decade) down to one cycle per part | ln of the one-sided PSD over the band's bins: Welch-averaged periodograms (Hann, 50% overlap, low bands through block-mean decimation by 8) down to a sixteenth of the part, the sine-multitaper estimate of the whole part below |
 //! | `distribution` | skewness, kurtosis, tail share, lattice share | moments; share beyond 5 robust sigmas (the rms winsorised at 4 sigmas of the interquartile range); share of first differences on the lattice step |
 //! | `temperature` | octave bands of frequency from one cycle per part (the point's tau is 1/f) | atanh of the magnitude-squared coherence's root between the rate, less the model's own temperature response, and the temperature, block-averaged to at most 8192 points, over the band's bins and five sine tapers |
 //!
@@ -27,6 +27,14 @@
 //! (the same fitted couplings) the view's held-out gap before a fix is a median 1.3 times the correlation's
 //! (0.6-1.8 times), the gap after a fix has a median of 0.90, and the lowest held-out shrink went from 0.48 to 0.73.
 //! Its points are independent bands, not one correlation repeated at every block length.
+//!
+//! The PSD view reaches one cycle per part, four octaves beyond the Welch levels (which need four segments and
+//! four bins above DC, so they stop at a sixteenth of the part) and two beyond the last Allan point: a
+//! sinusoid of eight cycles per part (the withheld cases' slowest) is a line there, seen at its full power,
+//! where the Allan deviation sees only the hump that the base fit took as flicker or random walk, and a
+//! Gauss-Markov plateau parts from the random walk the base fit gave its hump. The multitaper estimate (five
+//! sine tapers on the block means of the whole part, as the temperature view) keeps the leakage of strong low
+//! frequencies local; its values are in (deg/s)^2/Hz like the Welch levels', so the view is one spectrum.
 //!
 //! [`compare`] turns the real values and the ensemble's into z-scores, `z = (real - mean) / sd`, with `sd` the
 //! ensemble's standard deviation floored by the statistical spread the point has anyway (from the EDF for ADEV,
@@ -124,7 +132,14 @@ pub struct Plan {
     lattice_step: Option<f64>,
     /// Block lengths (samples) of the Allan-difference kurtosis points.
     kurt_ms: Vec<usize>,
-    temp: Option<TempLayout>,
+    /// The whole-part multitaper layout (block means, sine tapers, FFT) of the PSD's long periods and the
+    /// temperature view.
+    taper: Option<Multitaper>,
+    /// FFT bin ranges (inclusive) of the PSD bands below the Welch levels' reach, in increasing tau.
+    psd_taper_bands: Vec<(usize, usize)>,
+    /// FFT bin ranges (inclusive) of the temperature view's bands `[2^i, 2^(i+1))` cycles per part (empty
+    /// without a temperature).
+    temp_bands: Vec<(usize, usize)>,
     /// The points of each view, in [`ViewKind::ALL`] order (an empty list: the view does not apply).
     pub points: [Vec<PointInfo>; 4],
 }
@@ -197,9 +212,10 @@ impl Plan {
         }
         let mut bands = Vec::new();
         let mut psd_pts = Vec::new();
+        // The top of the next band down.
+        let mut f_hi = fs_hz / 2.0;
         if !levels.is_empty() {
             let step = 10f64.powf(1.0 / BANDS_PER_DECADE);
-            let mut f_hi = fs_hz / 2.0;
             loop {
                 let f_lo = f_hi / step;
                 // The finest level that puts at least 4 bins between DC and the band.
@@ -224,6 +240,38 @@ impl Plan {
                 });
                 bands.push(PsdBand { level: k, bin_lo: lo, bin_hi: hi });
                 f_hi = f_lo;
+            }
+        }
+        // Below the Welch levels' reach (a sixteenth of the part): the same ladder of bands down to one cycle
+        // per part, from the multitaper estimate on the whole part.
+        let taper = Multitaper::new(n, &mut planner);
+        let mut psd_taper_bands = Vec::new();
+        if let (Some(mt), false) = (&taper, bands.is_empty()) {
+            let part_s = mt.part_s(tau0);
+            let step = 10f64.powf(1.0 / BANDS_PER_DECADE);
+            loop {
+                let (mut u0, u1) = (f_hi / step * part_s, f_hi * part_s);
+                if u0 < 1.0 {
+                    // The last band reaches down to one cycle per part when a third of a band is left.
+                    if u1 < step.powf(1.0 / 3.0) {
+                        break;
+                    }
+                    u0 = 1.0;
+                }
+                if let Some((k0, k1)) = mt.bins(u0, u1) {
+                    psd_pts.push(PointInfo {
+                        label: "band",
+                        tau_s: part_s / (u0 * u1).sqrt(),
+                        tau_lo_s: part_s / u1,
+                        tau_hi_s: part_s / u0,
+                        floor_sd: mt.floor_sd(u1 - u0),
+                    });
+                    psd_taper_bands.push((k0, k1));
+                }
+                if u0 <= 1.0 {
+                    break;
+                }
+                f_hi /= step;
             }
         }
         // Distribution.
@@ -261,25 +309,27 @@ impl Plan {
             m *= 2;
         }
         // Temperature: octave bands of frequency, from one cycle per part up.
-        let mut temp = None;
+        let mut temp_bands = Vec::new();
         let mut temp_pts = Vec::new();
-        if let Some(t) = temp_c {
+        if let (Some(t), Some(mt)) = (temp_c, &taper) {
             if t.iter().any(|v| v.is_finite()) && t.len() == n {
-                if let Some(layout) = TempLayout::new(n, &mut planner) {
-                    let record_s = (layout.nb * layout.decim) as f64 * tau0;
-                    for &(k0, k1) in &layout.bands {
-                        let per_cycle = layout.nb as f64 / layout.nfft as f64;
+                let part_s = mt.part_s(tau0);
+                let mut u = 1.0f64;
+                while u < mt.nb as f64 / 4.0 {
+                    if let Some((k0, k1)) = mt.bins(u, 2.0 * u) {
+                        let per_cycle = mt.nb as f64 / mt.nfft as f64;
                         let (u0, u1) = (k0 as f64 * per_cycle, (k1 + 1) as f64 * per_cycle);
                         let dof = (k1 + 1 - k0) as f64 * per_cycle * TEMP_TAPERS as f64;
                         temp_pts.push(PointInfo {
                             label: "band",
-                            tau_s: record_s / (u0 * u1).sqrt(),
-                            tau_lo_s: record_s / u1,
-                            tau_hi_s: record_s / u0,
+                            tau_s: part_s / (u0 * u1).sqrt(),
+                            tau_lo_s: part_s / u1,
+                            tau_hi_s: part_s / u0,
                             floor_sd: 0.4 / dof.sqrt(),
                         });
+                        temp_bands.push((k0, k1));
                     }
-                    temp = Some(layout);
+                    u *= 2.0;
                 }
             }
         }
@@ -291,7 +341,9 @@ impl Plan {
             bands,
             lattice_step,
             kurt_ms,
-            temp,
+            taper,
+            psd_taper_bands,
+            temp_bands,
             points: [adev_pts, psd_pts, dist_pts, temp_pts],
         }
     }
@@ -349,14 +401,14 @@ impl Plan {
     /// The temperature view's values of `x` (less `explained`, when given); NaN without a temperature.
     fn temperature_view(&self, x: &[f64], temp_c: Option<&[f64]>, explained: Option<&[f64]>) -> Vec<f64> {
         match temp_c {
-            Some(t) if self.temp.is_some() => match explained {
+            Some(t) if !self.temp_bands.is_empty() => match explained {
                 Some(e) => {
                     let residual: Vec<f64> = x.iter().zip(e).map(|(v, c)| v - c).collect();
                     self.temperature(&residual, t)
                 }
                 None => self.temperature(x, t),
             },
-            _ => vec![f64::NAN; self.temp.as_ref().map_or(0, |l| l.bands.len())],
+            _ => vec![f64::NAN; self.temp_bands.len()],
         }
     }
 
@@ -388,9 +440,10 @@ impl Plan {
                 dec = x.chunks_exact(l.decim).map(|c| c.iter().sum::<f64>() / l.decim as f64).collect();
                 &dec
             };
-            spectra.push(welch(data, l));
+            spectra.push(welch(data, l, self.fs_hz / l.decim as f64));
         }
-        self.bands
+        let mut out: Vec<f64> = self
+            .bands
             .iter()
             .map(|b| match &spectra[b.level] {
                 Some(s) => {
@@ -402,6 +455,42 @@ impl Plan {
                     }
                 }
                 None => f64::NAN,
+            })
+            .collect();
+        out.extend(self.psd_long(x));
+        out
+    }
+
+    /// The PSD bands below the Welch levels: the sine-multitaper estimate of the whole part's centred block
+    /// means, averaged over each band's bins and the tapers (one-sided, (deg/s)^2/Hz, as the Welch levels).
+    fn psd_long(&self, x: &[f64]) -> Vec<f64> {
+        let bands = &self.psd_taper_bands;
+        let nan = vec![f64::NAN; bands.len()];
+        let Some(mt) = self.taper.as_ref().filter(|_| !bands.is_empty()) else { return nan };
+        let mut rate = block_means(x, mt.decim);
+        rate.truncate(mt.nb);
+        let valid: Vec<bool> = rate.iter().map(|r| r.is_finite()).collect();
+        let Some(rate) = centred(&rate, &valid) else { return nan };
+        let mut power = vec![0.0; bands.len()];
+        let mut buf = vec![Complex::new(0.0, 0.0); mt.nfft];
+        let mut scratch = vec![Complex::new(0.0, 0.0); mt.fft.get_inplace_scratch_len()];
+        for w in &mt.tapers {
+            mt.transform(&rate, w, &mut buf, &mut scratch);
+            for (p, &(k0, k1)) in power.iter_mut().zip(bands) {
+                *p += buf[k0..=k1].iter().map(|c| c.norm_sqr()).sum::<f64>();
+            }
+        }
+        power
+            .iter()
+            .zip(bands)
+            .map(|(p, &(k0, k1))| {
+                let fs_blocks = self.fs_hz / mt.decim as f64;
+                let mean = 2.0 * p / ((k1 + 1 - k0) * mt.tapers.len()) as f64 / fs_blocks;
+                if mean > 0.0 {
+                    mean.ln()
+                } else {
+                    f64::NAN
+                }
             })
             .collect()
     }
@@ -449,39 +538,26 @@ impl Plan {
     }
 
     fn temperature(&self, x: &[f64], t: &[f64]) -> Vec<f64> {
-        let Some(l) = &self.temp else { return Vec::new() };
-        let nan = vec![f64::NAN; l.bands.len()];
+        let bands = &self.temp_bands;
+        let nan = vec![f64::NAN; bands.len()];
+        let Some(l) = &self.taper else { return nan };
         let mut rate = block_means(x, l.decim);
         let mut temp = block_means(t, l.decim);
         rate.truncate(l.nb);
         temp.truncate(l.nb);
         // A block missing in either is left out of both (zero after the mean is removed).
         let valid: Vec<bool> = rate.iter().zip(&temp).map(|(r, t)| r.is_finite() && t.is_finite()).collect();
-        let count = valid.iter().filter(|v| **v).count();
-        if count * 2 < l.nb {
-            return nan;
-        }
-        let centred = |v: &[f64]| -> Vec<f64> {
-            let m = v.iter().zip(&valid).filter(|(_, ok)| **ok).map(|(x, _)| x).sum::<f64>() / count as f64;
-            v.iter().zip(&valid).map(|(x, ok)| if *ok { x - m } else { 0.0 }).collect()
-        };
-        let (rate, temp) = (centred(&rate), centred(&temp));
-        let mut sxy = vec![Complex::new(0.0, 0.0); l.bands.len()];
-        let mut sxx = vec![0.0; l.bands.len()];
-        let mut syy = vec![0.0; l.bands.len()];
+        let (Some(rate), Some(temp)) = (centred(&rate, &valid), centred(&temp, &valid)) else { return nan };
+        let mut sxy = vec![Complex::new(0.0, 0.0); bands.len()];
+        let mut sxx = vec![0.0; bands.len()];
+        let mut syy = vec![0.0; bands.len()];
         let mut bx = vec![Complex::new(0.0, 0.0); l.nfft];
         let mut by = vec![Complex::new(0.0, 0.0); l.nfft];
         let mut scratch = vec![Complex::new(0.0, 0.0); l.fft.get_inplace_scratch_len()];
         for w in &l.tapers {
-            bx.fill(Complex::new(0.0, 0.0));
-            by.fill(Complex::new(0.0, 0.0));
-            for i in 0..l.nb {
-                bx[i] = Complex::new(temp[i] * w[i], 0.0);
-                by[i] = Complex::new(rate[i] * w[i], 0.0);
-            }
-            l.fft.process_with_scratch(&mut bx, &mut scratch);
-            l.fft.process_with_scratch(&mut by, &mut scratch);
-            for (b, &(k0, k1)) in l.bands.iter().enumerate() {
+            l.transform(&temp, w, &mut bx, &mut scratch);
+            l.transform(&rate, w, &mut by, &mut scratch);
+            for (b, &(k0, k1)) in bands.iter().enumerate() {
                 for k in k0..=k1 {
                     sxy[b] += bx[k].conj() * by[k];
                     sxx[b] += bx[k].norm_sqr();
@@ -489,7 +565,7 @@ impl Plan {
                 }
             }
         }
-        (0..l.bands.len())
+        (0..bands.len())
             .map(|b| {
                 if sxx[b] > 0.0 && syy[b] > 0.0 {
                     let c = (sxy[b].norm_sqr() / (sxx[b] * syy[b])).sqrt();
@@ -502,51 +578,72 @@ impl Plan {
     }
 }
 
-/// Sine tapers of the temperature view's coherence: five, so that a band holds at least ten degrees of freedom
-/// where it is one cycle per part wide.
+/// `v` less the mean of its valid entries, with the invalid ones set to zero; `None` when fewer than half are
+/// valid.
+fn centred(v: &[f64], valid: &[bool]) -> Option<Vec<f64>> {
+    let count = valid.iter().filter(|ok| **ok).count();
+    if count * 2 < v.len() || count == 0 {
+        return None;
+    }
+    let m = v.iter().zip(valid).filter(|(_, ok)| **ok).map(|(x, _)| x).sum::<f64>() / count as f64;
+    Some(v.iter().zip(valid).map(|(x, ok)| if *ok { x - m } else { 0.0 }).collect())
+}
+
+/// Sine tapers of the whole-part multitaper estimates (the temperature view's coherence, the PSD's long
+/// periods): five, so that a band holds at least ten degrees of freedom where it is one cycle per part wide.
 pub(crate) const TEMP_TAPERS: usize = 5;
-/// The temperature view works on block means, at most this many (the temperature moves over minutes to days).
+/// The whole-part multitaper estimates work on block means, at most this many (they look at periods from a
+/// sixteenth of the part to the whole part).
 const TEMP_BLOCKS: usize = 8192;
 
-/// The temperature view's layout: block-mean decimation, sine tapers, FFT and its octave bands of frequency.
+/// The whole-part multitaper layout: block-mean decimation, sine tapers and the FFT of the zero-padded blocks.
 #[derive(Clone)]
-struct TempLayout {
+struct Multitaper {
     decim: usize,
     nb: usize,
     nfft: usize,
     fft: Arc<dyn Fft<f64>>,
     tapers: Vec<Vec<f64>>,
-    /// FFT bin ranges (inclusive) of the bands `[2^i, 2^(i+1))` cycles per part.
-    bands: Vec<(usize, usize)>,
 }
 
-impl TempLayout {
-    fn new(n: usize, planner: &mut FftPlanner<f64>) -> Option<TempLayout> {
+impl Multitaper {
+    fn new(n: usize, planner: &mut FftPlanner<f64>) -> Option<Multitaper> {
         let decim = (n / TEMP_BLOCKS).max(1);
         let nb = n / decim;
         if nb < 64 {
             return None;
         }
         let nfft = nb.next_power_of_two();
-        let per_bin = nfft as f64 / nb as f64;
-        let mut bands = Vec::new();
-        let mut u = 1.0f64;
-        while u < nb as f64 / 4.0 {
-            let k0 = (u * per_bin).ceil() as usize;
-            let k1 = ((2.0 * u * per_bin).ceil() as usize).saturating_sub(1).min(nfft / 2);
-            if k1 >= k0 {
-                bands.push((k0, k1));
-            }
-            u *= 2.0;
+        Some(Multitaper { decim, nb, nfft, fft: planner.plan_fft_forward(nfft), tapers: sine_tapers(nb, TEMP_TAPERS) })
+    }
+
+    /// The length of the part the blocks cover, s.
+    fn part_s(&self, tau0: f64) -> f64 {
+        (self.nb * self.decim) as f64 * tau0
+    }
+
+    /// The FFT bins (inclusive) whose frequency lies in `[u0, u1)` cycles per part, up to Nyquist.
+    fn bins(&self, u0: f64, u1: f64) -> Option<(usize, usize)> {
+        let per_cycle = self.nfft as f64 / self.nb as f64;
+        let k0 = (u0 * per_cycle).ceil() as usize;
+        let k1 = ((u1 * per_cycle).ceil() as usize).saturating_sub(1).min(self.nfft / 2);
+        (k1 >= k0).then_some((k0, k1))
+    }
+
+    /// The smallest sd of the ln of a band `width` cycles per part wide: the tapers' estimates are independent
+    /// about every `tapers + 1` cycles, each with `2 tapers` degrees of freedom.
+    fn floor_sd(&self, width: f64) -> f64 {
+        let k = self.tapers.len() as f64;
+        (1.0 / (0.9 * k * (1.0 + width / (k + 1.0)))).sqrt()
+    }
+
+    /// The FFT of `x` (the centred blocks) times the taper `w`, into `buf`.
+    fn transform(&self, x: &[f64], w: &[f64], buf: &mut [Complex<f64>], scratch: &mut [Complex<f64>]) {
+        buf.fill(Complex::new(0.0, 0.0));
+        for ((b, &v), &wi) in buf.iter_mut().zip(x).zip(w) {
+            *b = Complex::new(v * wi, 0.0);
         }
-        Some(TempLayout {
-            decim,
-            nb,
-            nfft,
-            fft: planner.plan_fft_forward(nfft),
-            tapers: sine_tapers(nb, TEMP_TAPERS),
-            bands,
-        })
+        self.fft.process_with_scratch(buf, scratch);
     }
 }
 
@@ -562,9 +659,9 @@ pub(crate) fn sine_tapers(n: usize, k: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// Welch's averaged periodogram of one level (one-sided, (deg/s)^2/Hz up to a constant), `None` without a
-/// complete segment free of gaps.
-fn welch(data: &[f64], l: &Level) -> Option<Vec<f64>> {
+/// Welch's averaged periodogram of one level whose samples come at `fs_hz` (one-sided, (deg/s)^2/Hz), `None`
+/// without a complete segment free of gaps.
+fn welch(data: &[f64], l: &Level, fs_hz: f64) -> Option<Vec<f64>> {
     let seg = l.seg;
     let hop = seg / 2;
     if data.len() < seg {
@@ -595,7 +692,7 @@ fn welch(data: &[f64], l: &Level) -> Option<Vec<f64>> {
         return None;
     }
     let w2: f64 = l.window.iter().map(|w| w * w).sum();
-    let norm = 2.0 / (count as f64 * w2);
+    let norm = 2.0 / (count as f64 * w2 * fs_hz);
     Some(acc.into_iter().map(|a| a * norm).collect())
 }
 
@@ -790,6 +887,35 @@ mod tests {
         let gaps = compare(&plan, &plan.measure(&loud, None, true), &ms);
         assert!(gaps[0].rms > 10.0 && gaps[0].points.iter().all(|p| p.z > 0.0));
         assert!(gaps[1].rms > 10.0);
+    }
+
+    #[test]
+    fn psd_reaches_one_cycle_per_part_in_physical_units_and_sees_a_slow_line() {
+        // White noise of unit variance at 10 Hz: a one-sided PSD of 2 / fs in every band, Welch's and the
+        // multitaper's alike, down to one cycle per part.
+        let (n, fs) = (1usize << 16, 10.0);
+        let noise = white(n, 21);
+        let plan = Plan::new(&noise, None, fs);
+        let pts = &plan.points[1];
+        let part_s = n as f64 / fs;
+        let longest = pts.iter().map(|p| p.tau_hi_s).fold(0.0, f64::max);
+        assert!(longest > 0.99 * part_s && longest <= part_s, "{longest} of {part_s}");
+        assert!(pts.iter().filter(|p| p.tau_lo_s >= part_s / 16.5).count() >= 5, "{pts:?}");
+        let psd = plan.measure(&noise, None, true).values[1].clone();
+        for (p, v) in pts.iter().zip(&psd) {
+            let sd = p.floor_sd.max(0.02);
+            assert!((v - (2.0 / fs).ln()).abs() < 4.0 * sd, "band at {:.1} s: {v} vs {}", p.tau_s, (2.0 / fs).ln());
+        }
+        // A sinusoid of 8 cycles per part with a quarter of the noise's power: its band sees a line far above
+        // the noise; the Welch bands, from a sixteenth of the part down, do not move.
+        let line: Vec<f64> =
+            noise.iter().enumerate().map(|(i, v)| v + 0.7 * (2.0 * PI * 8.0 * i as f64 / n as f64).sin()).collect();
+        let with_line = plan.measure(&line, None, true).values[1].clone();
+        let band = pts.iter().position(|p| p.tau_lo_s <= part_s / 8.0 && part_s / 8.0 < p.tau_hi_s).unwrap();
+        assert!(with_line[band] - psd[band] > 3.0, "{} vs {}", with_line[band], psd[band]);
+        for (i, p) in pts.iter().enumerate().filter(|(_, p)| p.tau_hi_s < part_s / 16.0) {
+            assert!((with_line[i] - psd[i]).abs() < 0.1, "band at {:.1} s moved", p.tau_s);
+        }
     }
 
     #[test]

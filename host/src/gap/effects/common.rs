@@ -6,7 +6,7 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
-use crate::fit::{fit, FitOptions, FitPoint};
+use crate::fit::{fit, FitOptions, FitPoint, Term};
 pub(super) use crate::gap::views::{block_means, sine_tapers};
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
 
@@ -46,9 +46,16 @@ pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
 
 /// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component: the
 /// base model with its Q, N, B, K, R replaced by the fitted terms of that fit, and the fit's squares.
+///
+/// The rate ramp R enters only when the base fit has one: a ramp is a deterministic drift, and taking an
+/// effect's component out of the record cannot create one. Where the re-fit found one anyway, it was the
+/// remainder of an imperfectly fitted component at the last one or two Allan points (a sinusoid of a few
+/// cycles per record whose amplitude is read 27% high), and a ramp extrapolated over the holdout is a gap of
+/// its own.
 pub(super) fn refit_base(base: &GyroSim, cleaned: &[f64], fs: f64) -> Option<(GyroSim, [f64; 5])> {
     let pts = oadev_points(cleaned, fs);
-    let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, ..Default::default() };
+    let terms = Term::ALL.into_iter().filter(|t| *t != Term::R || base.r_dps_per_s != 0.0).collect();
+    let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
     let f = fit(&pts, &opts).ok()?;
     Some((f.sim_terms(base.clone()), f.squares))
 }
