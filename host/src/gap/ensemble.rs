@@ -14,6 +14,7 @@ use octavar_shared::sim::temperature::ThermalLag;
 use octavar_shared::sim::{GyroSim, SimError, VirtualGyro};
 use rayon::prelude::*;
 
+use super::effects::ParamSpread;
 use super::views::{Measure, Plan};
 
 /// The record the ensemble imitates.
@@ -78,12 +79,15 @@ pub fn temperature_response(gyro: &GyroSim, rec: &Record) -> Option<Vec<f64>> {
 const NO_TEMP_C: f64 = 25.0;
 
 /// Simulate `gyro` on `channel` once per seed over the whole record and measure both parts; `explained` is the
-/// model's [`temperature_response`] over the whole record, taken out for the temperature view.
+/// model's [`temperature_response`] over the whole record, taken out for the temperature view; with `spread`,
+/// each member draws the effect's parameters from it ([`ParamSpread::draw`]).
 ///
 /// # Errors
 /// The model's [`SimError`] (a parameter out of range).
+#[allow(clippy::too_many_arguments)] // the record's two plans, the model, its spread and channel, the seeds
 pub fn simulate(
     gyro: &GyroSim,
+    spread: Option<&ParamSpread>,
     channel: Option<&Channel>,
     rec: &Record,
     train_plan: &Plan,
@@ -92,7 +96,8 @@ pub fn simulate(
     explained: Option<&[f64]>,
 ) -> Result<Ensemble, SimError> {
     // Fail early (and once) on a bad model.
-    VirtualGyro::new(gyro, adc_of(channel), rec.fs_hz * rec.oversample.max(1) as f64, 0)?;
+    let fs_sim = rec.fs_hz * rec.oversample.max(1) as f64;
+    VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
     let table = code_table(channel);
     let (resp_train, resp_hold) = match explained {
         Some(r) => (Some(&r[..rec.n_train]), Some(&r[rec.n_train..])),
@@ -101,7 +106,9 @@ pub fn simulate(
     let members: Vec<(Measure, Option<Measure>)> = seeds
         .par_iter()
         .map(|&seed| {
-            let x = member(gyro, channel, &table, rec, rec.rate_dps.len(), seed);
+            let drawn = spread.map(|s| s.draw(gyro, seed));
+            let g = drawn.as_ref().filter(|g| VirtualGyro::new(g, adc_of(channel), fs_sim, 0).is_ok()).unwrap_or(gyro);
+            let x = member(g, channel, &table, rec, rec.rate_dps.len(), seed);
             let train = train_plan.measure_explained(&x[..rec.n_train], rec.training_temp(), resp_train, false);
             let hold =
                 holdout_plan.map(|p| p.measure_explained(&x[rec.n_train..], rec.holdout_temp(), resp_hold, false));
@@ -239,7 +246,7 @@ mod tests {
         let gyro = GyroSim { n_deg_per_rt_s: n_coef, r_dps_per_s: 0.02, ..Default::default() };
         let train = Plan::new(rec.training(), None, fs);
         let hold = Plan::new(rec.holdout(), None, fs);
-        let e = simulate(&gyro, None, &rec, &train, Some(&hold), &[1, 2, 3], None).unwrap();
+        let e = simulate(&gyro, None, None, &rec, &train, Some(&hold), &[1, 2, 3], None).unwrap();
         let closed = (n_coef * fs.sqrt()).ln();
         for m in &e.holdout {
             let got = m.values[ViewKind::Adev as usize][0];

@@ -82,7 +82,7 @@ mod tests {
         let same = |_: &[f64]| (gyro.clone(), None);
         let pred = predict_holdout(&gyro, None, &rec, &hold, &seeds, None, &same).unwrap();
         let salted: Vec<u64> = seeds.iter().map(|s| s.wrapping_add(super::super::ensemble::PREDICT_SALT)).collect();
-        let plain = simulate(&gyro, None, &rec, &train, Some(&hold), &salted, None).unwrap();
+        let plain = simulate(&gyro, None, None, &rec, &train, Some(&hold), &salted, None).unwrap();
         let bits = |m: &[crate::gap::views::Measure]| -> Vec<Vec<u64>> {
             m.iter().flat_map(|m| m.values.iter().map(|v| v.iter().map(|x| x.to_bits()).collect())).collect()
         };
@@ -120,7 +120,7 @@ mod tests {
             (g, None)
         };
         let pred = predict_holdout(&gyro, None, &rec, &hold, &seeds, None, &relearn).unwrap();
-        let plain = simulate(&gyro, None, &rec, &train, Some(&hold), &seeds, None).unwrap().holdout;
+        let plain = simulate(&gyro, None, None, &rec, &train, Some(&hold), &seeds, None).unwrap().holdout;
         let sd = |v: &[f64]| {
             let mu = v.iter().sum::<f64>() / v.len() as f64;
             (v.iter().map(|x| (x - mu) * (x - mu)).sum::<f64>() / (v.len() - 1) as f64).sqrt()

@@ -270,12 +270,17 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let real_hold = hold_plan.as_ref().map(|p| p.measure(rec.holdout(), rec.holdout_temp(), true));
     progress("base fit", 1, total_steps);
 
-    let run = |gyro: &GyroSim, ch: Option<&Channel>, name: &str| -> Result<Evaluated, GapError> {
+    let run = |gyro: &GyroSim,
+               spread: Option<&effects::ParamSpread>,
+               ch: Option<&Channel>,
+               name: &str|
+     -> Result<Evaluated, GapError> {
         // A model with a temperature coupling is judged in the temperature view on what its coupling leaves, on
         // the real record as on each member.
         let explained = ensemble::temperature_response(gyro, &rec);
-        let e = ensemble::simulate(gyro, ch, &rec, &train_plan, hold_plan.as_ref(), &seeds, explained.as_deref())
-            .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
+        let e =
+            ensemble::simulate(gyro, spread, ch, &rec, &train_plan, hold_plan.as_ref(), &seeds, explained.as_deref())
+                .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
         let remeasured = explained.as_ref().map(|resp| {
             let (resp_train, resp_hold) = resp.split_at(n_train);
             let train = train_plan.with_explained(&real_train, training, rec.training_temp(), resp_train);
@@ -291,7 +296,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         };
         Ok(Evaluated::new(&train_plan, train, hold_plan.as_ref(), hold, e))
     };
-    let base_eval = run(&base, channel.as_ref(), "base")?;
+    let base_eval = run(&base, None, channel.as_ref(), "base")?;
     progress("base ensemble", 2, total_steps);
 
     // Candidates: estimate all (in parallel), then simulate each.
@@ -308,7 +313,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let mut candidates = Vec::new();
     for (i, (effect, f)) in fits.into_iter().enumerate() {
         let eval = match &f {
-            Some(f) => Some(run(&f.gyro, f.channel.or(channel).as_ref(), effect.name())?),
+            Some(f) => Some(run(&f.gyro, f.spread.as_ref(), f.channel.or(channel).as_ref(), effect.name())?),
             None => None,
         };
         candidates.push((effect, f, eval));

@@ -40,5 +40,6 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
         n_params: 1,
         gyro,
         channel: None,
+        spread: None,
     })
 }

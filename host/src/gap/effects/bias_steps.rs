@@ -108,5 +108,6 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
         n_params: 2,
         gyro,
         channel: None,
+        spread: None,
     })
 }

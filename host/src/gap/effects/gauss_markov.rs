@@ -61,5 +61,6 @@ pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
         n_params: 2,
         gyro,
         channel: None,
+        spread: None,
     })
 }

@@ -22,6 +22,7 @@
 //! octave OADEV curve).
 
 use octavar_shared::sensor::Channel;
+use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::GyroSim;
 use serde::Serialize;
 use serde_json::Value;
@@ -126,7 +127,54 @@ pub struct EffectFit {
     pub gyro: GyroSim,
     /// For quantisation: a channel whose ADC step is the data's lattice step (`None`: keep the base channel).
     pub channel: Option<Channel>,
+    /// The sampling spread of the effect's parameters, which each ensemble member draws its own values from
+    /// (`None`: every member simulates `gyro` itself).
+    pub spread: Option<ParamSpread>,
 }
+
+/// The sampling spread of an effect's fitted parameters. An ensemble of the fitted values alone has next to no
+/// spread where a deterministic component dominates a view (a sinusoid's Allan hump, its spectral line), so an
+/// estimate one standard error off, which the training part cannot tell, reads as a gap of two on the holdout.
+/// Each member draws its parameters from their sampling distribution instead, as the base model's allowance
+/// ([`crate::gap::views::ViewKind::model_floor`]) stands in for the error of its fitted terms.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParamSpread {
+    /// Per sinusoid of the model, in its order: the standard errors of the amplitude (deg/s), of the phase at
+    /// `centre_s` (rad) and of the frequency (Hz). `centre_s` is the training part's centre, where the
+    /// least-squares errors of phase and frequency are uncorrelated.
+    Sinusoids {
+        /// `[amplitude, phase, frequency]` standard errors per sinusoid.
+        se: Vec<[f64; 3]>,
+        /// Time of the training part's centre from the record's start, s.
+        centre_s: f64,
+    },
+}
+
+impl ParamSpread {
+    /// The model of the member simulated with `seed`: `gyro` with its parameters drawn from their spread
+    /// (Gaussian, independent of the member's noise).
+    pub fn draw(&self, gyro: &GyroSim, seed: u64) -> GyroSim {
+        let mut rng = SimRng::new(seed ^ SPREAD_SALT);
+        let mut g = gyro.clone();
+        match self {
+            ParamSpread::Sinusoids { se, centre_s } => {
+                let two_pi = 2.0 * std::f64::consts::PI;
+                for (s, [sa, sp, sf]) in g.sinusoids.iter_mut().zip(se) {
+                    let f = 1.0 / s.period_s;
+                    let f_new = (f + sf * rng.normal()).max(0.5 * f);
+                    // The phase at the centre moves by its own error; the frequency's turns about the centre.
+                    s.phase_rad += sp * rng.normal() - two_pi * (f_new - f) * centre_s;
+                    s.period_s = 1.0 / f_new;
+                    s.amplitude_dps = (s.amplitude_dps + sa * rng.normal()).abs();
+                }
+            }
+        }
+        g
+    }
+}
+
+/// Mixed into a member's seed for its parameter draw, so the draw is independent of the member's noise.
+const SPREAD_SALT: u64 = 0x5a7e_ad00_0000;
 
 /// Fit `effect` on the training data; `None` when the data show no trace of it.
 pub fn estimate(effect: Effect, data: &TrainingData) -> Option<EffectFit> {

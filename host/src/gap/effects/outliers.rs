@@ -62,5 +62,6 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
         n_params: 2,
         gyro,
         channel: None,
+        spread: None,
     })
 }

@@ -121,6 +121,7 @@ pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
         n_params: 1,
         gyro,
         channel: Some(lattice_channel(q, m0)),
+        spread: None,
     })
 }
 

@@ -5,7 +5,7 @@ use serde_json::{json, Value};
 
 use super::common::*;
 use super::curve::*;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, ParamSpread, TrainingData};
 
 /// `|sum w_n x_n e^{-i 2 pi f n dt}|^2` with the Hann window, by a rotating phasor (renormalised).
 pub(super) fn hann_power(y: &[f64], f: f64, dt: f64) -> f64 {
@@ -108,6 +108,86 @@ pub(super) fn sinusoid_ls(y: &[f64], freqs: &[f64], dt: f64, t_off: f64) -> Opti
     let sol = solve(ata, atb.clone())?;
     let explained: f64 = sol.iter().zip(&atb).map(|(a, b)| a * b).sum();
     Some((sol, yy - explained))
+}
+
+/// The standard deviations of the amplitude and of the phase (rad) of sinusoid `j` of [`sinusoid_ls`] (its
+/// coefficients `a_b`) under noise of two-sided spectrum `N^2 + B^2 / (2 pi f) + K^2 / (2 pi f)^2` (`squares`
+/// of the IEEE fit): each coefficient is linear in the record, `a = sum g_i y_i`, so its variance is the
+/// integral of `|G(f)|^2 S(f)`, taken on a twice zero-padded grid, leakage of red noise through the record's
+/// rectangular window included.
+fn ls_amplitude_sd(
+    n: usize,
+    dt: f64,
+    t_off: f64,
+    freqs: &[f64],
+    j: usize,
+    a_b: (f64, f64),
+    squares: &[f64; 5],
+) -> Option<(f64, f64)> {
+    let p = 3 + 2 * freqs.len();
+    let row = |i: usize, r: &mut [f64]| {
+        let u = 2.0 * i as f64 / n as f64 - 1.0;
+        r[0] = 1.0;
+        r[1] = u;
+        r[2] = u * u - 1.0 / 3.0;
+        let t = t_off + i as f64 * dt;
+        for (q, f) in freqs.iter().enumerate() {
+            let a = 2.0 * std::f64::consts::PI * f * t;
+            r[3 + 2 * q] = a.cos();
+            r[4 + 2 * q] = a.sin();
+        }
+    };
+    let mut ata = vec![vec![0.0; p]; p];
+    let mut r = vec![0.0; p];
+    for i in 0..n {
+        row(i, &mut r);
+        for a in 0..p {
+            for b in a..p {
+                ata[a][b] += r[a] * r[b];
+            }
+        }
+    }
+    for a in 0..p {
+        for b in 0..a {
+            ata[a][b] = ata[b][a];
+        }
+    }
+    // The rows of (A'A)^-1 for the two coefficients.
+    let col = |c: usize| {
+        let mut e = vec![0.0; p];
+        e[c] = 1.0;
+        solve(ata.clone(), e)
+    };
+    let (ma, mb) = (col(3 + 2 * j)?, col(4 + 2 * j)?);
+    let big = (2 * n).next_power_of_two();
+    let (mut ar, mut ai) = (vec![0.0; big], vec![0.0; big]);
+    let (mut br, mut bi) = (vec![0.0; big], vec![0.0; big]);
+    for i in 0..n {
+        row(i, &mut r);
+        ar[i] = r.iter().zip(&ma).map(|(x, m)| x * m).sum();
+        br[i] = r.iter().zip(&mb).map(|(x, m)| x * m).sum();
+    }
+    fft(&mut ar, &mut ai);
+    fft(&mut br, &mut bi);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let df = 1.0 / (big as f64 * dt);
+    let (mut va, mut vb, mut cab) = (0.0, 0.0, 0.0);
+    for m in 1..=big / 2 {
+        let f = m as f64 * df;
+        let s = squares[1] + squares[2] / (two_pi * f) + squares[3] / (two_pi * f).powi(2);
+        va += 2.0 * (ar[m] * ar[m] + ai[m] * ai[m]) * s * df;
+        vb += 2.0 * (br[m] * br[m] + bi[m] * bi[m]) * s * df;
+        cab += 2.0 * (ar[m] * br[m] + ai[m] * bi[m]) * s * df;
+    }
+    let (a, b) = a_b;
+    let amp2 = a * a + b * b;
+    if !(amp2 > 0.0 && va > 0.0 && vb > 0.0) {
+        return None;
+    }
+    // A = |(a, b)|: its error is the coefficients' along (a, b); the phase's across it, over A.
+    let var_amp = (a * a * va + b * b * vb + 2.0 * a * b * cab) / amp2;
+    let var_ph = (b * b * va + a * a * vb - 2.0 * a * b * cab) / (amp2 * amp2);
+    Some((var_amp.max(0.0).sqrt(), var_ph.max(0.0).sqrt()))
 }
 
 pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
@@ -227,7 +307,8 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         }
     }
     let (sol, _) = sinusoid_ls(&y, &freqs, dt, t_off)?;
-    let mut list: Vec<Sinusoid> = Vec::new();
+    let record_s = n as f64 * dt;
+    let mut list: Vec<(Sinusoid, [f64; 3])> = Vec::new();
     for (j, &f) in freqs.iter().enumerate() {
         let (a, b) = (sol[3 + 2 * j], sol[4 + 2 * j]);
         // Block averaging scales a sinusoid by sin(pi f D/fs) / (D sin(pi f/fs)).
@@ -238,9 +319,20 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             1.0
         };
         // a cos + b sin = A sin(w t + phi): a = A sin phi, b = A cos phi.
-        list.push(Sinusoid { amplitude_dps: (a * a + b * b).sqrt() / g, period_s: 1.0 / f, phase_rad: a.atan2(b) });
+        let amplitude = (a * a + b * b).sqrt() / g;
+        // First standard errors from the noise's one-sided PSD at the peak, S1 = 16 dt E[P] / (3 n) for the
+        // Hann periodogram P (whose mean is the background median / ln 2): var(a) = var(b) = S1 / T over a
+        // record of T, so se(A) = sqrt(S1 / T) and se(phase at the centre) = se(A) / A; the frequency's is the
+        // least-squares (Cramer-Rao) bound sqrt(3 S1 / (pi^2 A^2 T^3)). The amplitude's and phase's are taken
+        // again below under the noise model, and the frequency's scaled with them.
+        let s1 = 16.0 * dt * bg[chosen[j]] / std::f64::consts::LN_2 / (3.0 * n as f64) / (g * g);
+        let se_a = (s1 / record_s).sqrt();
+        let se_f = (3.0 * s1 / (std::f64::consts::PI.powi(2) * amplitude.powi(2) * record_s.powi(3))).sqrt();
+        let se = [se_a, se_a / amplitude.max(1e-300), se_f];
+        list.push((Sinusoid { amplitude_dps: amplitude, period_s: 1.0 / f, phase_rad: a.atan2(b) }, se));
     }
-    list.sort_by(|a, b| b.amplitude_dps.total_cmp(&a.amplitude_dps));
+    list.sort_by(|a, b| b.0.amplitude_dps.total_cmp(&a.0.amplitude_dps));
+    let (list, se): (Vec<Sinusoid>, Vec<[f64; 3]>) = list.into_iter().unzip();
     // The base terms re-fitted without the sinusoids (the base fit covered their Allan bump with B or K).
     let two_pi = 2.0 * std::f64::consts::PI;
     let cleaned: Vec<f64> = x
@@ -251,7 +343,26 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             v - list.iter().map(|s| s.amplitude_dps * (two_pi * t / s.period_s + s.phase_rad).sin()).sum::<f64>()
         })
         .collect();
-    let mut gyro = refit_base(d.base, &cleaned, d.fs_hz).map_or_else(|| d.base.clone(), |r| r.0);
+    let (mut gyro, squares) =
+        refit_base(d.base, &cleaned, d.fs_hz).unwrap_or_else(|| (d.base.clone(), d.base_fit.squares));
+    // The least squares' own errors under the noise model, leakage of its red noise included; the Hann
+    // background above sees only the noise at the peak's bins.
+    let se: Vec<[f64; 3]> = list
+        .iter()
+        .zip(&se)
+        .map(|(s, e)| {
+            let j = freqs.iter().position(|f| (1.0 / f - s.period_s).abs() < 1e-9 * s.period_s).unwrap_or(0);
+            let a_b = (sol[3 + 2 * j], sol[4 + 2 * j]);
+            match ls_amplitude_sd(n, dt, t_off, &freqs, j, a_b, &squares) {
+                Some((sd_a, sd_p)) => {
+                    let g = s.amplitude_dps * (a_b.0.hypot(a_b.1)).recip().min(1e300);
+                    let sd_a = sd_a * g;
+                    [sd_a, sd_p, e[2] * sd_a / e[0].max(1e-300)]
+                }
+                None => *e,
+            }
+        })
+        .collect();
     gyro.sinusoids.clear();
     for s in &list {
         let _ = gyro.sinusoids.push(*s);
@@ -259,7 +370,11 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     let s0 = list[0];
     let all: Vec<Value> = list
         .iter()
-        .map(|s| json!({"amplitude_dps": s.amplitude_dps, "period_s": s.period_s, "phase_rad": s.phase_rad}))
+        .zip(&se)
+        .map(|(s, e)| {
+            json!({"amplitude_dps": s.amplitude_dps, "period_s": s.period_s, "phase_rad": s.phase_rad,
+                   "amplitude_se_dps": e[0], "period_se_s": e[2] * s.period_s * s.period_s})
+        })
         .collect();
     Some(EffectFit {
         effect: Effect::Sinusoid,
@@ -268,5 +383,6 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         n_params: 3 * list.len(),
         gyro,
         channel: None,
+        spread: Some(ParamSpread::Sinusoids { se, centre_s: n0 as f64 / d.fs_hz / 2.0 }),
     })
 }

@@ -138,6 +138,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         n_params: 2,
         gyro,
         channel: None,
+        spread: None,
     })
 }
 

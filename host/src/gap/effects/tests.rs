@@ -181,6 +181,44 @@ fn sinusoids_recovered() {
     assert!((s[0].phase_rad + 1.0).abs() < 0.1 && (s[1].phase_rad - 0.4).abs() < 0.1, "{s:?}");
 }
 
+/// The amplitude's standard error (the spread the ensemble members draw from) against the closed form on white
+/// noise, `sqrt(2 / n) sigma`, and against the scatter of the estimates over 16 records of red noise (flicker
+/// and random walk, whose leakage through the record's window the Hann background alone missed: on withheld
+/// sinusoid 16 it gave 3.1e-4 against a scatter of 4.4e-4 over ten noise draws; the exact form gives 3.7e-4).
+#[test]
+fn sinusoid_amplitude_standard_error_is_its_scatter() {
+    let fs = 50.0;
+    let n = 1 << 17;
+    let sine = Sinusoid { amplitude_dps: 0.01, period_s: 80.0, phase_rad: 0.3 };
+    let se_of = |e: &EffectFit| match &e.spread {
+        Some(ParamSpread::Sinusoids { se, .. }) => se[0][0],
+        None => panic!("no spread: {:?}", e.params),
+    };
+    let mut white = GyroSim { n_deg_per_rt_s: 0.01, ..Default::default() };
+    white.sinusoids.push(sine).unwrap();
+    let (x, _) = simulate(&white, fs, n, 11, None);
+    let closed = (2.0 / n as f64).sqrt() * 0.01 * fs.sqrt();
+    let se = se_of(&run(Effect::Sinusoid, &x, None, fs).unwrap());
+    assert!(rel(se, closed) < 0.05, "white: se {se:.3e}, closed form {closed:.3e}");
+    let mut red = base_model();
+    red.sinusoids.push(Sinusoid { amplitude_dps: 0.02, ..sine }).unwrap();
+    let fits: Vec<(f64, f64)> = (0..16u64)
+        .into_par_iter()
+        .map(|seed| {
+            let (x, _) = simulate(&red, fs, n, 100 + seed, None);
+            let e = run(Effect::Sinusoid, &x, None, fs).unwrap();
+            (e.gyro.sinusoids[0].amplitude_dps, se_of(&e))
+        })
+        .collect();
+    let k = fits.len() as f64;
+    let mean = fits.iter().map(|f| f.0).sum::<f64>() / k;
+    let scatter = (fits.iter().map(|f| (f.0 - mean).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
+    let se = fits.iter().map(|f| f.1).sum::<f64>() / k;
+    // 16 draws: the scatter's own sd is 18%.
+    eprintln!("scatter {scatter:.3e} against se {se:.3e}");
+    assert!(scatter / se > 0.6 && scatter / se < 1.6, "scatter {scatter:.3e} against se {se:.3e}");
+}
+
 #[test]
 fn long_period_sinusoid_with_decimation() {
     // A day-long period in a 10-day record at 5 Hz (4.3 M samples: the periodogram is block-averaged).
