@@ -28,7 +28,7 @@
 //!
 //! `NOISE_SEED=k` redraws every case's gyro noise (the effect's parameters and the temperature stay), to see
 //! how an estimator scatters over the realisations of one case. `GAP_WITHHELD_VERBOSE=1` prints every
-//! candidate's gap and parameters; `GAP_PREDICTIVE=1` also runs the predictive held-out check and prints its
+//! candidate's gap and parameters (with `GAP_SD=1`, each point's real - mean and sd beside its z); `GAP_PREDICTIVE=1` also runs the predictive held-out check and prints its
 //! shrink beside the plain one (the pass mark stays the plain one). The default run checks two seeds per effect
 //! and two controls; the full sweep (`full_sweep`, 10 seeds each) is `#[ignore]`d: `cargo test -p
 //! octavar-tests --release gap_withheld::full_sweep -- --ignored`.
