@@ -212,10 +212,10 @@ impl Plan {
         }
         let mut bands = Vec::new();
         let mut psd_pts = Vec::new();
-        // The top of the next band down.
+        // The ratio of a band's edges, and the top of the next band down.
+        let step = 10f64.powf(1.0 / BANDS_PER_DECADE);
         let mut f_hi = fs_hz / 2.0;
         if !levels.is_empty() {
-            let step = 10f64.powf(1.0 / BANDS_PER_DECADE);
             loop {
                 let f_lo = f_hi / step;
                 // The finest level that puts at least 4 bins between DC and the band.
@@ -248,7 +248,6 @@ impl Plan {
         let mut psd_taper_bands = Vec::new();
         if let (Some(mt), false) = (&taper, bands.is_empty()) {
             let part_s = mt.part_s(tau0);
-            let step = 10f64.powf(1.0 / BANDS_PER_DECADE);
             loop {
                 let (mut u0, u1) = (f_hi / step * part_s, f_hi * part_s);
                 if u0 < 1.0 {

@@ -308,7 +308,8 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     }
     let (sol, _) = sinusoid_ls(&y, &freqs, dt, t_off)?;
     let record_s = n as f64 * dt;
-    let mut list: Vec<(Sinusoid, [f64; 3])> = Vec::new();
+    // Each sinusoid with its first standard errors, its index in `freqs` and the block average's gain.
+    let mut list: Vec<(Sinusoid, [f64; 3], usize, f64)> = Vec::new();
     for (j, &f) in freqs.iter().enumerate() {
         let (a, b) = (sol[3 + 2 * j], sol[4 + 2 * j]);
         // Block averaging scales a sinusoid by sin(pi f D/fs) / (D sin(pi f/fs)).
@@ -329,10 +330,10 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         let se_a = (s1 / record_s).sqrt();
         let se_f = (3.0 * s1 / (std::f64::consts::PI.powi(2) * amplitude.powi(2) * record_s.powi(3))).sqrt();
         let se = [se_a, se_a / amplitude.max(1e-300), se_f];
-        list.push((Sinusoid { amplitude_dps: amplitude, period_s: 1.0 / f, phase_rad: a.atan2(b) }, se));
+        list.push((Sinusoid { amplitude_dps: amplitude, period_s: 1.0 / f, phase_rad: a.atan2(b) }, se, j, g));
     }
     list.sort_by(|a, b| b.0.amplitude_dps.total_cmp(&a.0.amplitude_dps));
-    let (list, se): (Vec<Sinusoid>, Vec<[f64; 3]>) = list.into_iter().unzip();
+    let (list, fitted): (Vec<Sinusoid>, Vec<_>) = list.into_iter().map(|(s, se, j, g)| (s, (se, j, g))).unzip();
     // The base terms re-fitted without the sinusoids (the base fit covered their Allan bump with B or K).
     let two_pi = 2.0 * std::f64::consts::PI;
     let cleaned: Vec<f64> = x
@@ -347,19 +348,16 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         refit_base(d.base, &cleaned, d.fs_hz).unwrap_or_else(|| (d.base.clone(), d.base_fit.squares));
     // The least squares' own errors under the noise model, leakage of its red noise included; the Hann
     // background above sees only the noise at the peak's bins.
-    let se: Vec<[f64; 3]> = list
+    let se: Vec<[f64; 3]> = fitted
         .iter()
-        .zip(&se)
-        .map(|(s, e)| {
-            let j = freqs.iter().position(|f| (1.0 / f - s.period_s).abs() < 1e-9 * s.period_s).unwrap_or(0);
+        .map(|&(e, j, g)| {
             let a_b = (sol[3 + 2 * j], sol[4 + 2 * j]);
             match ls_amplitude_sd(n, dt, t_off, &freqs, j, a_b, &squares) {
                 Some((sd_a, sd_p)) => {
-                    let g = s.amplitude_dps * (a_b.0.hypot(a_b.1)).recip().min(1e300);
-                    let sd_a = sd_a * g;
+                    let sd_a = sd_a / g;
                     [sd_a, sd_p, e[2] * sd_a / e[0].max(1e-300)]
                 }
-                None => *e,
+                None => e,
             }
         })
         .collect();
