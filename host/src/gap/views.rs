@@ -324,7 +324,7 @@ impl Plan {
                     if let Some((k0, k1)) = mt.bins(u, 2.0 * u) {
                         let per_cycle = mt.nb as f64 / mt.nfft as f64;
                         let (u0, u1) = (k0 as f64 * per_cycle, (k1 + 1) as f64 * per_cycle);
-                        let dof = (k1 + 1 - k0) as f64 * per_cycle * TEMP_TAPERS as f64;
+                        let dof = (k1 + 1 - k0) as f64 * per_cycle * WHOLE_PART_TAPERS as f64;
                         temp_pts.push(PointInfo {
                             label: "band",
                             tau_s: part_s / (u0 * u1).sqrt(),
@@ -613,10 +613,10 @@ fn detrended(v: &[f64], valid: &[bool]) -> Option<Vec<f64>> {
 
 /// Sine tapers of the whole-part multitaper estimates (the temperature view's coherence, the PSD's long
 /// periods): five, so that a band holds at least ten degrees of freedom where it is one cycle per part wide.
-pub(crate) const TEMP_TAPERS: usize = 5;
+pub(crate) const WHOLE_PART_TAPERS: usize = 5;
 /// The whole-part multitaper estimates work on block means, at most this many (they look at periods from a
 /// sixteenth of the part to the whole part).
-const TEMP_BLOCKS: usize = 8192;
+const WHOLE_PART_BLOCKS: usize = 8192;
 
 /// The whole-part multitaper layout: block-mean decimation, sine tapers and the FFT of the zero-padded blocks.
 #[derive(Clone)]
@@ -630,13 +630,19 @@ struct Multitaper {
 
 impl Multitaper {
     fn new(n: usize, planner: &mut FftPlanner<f64>) -> Option<Multitaper> {
-        let decim = (n / TEMP_BLOCKS).max(1);
+        let decim = (n / WHOLE_PART_BLOCKS).max(1);
         let nb = n / decim;
         if nb < 64 {
             return None;
         }
         let nfft = nb.next_power_of_two();
-        Some(Multitaper { decim, nb, nfft, fft: planner.plan_fft_forward(nfft), tapers: sine_tapers(nb, TEMP_TAPERS) })
+        Some(Multitaper {
+            decim,
+            nb,
+            nfft,
+            fft: planner.plan_fft_forward(nfft),
+            tapers: sine_tapers(nb, WHOLE_PART_TAPERS),
+        })
     }
 
     /// The length of the part the blocks cover, s.
