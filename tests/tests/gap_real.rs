@@ -87,9 +87,11 @@ fn cats_gyro_y_is_temperature_and_the_fix_holds_on_run_2() {
     }
     assert_eq!(j["effect"], "temperature");
     assert_eq!(j["candidates"].as_array().unwrap().len(), 7);
-    for k in ["gap_before", "gap_after", "shrink"] {
+    for k in ["gap_before", "gap_after", "shrink", "shrink_if_right"] {
         assert!(j["holdout"][k].is_number(), "holdout.{k}");
     }
+    let before = j["holdout"]["gap_before"].as_f64().unwrap();
+    assert!((j["holdout"]["shrink_if_right"].as_f64().unwrap() - (1.0 - 1.0 / before)).abs() < 1e-12);
     assert!(j["model"]["temperature"]["dps_per_c"].is_number());
 }
 
