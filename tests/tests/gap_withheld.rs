@@ -262,6 +262,9 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
     ];
     if std::env::var_os("GAP_WITHHELD_VERBOSE").is_some() {
         eprintln!("  base gap {:?} holdout {:?}\n  base model {:?}", r.training, r.holdout, r.base);
+        for line in r.text().lines().filter(|l| l.starts_with("diagnosis") || l.starts_with("note")) {
+            eprintln!("  report: {line}");
+        }
         eprintln!("  truth N {:.4e} B {:.4e} K {:.4e}", c.model.n_deg_per_rt_s, c.model.b_dps, c.model.k_dps_per_rt_s);
         for v in &r.base_eval.training {
             let zs: Vec<String> =

@@ -522,7 +522,7 @@ impl GapReport {
                 if let Some(h) = self.holdout.filter(|h| rank::shrink_if_right(h.gap_before) < WEAK_HOLDOUT_SHRINK) {
                     let _ = writeln!(
                         s,
-                        "note: the holdout's gap before a fix is only {:.2}; a model that is right scores about {:.0} (its RMS z is a draw about 1), so the shrink to expect of it is about {:.0}%, and a smaller shrink here is weak evidence against the effect",
+                        "note: the holdout's gap before a fix is only {:.2}, and a model that is right still scores about {:.0} there (an RMS z), so about {:.0}% is the shrink to expect even of the right effect; a smaller shrink here is weak evidence against it",
                         h.gap_before,
                         rank::RIGHT_MODEL_GAP,
                         100.0 * rank::shrink_if_right(h.gap_before)
