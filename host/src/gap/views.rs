@@ -35,8 +35,8 @@
 //! Gauss-Markov plateau parts from the random walk the base fit gave its hump. The multitaper estimate (five
 //! sine tapers on the block means of the whole part, as the temperature view) keeps the leakage of strong low
 //! frequencies local; its values are in (deg/s)^2/Hz like the Welch levels', so the view is one spectrum.
-//! The block means are detrended first (their least-squares line removed, as Percival and Walden advise for
-//! red spectra): a random walk's or a ramp's line over the part is no stationary noise, and through the
+//! The block means are detrended first (their least-squares line removed, as is usual before estimating a red
+//! spectrum): a random walk's or a ramp's line over the part is no stationary noise, and through the
 //! antisymmetric tapers it lands in the lowest bands. Centred only, the lowest three bands of a random walk
 //! (40 draws, white noise beside it) read 0.7-1.0 higher in ln and scattered by 0.71-0.84; detrended, by
 //! 0.51-0.73. A Gauss-Markov plateau or a slow sinusoid stands out further against the base fit's random walk
