@@ -126,7 +126,17 @@ fn draw(effect: Option<Effect>, seed: u64) -> Case {
             fs = (N_SAMPLES as f64 / (100.0 * t)).min(200.0);
             let sigma = uniform(&mut rng, 3.0, 6.0) * base_adev(&model, 2.0 * t) / 0.62;
             model.gauss_markov = Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t });
-            signature_s = [0.2 * t, 20.0 * t];
+            // From the hump's rise to where the process's Allan variance falls below a fifth of the base terms'
+            // (the share the estimator asks of it), and at least 20 T. Beyond a few T the process is white noise
+            // of 2 sigma^2 T / tau in AVAR: a fast one (T of 0.13 s against a base fit pinned at the first taus)
+            // shows as white noise the base fit's N lacks, decades past its hump.
+            let gm_avar = |tau: f64| 2.0 * sigma * sigma * t / tau;
+            let hi = (0..60)
+                .map(|i| 20.0 * t * 1.25f64.powi(i))
+                .take_while(|&tau| gm_avar(tau) >= 0.2 * base_adev(&model, tau).powi(2))
+                .last()
+                .unwrap_or(20.0 * t);
+            signature_s = [0.2 * t, hi];
             what = format!("sigma {sigma:.3e} T {t:.3e}");
         }
         Some(Effect::Bandwidth) => {
