@@ -4,7 +4,7 @@ use octavar_shared::sim::{GyroSim, TempCoupling};
 use serde_json::json;
 
 use super::common::*;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, ParamSpread, TrainingData};
 
 /// Bias coupled to the temperature through a first-order thermal lag.
 ///
@@ -124,6 +124,16 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         return None;
     }
     let se = gls_sd(&tapers, &xt, &s2, sxx, dt, |f| spectrum_at(&squares, f));
+    // The frequency the estimate rests on: the GLS weights' mean, where the lag's phase is read.
+    let (mut fw, mut w) = (0.0, 0.0);
+    for (xr, xi) in &xt {
+        for k in 1..=half {
+            let wk = (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k];
+            fw += wk * k as f64 * df;
+            w += wk;
+        }
+    }
+    let f_hz = if w > 0.0 { fw / w } else { 0.0 };
     if !(k.abs() > 5.0 * se) {
         return None;
     }
@@ -134,11 +144,11 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let gyro = GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c, lag_s: lag }), ..refit };
     Some(EffectFit {
         effect: Effect::Temperature,
-        params: json!({"dps_per_c": k, "lag_s": lag, "ref_c": ref_c, "t_stat": k / se}),
+        params: json!({"dps_per_c": k, "lag_s": lag, "ref_c": ref_c, "t_stat": k / se, "dps_per_c_se": se}),
         n_params: 2,
         gyro,
         channel: None,
-        spread: None,
+        spread: (f_hz > 0.0 && se > 0.0).then_some(ParamSpread::Coupling { se_dps_per_c: se, f_hz }),
     })
 }
 

@@ -192,7 +192,7 @@ fn sinusoid_amplitude_standard_error_is_its_scatter() {
     let sine = Sinusoid { amplitude_dps: 0.01, period_s: 80.0, phase_rad: 0.3 };
     let se_of = |e: &EffectFit| match &e.spread {
         Some(ParamSpread::Sinusoids { se, .. }) => se[0][0],
-        None => panic!("no spread: {:?}", e.params),
+        _ => panic!("no sinusoids' spread: {:?}", e.params),
     };
     let mut white = GyroSim { n_deg_per_rt_s: 0.01, ..Default::default() };
     white.sinusoids.push(sine).unwrap();
@@ -299,4 +299,40 @@ fn outliers_recovered() {
     let size = 10.0 * 0.01 * fs.sqrt();
     // Tolerance: 25% on the rate (100 events), 5% on the size.
     assert!(rel(o.per_sample, 1e-4) < 0.25 && rel(o.size_dps, size) < 0.05, "{o:?}");
+}
+
+/// A coupling's spread draws its in-band complex coefficient, `k` through the lag's gain and phase at the
+/// estimate's frequency, from a circular Gaussian about the fitted one whose parts each have the standard
+/// error through the same gain: 4000 members' coefficients and lags, read back to in-phase and quadrature
+/// parts, have that mean (within 4 standard errors of a mean) and that sd (within 5%, about 4 sds of an sd).
+#[test]
+fn a_couplings_members_draw_its_in_band_coefficient() {
+    let (k, lag, f, se) = (0.01, 100.0, 1.0 / 1000.0, 0.0012);
+    let w = 2.0 * std::f64::consts::PI * f;
+    let parts = |k: f64, lag: f64| -> [f64; 2] {
+        let phase = (w * lag).atan();
+        [k * phase.cos() * phase.cos(), k * phase.cos() * phase.sin()]
+    };
+    let gyro =
+        GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c: 23.0, lag_s: lag }), ..Default::default() };
+    let spread = ParamSpread::Coupling { se_dps_per_c: se, f_hz: f };
+    let n = 4000;
+    let drawn: Vec<[f64; 2]> = (0..n as u64)
+        .map(|seed| {
+            let c = spread.draw(&gyro, seed).temperature.unwrap();
+            parts(c.dps_per_c, c.lag_s)
+        })
+        .collect();
+    let fitted = parts(k, lag);
+    let gain = (w * lag).atan().cos();
+    for i in 0..2 {
+        let mean = drawn.iter().map(|p| p[i]).sum::<f64>() / n as f64;
+        let sd = (drawn.iter().map(|p| (p[i] - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+        assert!(
+            (mean - fitted[i]).abs() < 4.0 * se * gain / (n as f64).sqrt(),
+            "part {i}: mean {mean} vs {}",
+            fitted[i]
+        );
+        assert!((sd / (se * gain) - 1.0).abs() < 0.05, "part {i}: sd {sd} vs {}", se * gain);
+    }
 }
