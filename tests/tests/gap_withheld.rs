@@ -372,11 +372,14 @@ fn passes(effect: Option<Effect>, o: &Outcome) -> bool {
     }
 }
 
+/// Every effect, then the controls (`None`).
+fn every_case() -> Vec<Option<Effect>> {
+    Effect::ALL.iter().map(|&e| Some(e)).chain([None]).collect()
+}
+
 /// Run `seeds` seeds of every effect and the controls; print one line per case and a summary; return failures.
 fn sweep(seeds: std::ops::Range<u64>) -> Vec<String> {
-    let mut cases: Vec<Option<Effect>> = Effect::ALL.iter().map(|&e| Some(e)).collect();
-    cases.push(None);
-    sweep_of(&cases, seeds)
+    sweep_of(&every_case(), seeds)
 }
 
 /// Like [`sweep`], for some cases only.
@@ -508,13 +511,10 @@ fn estimators_on_cases() {
 #[test]
 #[ignore = "diagnostic: GAP_EFFECTS and GAP_SEEDS choose the cases"]
 fn chosen() {
-    let all = "temperature,sinusoid,bandwidth,gauss_markov,quantization,bias_steps,outliers,none";
-    let effects: Vec<Option<Effect>> = std::env::var("GAP_EFFECTS")
-        .unwrap_or_else(|_| all.to_string())
-        .split(',')
-        .filter(|s| !s.is_empty())
-        .map(Effect::parse)
-        .collect();
+    let effects: Vec<Option<Effect>> = match std::env::var("GAP_EFFECTS") {
+        Ok(list) => list.split(',').filter(|s| !s.is_empty()).map(Effect::parse).collect(),
+        Err(_) => every_case(),
+    };
     let seeds = std::env::var("GAP_SEEDS").unwrap_or_else(|_| "0..2".into());
     let (a, b) = seeds.split_once("..").expect("GAP_SEEDS=a..b");
     let failures = sweep_of(&effects, a.parse().unwrap()..b.parse().unwrap());

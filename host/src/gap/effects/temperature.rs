@@ -124,19 +124,16 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         return None;
     }
     let se = gls_sd(&tapers, &xt, &s2, sxx, dt, |f| spectrum_at(&squares, f));
-    // The frequency the estimate rests on: the GLS weights' mean, where the lag's phase is read.
-    let (mut fw, mut w) = (0.0, 0.0);
-    for (xr, xi) in &xt {
-        for k in 1..=half {
-            let wk = (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k];
-            fw += wk * k as f64 * df;
-            w += wk;
-        }
-    }
-    let f_hz = if w > 0.0 { fw / w } else { 0.0 };
     if !(k.abs() > 5.0 * se) {
         return None;
     }
+    // The frequency the estimate rests on: the mean of the GLS weights |X|^2 / S, whose sum is `sxx`; the lag's
+    // phase is read there.
+    let f_hz = xt
+        .iter()
+        .map(|(xr, xi)| (1..=half).map(|k| (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k] * k as f64 * df).sum::<f64>())
+        .sum::<f64>()
+        / sxx;
     let (refit, _) = refit_base(d.base, &cleaned_of(k, lag), d.fs_hz)?;
     // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
     let c0 = mean(&r) - k * mean(&x);
