@@ -289,6 +289,26 @@ fn bias_steps_recovered() {
     assert!((b.per_hour / 2.0).ln().abs() < 2f64.ln() && (b.sigma_dps / 0.05).ln().abs() < 2f64.ln(), "{b:?}");
 }
 
+/// The bias-step scan's threshold holds on noise without steps: over 40 records of the base gyro's white noise,
+/// flicker and random walk (the robust scale of a red-noise scan statistic is read from few independent
+/// windows, so its peaks reach further than a Gaussian's), no record shows the [`bias_steps::MIN_STEPS`] peaks of
+/// a process, and at most 4 show a single peak beyond the threshold.
+#[test]
+fn bias_step_scan_holds_its_threshold_on_noise() {
+    let fs: f64 = 100.0;
+    let counts: Vec<usize> = (0..40u64)
+        .into_par_iter()
+        .map(|seed| {
+            let (x, _) = simulate(&base_model(), fs, 1 << 18, 500 + seed, None);
+            let l = bias_steps::scan_window(&x, fs).unwrap();
+            bias_steps::mosum_scan(&x, l).unwrap().steps.len()
+        })
+        .collect();
+    let processes = counts.iter().filter(|&&c| c >= bias_steps::MIN_STEPS).count();
+    let singles = counts.iter().filter(|&&c| c > 0).count();
+    assert!(processes == 0 && singles <= 4, "peaks beyond the threshold per record: {counts:?}");
+}
+
 #[test]
 fn outliers_recovered() {
     let fs: f64 = 100.0;
