@@ -99,9 +99,7 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let n = x.len();
     let fs = d.fs_hz;
     let l = scan_window(x, fs)?;
-    let Some(Scan { threshold: thr, steps }) = mosum_scan(x, l) else {
-        return None;
-    };
+    let Scan { threshold: thr, steps } = mosum_scan(x, l)?;
     // A rate and a size distribution need a few steps: one or two are events (a knock, a connector), not a
     // process that a simulation could repeat; CATS gyro_y has one jump, and its gap is the temperature's.
     if steps.len() < MIN_STEPS {
