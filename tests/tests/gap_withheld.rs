@@ -36,7 +36,7 @@
 //! default run checks two seeds per effect and two controls; the full sweep (`full_sweep`, 10 seeds each) is
 //! `#[ignore]`d: `cargo test -p octavar-tests --release gap_withheld::full_sweep -- --ignored`.
 
-use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport, HoldoutCheck};
+use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport, HoldoutCheck, Judge};
 use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::temperature::Thermal;
@@ -334,35 +334,9 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
 /// (gauss_markov 16/20, sinusoid 18/20). On seeds 20-39, which no session tuned on, the oracle passes 136 and
 /// the diagnosis 131.
 fn oracle_holdout_gap(c: &Case, input: &GapInput, loc: &octavar::gap::rank::Location) -> f64 {
-    use octavar::gap::{ensemble, rank, views};
-    let opts = GapOptions::default();
-    let rec = ensemble::Record {
-        rate_dps: &input.rate_dps,
-        temp_c: input.temp_c.as_deref(),
-        fs_hz: input.fs_hz,
-        n_train: input.n_train,
-        oversample: 1,
-    };
-    let seeds: Vec<u64> = (0..opts.seeds as u64).map(|i| opts.first_seed + i).collect();
-    let train_plan = views::Plan::new(rec.training(), rec.training_temp(), rec.fs_hz);
-    let hold_plan = views::Plan::new(rec.holdout(), rec.holdout_temp(), rec.fs_hz);
-    let explained = ensemble::temperature_response(&c.model, &rec);
-    let e = ensemble::simulate(
-        &c.model,
-        None,
-        c.channel.as_ref(),
-        &rec,
-        &train_plan,
-        Some(&hold_plan),
-        &seeds,
-        explained.as_deref(),
-    )
-    .unwrap();
-    let mut real = hold_plan.measure(rec.holdout(), rec.holdout_temp(), true);
-    if let Some(resp) = &explained {
-        real = hold_plan.with_explained(&real, rec.holdout(), rec.holdout_temp(), &resp[rec.n_train..]);
-    }
-    rank::band_gap(&views::compare(&hold_plan, &real, &e.holdout), loc).unwrap_or(f64::NAN)
+    let judge = Judge::new(input, &GapOptions::default());
+    let e = judge.evaluate(&c.model, None, c.channel.as_ref(), "truth").unwrap();
+    octavar::gap::rank::band_gap(&e.holdout, loc).unwrap_or(f64::NAN)
 }
 
 fn passes(effect: Option<Effect>, o: &Outcome) -> bool {

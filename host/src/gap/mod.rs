@@ -9,7 +9,7 @@
 //!    a few times the record's range clipped members whose random walk or ramp wandered further than the
 //!    record's, and their stuck samples read as a heavy-tailed distribution).
 //! 3. **Ensemble** ([`ensemble`]): the model simulated with [`GapOptions::seeds`] seeds over the whole record,
-//!    driven by the real temperature; measured on each part.
+//!    driven by the real temperature; measured on each part and compared with the real record ([`Judge`]).
 //! 4. **Views** ([`views`]): ADEV, PSD, distribution, temperature; z-scores of the real values against the
 //!    ensemble.
 //! 5. **Gap and location** ([`rank`]): the worst view's RMS z over its worst decade of tau, that band, its sign
@@ -39,6 +39,7 @@
 pub mod effects;
 pub mod ensemble;
 pub mod holdout;
+pub mod judge;
 pub mod rank;
 pub mod report;
 pub mod views;
@@ -51,6 +52,7 @@ use crate::fit::{fit, FitError, FitOptions, FitPoint, NoiseFit};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
 
 pub use effects::{Effect, EffectFit};
+pub use judge::{Evaluated, Judge};
 pub use report::{CandidateResult, GapReport, HoldoutCheck, PartGap};
 pub use views::{ViewGap, ViewKind};
 
@@ -241,62 +243,26 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         return Err(GapError::TooShort { part: "holdout", n: n_hold, needed: MIN_PART });
     }
     let fs = input.fs_hz;
-    let temp = input.temp_c.as_deref().map(fill_gaps);
-    let rec = ensemble::Record {
-        rate_dps: &input.rate_dps,
-        temp_c: temp.as_deref(),
-        fs_hz: fs,
-        n_train,
-        oversample: opts.oversample.max(1),
-    };
     let predictive = has_holdout && opts.holdout_check == HoldoutCheck::Predictive;
     let total_steps = 2 + opts.effects.len() + usize::from(predictive);
     progress("base fit", 0, total_steps);
 
     // Base model on the training part.
-    let training = rec.training();
+    let training = &input.rate_dps[..n_train];
     let (real_adev, base_fit) = match &opts.base_fit {
         Some(f) => (training_adev(training, fs)?, f.clone()),
         None => fit_base(training, fs, &opts.fit)?,
     };
     let base = base_model(&base_fit, training);
     let channel = opts.channel;
-    let seeds: Vec<u64> = (0..opts.seeds as u64).map(|i| opts.first_seed + i).collect();
 
-    // Plans and the real measures.
-    let train_plan = views::Plan::new(training, rec.training_temp(), fs);
-    let hold_plan = has_holdout.then(|| views::Plan::new(rec.holdout(), rec.holdout_temp(), fs));
-    let real_train = train_plan.measure(training, rec.training_temp(), true);
-    let real_hold = hold_plan.as_ref().map(|p| p.measure(rec.holdout(), rec.holdout_temp(), true));
+    // Plans and the real measures, against which every model is judged.
+    let judge = Judge::new(input, opts);
+    let rec = judge.record();
+    let seeds = judge.seeds();
     progress("base fit", 1, total_steps);
 
-    let run = |gyro: &GyroSim,
-               spread: Option<&effects::ParamSpread>,
-               ch: Option<&Channel>,
-               name: &str|
-     -> Result<Evaluated, GapError> {
-        // A model with a temperature coupling is judged in the temperature view on what its coupling leaves, on
-        // the real record as on each member.
-        let explained = ensemble::temperature_response(gyro, &rec);
-        let e =
-            ensemble::simulate(gyro, spread, ch, &rec, &train_plan, hold_plan.as_ref(), &seeds, explained.as_deref())
-                .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
-        let remeasured = explained.as_ref().map(|resp| {
-            let (resp_train, resp_hold) = resp.split_at(n_train);
-            let train = train_plan.with_explained(&real_train, training, rec.training_temp(), resp_train);
-            let hold = hold_plan
-                .as_ref()
-                .zip(real_hold.as_ref())
-                .map(|(p, m)| p.with_explained(m, rec.holdout(), rec.holdout_temp(), resp_hold));
-            (train, hold)
-        });
-        let (train, hold) = match &remeasured {
-            Some((t, h)) => (t, h.as_ref()),
-            None => (&real_train, real_hold.as_ref()),
-        };
-        Ok(Evaluated::new(&train_plan, train, hold_plan.as_ref(), hold, e))
-    };
-    let base_eval = run(&base, None, channel.as_ref(), "base")?;
+    let base_eval = judge.evaluate(&base, None, channel.as_ref(), "base")?;
     progress("base ensemble", 2, total_steps);
 
     // Candidates: estimate all (in parallel), then simulate each.
@@ -313,7 +279,9 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let mut candidates = Vec::new();
     for (i, (effect, f)) in fits.into_iter().enumerate() {
         let eval = match &f {
-            Some(f) => Some(run(&f.gyro, f.spread.as_ref(), f.channel.or(channel).as_ref(), effect.name())?),
+            Some(f) => {
+                Some(judge.evaluate(&f.gyro, f.spread.as_ref(), f.channel.or(channel).as_ref(), effect.name())?)
+            }
             None => None,
         };
         candidates.push((effect, f, eval));
@@ -324,7 +292,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         n_train,
         n_holdout: n_hold,
         seeds: opts.seeds,
-        has_temperature: temp.is_some(),
+        has_temperature: input.temp_c.is_some(),
         channel,
         base,
         base_fit,
@@ -334,7 +302,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     });
 
     // The held-out check against predictive ensembles (see [`holdout`]).
-    if let (true, Some(hp), Some(real_hold)) = (predictive, hold_plan.as_ref(), real_hold.as_ref()) {
+    if let (true, Some(hp), Some(real_hold)) = (predictive, judge.hold_plan(), judge.real_holdout()) {
         let learner = holdout::Learner {
             fs_hz: fs,
             temp_c: rec.training_temp(),
@@ -348,7 +316,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
             Some(_) => None,
             None => {
                 let relearn = |t: &[f64]| (learner.base(t).1, channel);
-                let m = ensemble::predict_holdout(&report.base, channel.as_ref(), &rec, hp, &seeds, None, &relearn)
+                let m = ensemble::predict_holdout(&report.base, channel.as_ref(), &rec, hp, seeds, None, &relearn)
                     .map_err(|err| GapError::Sim { model: "base".into(), err })?;
                 Some(views::compare(hp, real_hold, &m))
             }
@@ -361,7 +329,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                 let resp_hold = explained.as_deref().map(|r| &r[n_train..]);
                 let relearn = |t: &[f64]| learner.with_effect(effect, t);
                 let ch = f.channel.or(channel);
-                let m = ensemble::predict_holdout(&f.gyro, ch.as_ref(), &rec, hp, &seeds, resp_hold, &relearn)
+                let m = ensemble::predict_holdout(&f.gyro, ch.as_ref(), &rec, hp, seeds, resp_hold, &relearn)
                     .map_err(|err| GapError::Sim { model: effect.name().to_string(), err })?;
                 // The real holdout as this model was judged on it (less its own temperature response).
                 eval.real_holdout.as_ref().map(|real| views::compare(hp, real, &m))
@@ -390,49 +358,6 @@ pub(crate) fn fit_base(training: &[f64], fs_hz: f64, opts: &FitOptions) -> Resul
         .collect();
     let f = fit(&pts, opts)?;
     Ok((real_adev, f))
-}
-
-/// One model's ensemble, compared with the real record on both parts.
-#[derive(Clone, Debug)]
-pub struct Evaluated {
-    /// Views on the training part.
-    pub training: Vec<ViewGap>,
-    /// Views on the holdout part (empty without a holdout).
-    pub holdout: Vec<ViewGap>,
-    /// The ensemble's OADEV band on the training part: (tau, min, max).
-    pub adev_band: Vec<(f64, f64, f64)>,
-    /// The real holdout's measure this model was compared with (for a model with a temperature coupling, less
-    /// the coupling's response); `None` without a holdout.
-    pub real_holdout: Option<views::Measure>,
-}
-
-impl Evaluated {
-    fn new(
-        train_plan: &views::Plan,
-        real_train: &views::Measure,
-        hold_plan: Option<&views::Plan>,
-        real_hold: Option<&views::Measure>,
-        e: ensemble::Ensemble,
-    ) -> Evaluated {
-        let training = views::compare(train_plan, real_train, &e.training);
-        let holdout = match (hold_plan, real_hold) {
-            (Some(p), Some(r)) => views::compare(p, r, &e.holdout),
-            _ => Vec::new(),
-        };
-        let adev_band = train_plan.points[0]
-            .iter()
-            .enumerate()
-            .filter_map(|(i, info)| {
-                let v: Vec<f64> = e.training.iter().map(|m| m.adev[i]).filter(|x| x.is_finite() && *x > 0.0).collect();
-                (!v.is_empty()).then(|| {
-                    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-                    let hi = v.iter().copied().fold(0.0, f64::max);
-                    (info.tau_s, lo, hi)
-                })
-            })
-            .collect();
-        Evaluated { training, holdout, adev_band, real_holdout: real_hold.cloned() }
-    }
 }
 
 /// The base simulation model of a fit: every fitted term ([`NoiseFit::sim_terms`]), with the mean of `training`
