@@ -519,14 +519,8 @@ impl GapReport {
                     );
                 }
                 let _ = writeln!(s, ")");
-                if let Some(h) = self.holdout.filter(|h| rank::shrink_if_right(h.gap_before) < WEAK_HOLDOUT_SHRINK) {
-                    let _ = writeln!(
-                        s,
-                        "note: the holdout's gap before a fix is only {:.2}, and a model that is right still scores about {:.0} there (an RMS z), so about {:.0}% is the shrink to expect even of the right effect; a smaller shrink here is weak evidence against it",
-                        h.gap_before,
-                        rank::RIGHT_MODEL_GAP,
-                        100.0 * rank::shrink_if_right(h.gap_before)
-                    );
+                if let Some(note) = self.holdout.as_ref().and_then(weak_holdout_note) {
+                    let _ = writeln!(s, "{note}");
                 }
             }
             (None, false) => {
@@ -577,5 +571,38 @@ fn compact(v: &Value) -> String {
             .collect::<Vec<_>>()
             .join(" "),
         other => other.to_string(),
+    }
+}
+
+/// The report's `note:` line when the holdout's gap before a fix is too small for a right model to shrink it by
+/// [`WEAK_HOLDOUT_SHRINK`] (see [`rank::shrink_if_right`]); `None` when it is large enough.
+fn weak_holdout_note(h: &PartGap) -> Option<String> {
+    let expected = rank::shrink_if_right(h.gap_before);
+    (expected < WEAK_HOLDOUT_SHRINK).then(|| {
+        format!(
+            "note: the holdout's gap before a fix is only {:.2}, and a model that is right still scores about {:.0} there (an RMS z), so about {:.0}% is the shrink to expect even of the right effect; a smaller shrink here is weak evidence against it",
+            h.gap_before,
+            rank::RIGHT_MODEL_GAP,
+            100.0 * expected
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The note appears exactly below a gap of 1 / (1 - 0.7) = 3.33 before a fix, and states the shrink a right
+    /// model (RMS z of 1 after) would reach: 1 - 1/1.8 = 44% at 1.8.
+    #[test]
+    fn a_weak_holdout_gets_a_note_with_the_shrink_a_right_model_reaches() {
+        let part = |before: f64| PartGap::new(before, 1.0);
+        let note = weak_holdout_note(&part(1.8)).expect("a note at 1.8");
+        assert!(note.starts_with("note:") && note.contains("only 1.80") && note.contains("about 44%"), "{note}");
+        assert!(weak_holdout_note(&part(3.30)).is_some());
+        assert!(weak_holdout_note(&part(3.36)).is_none());
+        assert!(weak_holdout_note(&part(12.0)).is_none());
+        // A holdout that shows no gap at all: a right model cannot shrink it, and the note says 0%, not a negative.
+        assert!(weak_holdout_note(&part(0.8)).unwrap().contains("about 0%"));
     }
 }
