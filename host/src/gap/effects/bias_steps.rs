@@ -94,8 +94,9 @@ pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
 /// truncated-normal likelihood of the sizes seen beyond the threshold, and the rate from the count divided by the
 /// detection probability (at least 0.2); fewer than three steps are events, not a process, and give no fit (a
 /// moment fit from D's fourth cumulant was tried for a record that shows fewer: over 16 blocks its t-statistic
-/// was 1.4-3.2 on the withheld step records of seeds 20-39 and up to 4.8 on the controls, no test at all). The base terms are re-fitted on the record without the
-/// detected steps (the base fit took their random-walk-like Allan variance, `lambda sigma^2 tau / 3`, for K).
+/// was 1.4-3.2 on the withheld step records of seeds 20-39 and up to 4.8 on the controls, no test at all). The
+/// base terms are re-fitted on the record without the detected steps (the base fit took their random-walk-like
+/// Allan variance, `lambda sigma^2 tau / 3`, for K).
 pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n = x.len();
