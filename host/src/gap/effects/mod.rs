@@ -151,9 +151,10 @@ pub enum ParamSpread {
     /// A temperature coupling's: the standard error of its coefficient and the frequency its estimate rests on
     /// (the GLS weights' mean). At that frequency the coupling is one complex coefficient, `k` through the lag's
     /// gain and phase; its in-phase and quadrature parts are each uncertain by the standard error through the
-    /// same gain, so a member draws both and reads its coefficient and lag back. Without it a coupling one
-    /// standard error off (9% low with its lag at 7 s for 59 s, withheld temperature seed 34) leaves a residual
-    /// that the temperature view's coherence, which no member of the fitted coupling shares, reads as a gap of 8.
+    /// same gain, so a member draws both and reads its coefficient and lag back. Without it a coupling estimated
+    /// off its truth leaves a residual that the temperature view's coherence, which no member of the fitted
+    /// coupling shares, reads as a gap (8 on withheld temperature seed 34, read 9% low with its lag at 7 s for
+    /// 59 s; with the draw, 4: that training half's own GLS likelihood puts the truth some 2.8 sds out).
     Coupling {
         /// Standard error of the coefficient, deg/s per degC.
         se_dps_per_c: f64,
