@@ -153,8 +153,9 @@ pub enum ParamSpread {
     /// gain and phase; its in-phase and quadrature parts are each uncertain by the standard error through the
     /// same gain, so a member draws both and reads its coefficient and lag back. Without it a coupling estimated
     /// off its truth leaves a residual that the temperature view's coherence, which no member of the fitted
-    /// coupling shares, reads as a gap (8 on withheld temperature seed 34, read 9% low with its lag at 7 s for
-    /// 59 s; with the draw, 4: that training half's own GLS likelihood puts the truth some 2.8 sds out).
+    /// coupling shares, reads as a gap (withheld temperature seed 34, read 9% low with its lag at 7 s for 59 s:
+    /// 4.70 held out after the fix without the draw, 4.05 with it; that training half's own GLS likelihood puts
+    /// the truth some 2.8 sds out, further than the draw reaches).
     Coupling {
         /// Standard error of the coefficient, deg/s per degC.
         se_dps_per_c: f64,
