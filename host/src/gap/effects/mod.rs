@@ -154,8 +154,8 @@ pub enum ParamSpread {
     /// same gain, so a member draws both and reads its coefficient and lag back. Without it a coupling estimated
     /// off its truth leaves a residual that the temperature view's coherence, which no member of the fitted
     /// coupling shares, reads as a gap (withheld temperature seed 34, read 9% low with its lag at 7 s for 59 s:
-    /// about 4.7 held out after the fix without the draw (a shrink of 0.57), 4.05 with it; that training half's own GLS likelihood puts
-    /// the truth some 2.8 sds out, further than the draw reaches).
+    /// about 4.7 held out after the fix without the draw, a shrink of 0.57, and 4.05 with it; that training
+    /// half's own GLS likelihood puts the truth some 2.8 sds out, further than the draw reaches).
     Coupling {
         /// Standard error of the coefficient, deg/s per degC.
         se_dps_per_c: f64,
