@@ -127,9 +127,11 @@ pub struct ChannelRun {
     pub temp_c: Vec<f64>,
 }
 
-/// Run a bench for `samples` scans and accumulate each channel's codes as the firmware does (S = 8). Channels
-/// run in parallel (rayon, one per core), each with [`Bench::only_channel`], which gives exactly the samples the
-/// whole bench would. `progress` receives the scans done so far (averaged over channels).
+/// Run a bench for `samples` scans and accumulate each channel's codes as the firmware does (S = 8). The channels
+/// are split into as many groups as rayon has threads (two on a 2-core machine: channels 0-1 and 2-3), and the
+/// groups run in parallel, each with [`Bench::only_channels`], which gives exactly the samples the whole bench
+/// would; a group computes the bench temperature once for all of its channels. `progress` receives the scans done
+/// so far (averaged over channels).
 ///
 /// # Errors
 /// The model's own errors ([`octavar_shared::sim::SimError`]).
@@ -140,49 +142,76 @@ pub fn accumulate_bench(
     decimate: u64,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Vec<ChannelRun>, octavar_shared::sim::SimError> {
-    let n_ch = model.channels.len() as u64;
+    let n_ch = model.channels.len();
+    let per_group = n_ch.div_ceil(rayon::current_num_threads().max(1)).max(1);
+    let indices: Vec<usize> = (0..n_ch).collect();
     let done = AtomicU64::new(0);
+    let groups: Vec<Vec<ChannelRun>> = indices
+        .par_chunks(per_group)
+        .map(|group| {
+            let bench = Bench::only_channels(model, group)?;
+            Ok(accumulate_group(bench, samples, snapshot_every, decimate, &|n| {
+                let total = done.fetch_add(n, Ordering::Relaxed) + n;
+                progress(total / n_ch as u64);
+            }))
+        })
+        .collect::<Result<_, octavar_shared::sim::SimError>>()?;
+    Ok(groups.into_iter().flatten().collect())
+}
+
+/// [`accumulate_bench`] for one group of channels on one thread: `done` receives the channel-samples of each
+/// block as it ends.
+fn accumulate_group(
+    mut bench: Bench,
+    samples: u64,
+    snapshot_every: u64,
+    decimate: u64,
+    done: &dyn Fn(u64),
+) -> Vec<ChannelRun> {
+    const BLOCK: usize = 8000;
     let every = snapshot_every.max(1);
     let decimate = decimate.max(1);
-    (0..model.channels.len())
-        .into_par_iter()
-        .map(|i| {
-            let mut bench = Bench::only_channel(model, i)?;
-            let channel = bench.channels()[0];
-            let mut acc = Box::new(OctaveAllan::<STRIDE>::new());
-            let mut run = ChannelRun { snapshots: Vec::new(), rate_dps: Vec::new(), temp_c: Vec::new() };
-            let (mut sum_code, mut sum_temp, mut in_block) = (0u64, 0.0f64, 0u64);
-            const BLOCK: u64 = 8000;
-            let mut block = [0u16; BLOCK as usize];
-            while acc.count() < samples {
-                // Blocks end on snapshot instants, as the firmware's rounds do.
-                let to_snap = every - acc.count() % every;
-                let n = BLOCK.min(samples - acc.count()).min(to_snap) as usize;
-                for c in block.iter_mut().take(n) {
-                    let s = bench.next_sample();
-                    *c = s.codes[0];
-                    sum_code += u64::from(s.codes[0]);
-                    sum_temp += s.temp_c;
-                    in_block += 1;
-                    if in_block == decimate {
-                        // The mean of the codes, converted through the (affine) channel model.
-                        let mean = sum_code as f64 / decimate as f64;
-                        let lo = channel.code_to_dps(0);
-                        run.rate_dps.push(lo + mean * (channel.code_to_dps(1) - lo));
-                        run.temp_c.push(sum_temp / decimate as f64);
-                        (sum_code, sum_temp, in_block) = (0, 0.0, 0);
-                    }
-                }
-                acc.push_slice(&block[..n]);
-                if acc.count() % every == 0 || acc.count() == samples {
-                    run.snapshots.push(acc.snapshot());
-                }
-                let total = done.fetch_add(n as u64, Ordering::Relaxed) + n as u64;
-                progress(total / n_ch);
+    let channels = bench.channels().to_vec();
+    let k = channels.len();
+    let mut accs: Vec<Box<OctaveAllan<STRIDE>>> = (0..k).map(|_| Box::new(OctaveAllan::new())).collect();
+    let mut runs = vec![ChannelRun { snapshots: Vec::new(), rate_dps: Vec::new(), temp_c: Vec::new() }; k];
+    let mut blocks = vec![[0u16; BLOCK]; k];
+    let (mut sum_codes, mut sum_temp, mut in_block) = (vec![0u64; k], 0.0f64, 0u64);
+    let mut count = 0u64;
+    while count < samples {
+        // Blocks end on snapshot instants, as the firmware's rounds do.
+        let to_snap = every - count % every;
+        let n = (BLOCK as u64).min(samples - count).min(to_snap) as usize;
+        for j in 0..n {
+            let s = bench.next_sample();
+            for ((block, sum), &code) in blocks.iter_mut().zip(&mut sum_codes).zip(s.codes()) {
+                block[j] = code;
+                *sum += u64::from(code);
             }
-            Ok(run)
-        })
-        .collect()
+            sum_temp += s.temp_c;
+            in_block += 1;
+            if in_block == decimate {
+                for ((run, sum), ch) in runs.iter_mut().zip(&mut sum_codes).zip(&channels) {
+                    // The mean of the codes, converted through the (affine) channel model.
+                    let mean = *sum as f64 / decimate as f64;
+                    let lo = ch.code_to_dps(0);
+                    run.rate_dps.push(lo + mean * (ch.code_to_dps(1) - lo));
+                    run.temp_c.push(sum_temp / decimate as f64);
+                    *sum = 0;
+                }
+                (sum_temp, in_block) = (0.0, 0);
+            }
+        }
+        count += n as u64;
+        for ((acc, block), run) in accs.iter_mut().zip(&blocks).zip(&mut runs) {
+            acc.push_slice(&block[..n]);
+            if count.is_multiple_of(every) || count == samples {
+                run.snapshots.push(acc.snapshot());
+            }
+        }
+        done((n * k) as u64);
+    }
+    runs
 }
 
 /// The device's frames for the snapshots of every channel: a hello (the demo's channels in bench order, its
@@ -388,6 +417,52 @@ mod tests {
         let mid = bad.len() / 2;
         bad[mid] ^= 0x40;
         assert!(last_snapshots(&bad, 4).is_err());
+    }
+
+    /// The grouped, blocked run equals the plainest replay: the whole bench scan by scan, every code pushed into
+    /// its channel's accumulator one at a time, a snapshot at every `every` samples and at the end, the block
+    /// means formed from the scans. Run on one thread and on two, so that one group of four and two groups of two
+    /// are both checked, with a snapshot interval that is no multiple of the block.
+    #[test]
+    fn grouped_runs_equal_the_whole_bench_replayed_scan_by_scan() {
+        let mut model = paper_bench(5);
+        model.fs_hz = 200.0;
+        let (samples, every, decimate) = (23_456u64, 9_001u64, 200u64);
+        let mut bench = Bench::new(&model).unwrap();
+        let mut accs: Vec<OctaveAllan<STRIDE>> = (0..4).map(|_| OctaveAllan::new()).collect();
+        let mut want = vec![ChannelRun { snapshots: Vec::new(), rate_dps: Vec::new(), temp_c: Vec::new() }; 4];
+        let (mut sums, mut temp) = ([0u64; 4], 0.0);
+        for t in 1..=samples {
+            let s = bench.next_sample();
+            temp += s.temp_c;
+            for (i, acc) in accs.iter_mut().enumerate() {
+                acc.push(s.codes[i]);
+                sums[i] += u64::from(s.codes[i]);
+                if t % every == 0 || t == samples {
+                    want[i].snapshots.push(acc.snapshot());
+                }
+            }
+            if t % decimate == 0 {
+                for (i, run) in want.iter_mut().enumerate() {
+                    let ch = bench.channels()[i];
+                    let lo = ch.code_to_dps(0);
+                    run.rate_dps.push(lo + sums[i] as f64 / decimate as f64 * (ch.code_to_dps(1) - lo));
+                    run.temp_c.push(temp / decimate as f64);
+                    sums[i] = 0;
+                }
+                temp = 0.0;
+            }
+        }
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let got = pool.install(|| accumulate_bench(&model, samples, every, decimate, &|_| {})).unwrap();
+            assert_eq!(got.len(), 4);
+            for (g, w) in got.iter().zip(&want) {
+                assert_eq!(g.snapshots, w.snapshots, "{threads} thread(s)");
+                assert_eq!((&g.rate_dps, &g.temp_c), (&w.rate_dps, &w.temp_c), "{threads} thread(s)");
+            }
+        }
+        assert_eq!(want[0].snapshots.len(), 3);
     }
 
     #[test]

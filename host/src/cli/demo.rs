@@ -10,6 +10,8 @@ use octavar::demo::{self, BENCH_RATE_HZ};
 use octavar::fit::Term;
 use octavar::plot;
 
+use rayon::prelude::*;
+
 use super::progress::Progress;
 
 /// The main job: the paper's experiment on the built-in virtual bench. Four gyros (ENV-05H, IDG1215 Y, IDG1215 X,
@@ -131,13 +133,24 @@ impl Args {
             "{:<10} {:>13} {:>12} {:>22} {:>24} {:>10}",
             "channel", "effect", "view", "band (s)", "held-out gap -> after", "shrink"
         )?;
-        for (run, r) in runs.iter().zip(&results) {
-            let bar = Progress::new(1, &format!("gap {}", r.paper.label));
-            let report = demo::diagnose_channel(run, &r.paper, &|_, done, total| {
-                bar.set_length(total as u64);
-                bar.set(done as u64);
-            })?;
-            bar.finish();
+        // The four diagnoses run at once (each also runs its ensemble's members in parallel): a diagnosis has
+        // serial stretches (the fits, the views of the record) that the others fill.
+        let group = indicatif::MultiProgress::new();
+        let reports: Vec<_> = runs
+            .par_iter()
+            .zip(results.par_iter())
+            .map(|(run, r)| {
+                let bar = Progress::in_group(&group, 1, &format!("gap {}", r.paper.label));
+                let report = demo::diagnose_channel(run, &r.paper, &|_, done, total| {
+                    bar.set_length(total as u64);
+                    bar.set(done as u64);
+                });
+                bar.finish();
+                report
+            })
+            .collect();
+        for (report, r) in reports.into_iter().zip(&results) {
+            let report = report?;
             let slug: String = r
                 .paper
                 .label

@@ -1,6 +1,6 @@
 //! A progress bar on stderr for long work; invisible when stderr is not a terminal.
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
 /// A progress bar over a known number of items.
 pub struct Progress(ProgressBar);
@@ -16,6 +16,11 @@ impl Progress {
         );
         bar.set_message(what.to_string());
         Progress(bar)
+    }
+
+    /// A bar for `total` items, labelled `what`, drawn with the other bars of `group` (work running at once).
+    pub fn in_group(group: &MultiProgress, total: u64, what: &str) -> Self {
+        Progress(group.add(Progress::new(total, what).0))
     }
 
     /// Items done so far.

@@ -85,16 +85,25 @@ impl Bench {
     /// # Errors
     /// As [`Bench::new`]; [`SimError::InvalidParameter`] for an index past the last channel.
     pub fn only_channel(model: &BenchSim, index: usize) -> Result<Self, SimError> {
+        Bench::only_channels(model, &[index])
+    }
+
+    /// A bench that runs only the channels `indices` of `model` (in that order), with the same seeds and the
+    /// same temperature: channel k of its scans carries exactly the samples channel `indices[k]` has in the full
+    /// bench. Groups of channels can so run in parallel, each computing the bench temperature once for all of
+    /// its channels.
+    ///
+    /// # Errors
+    /// As [`Bench::new`]; [`SimError::InvalidParameter`] for an index past the last channel or more indices than
+    /// a bench has channels.
+    pub fn only_channels(model: &BenchSim, indices: &[usize]) -> Result<Self, SimError> {
         let mut full = Bench::new(model)?;
-        if index >= full.gyros.len() {
+        if indices.len() > MAX_CHANNELS || indices.iter().any(|&i| i >= full.gyros.len()) {
             return Err(SimError::InvalidParameter("channel index"));
         }
-        let g = full.gyros.swap_remove(index);
-        let c = full.channels.swap_remove(index);
-        full.gyros.clear();
-        full.channels.clear();
-        let _ = full.gyros.push(g);
-        let _ = full.channels.push(c);
+        let gyros = indices.iter().map(|&i| full.gyros[i].clone()).collect();
+        let channels = indices.iter().map(|&i| full.channels[i]).collect();
+        (full.gyros, full.channels) = (gyros, channels);
         Ok(full)
     }
 
@@ -173,6 +182,13 @@ mod only_channel_tests {
             }
         }
         assert!(Bench::only_channel(&model, 3).is_err());
+        // A group, in its own order.
+        let group = Bench::only_channels(&model, &[2, 0]).unwrap();
+        for (g, f) in group.take(512).zip(&full) {
+            assert_eq!((g.len, g.codes[0], g.codes[1]), (2, f.codes[2], f.codes[0]));
+            assert_eq!(g.temp_c, f.temp_c);
+        }
+        assert!(Bench::only_channels(&model, &[0, 3]).is_err());
     }
 }
 
