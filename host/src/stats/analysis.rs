@@ -240,6 +240,41 @@ pub fn strided_avar_edf(alpha: i32, m: f64, stride_factor: f64, n_phase: f64) ->
 mod tests {
     use super::*;
 
+    /// The same record gives the same bits on one thread and on several, for each path of the parallel sums: the
+    /// phase-free octave OADEV, OADEV at decade taus (the fused sums and the far levels), OHDEV (the blocked
+    /// pass) and the phase-data OADEV. With rayon's fold and reduce, the last bits moved with the threads.
+    #[test]
+    fn results_do_not_depend_on_the_number_of_threads() {
+        let white = crate::test_signals::white(1 << 20, 8);
+        let mut walk = 0.0;
+        let y: Vec<f64> = white
+            .iter()
+            .map(|w| {
+                walk += 1e-3 * w;
+                w + walk
+            })
+            .collect();
+        let opts = Options::default();
+        let cases = [
+            (DataKind::Frequency, Statistic::Oadev, TauSpec::Octave),
+            (DataKind::Frequency, Statistic::Oadev, TauSpec::Explicit(vec![1.0, 3.0, 40_000.0, 2.0 * 16_384.0])),
+            (DataKind::Frequency, Statistic::Ohdev, TauSpec::Octave),
+            (DataKind::Phase, Statistic::Oadev, TauSpec::Decade),
+        ];
+        for (kind, stat, taus) in cases {
+            let run = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let rows = pool.install(|| analyze(&y, kind, 1.0, stat, &taus, &opts).unwrap());
+                rows.iter().map(|r| (r.m, r.dev.to_bits(), r.lo.to_bits())).collect::<Vec<_>>()
+            };
+            let one = run(1);
+            assert!(one.len() >= 4, "{stat:?} {taus:?}: {} taus", one.len());
+            for threads in [2, 3, 4] {
+                assert_eq!(run(threads), one, "{kind:?} {stat:?} {taus:?} on {threads} threads");
+            }
+        }
+    }
+
     /// Process CPU time, s (both cores summed): steadier than wall time on a loaded machine.
     fn cpu_s() -> f64 {
         let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };

@@ -14,6 +14,7 @@
 
 use rayon::prelude::*;
 
+use super::ordered::{ordered_sums, ordered_sums_with};
 use super::series::Series;
 
 /// A statistic of the Allan family.
@@ -198,29 +199,15 @@ pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Opti
     let counts: Vec<usize> = ms.iter().map(|&m| n_phase.saturating_sub(d * m)).collect();
     let max_count = counts.iter().copied().max().unwrap_or(0);
     let blocks = max_count.div_ceil(MANY_BLOCK);
-    let sums = (0..blocks)
-        .into_par_iter()
-        .fold(
-            || vec![0.0f64; ms.len()],
-            |mut acc, b| {
-                let i0 = b * MANY_BLOCK;
-                for (k, &m) in ms.iter().enumerate() {
-                    let end = (i0 + MANY_BLOCK).min(counts[k]);
-                    if end > i0 {
-                        acc[k] +=
-                            if d == 2 { sumsq_o2(&x[i0..], m, end - i0) } else { sumsq_o3(&x[i0..], m, end - i0) };
-                    }
-                }
-                acc
-            },
-        )
-        .reduce(
-            || vec![0.0f64; ms.len()],
-            |mut a, b| {
-                a.iter_mut().zip(&b).for_each(|(u, v)| *u += v);
-                a
-            },
-        );
+    let sums = ordered_sums((0..blocks).into_par_iter(), ms.len(), |acc, b| {
+        let i0 = b * MANY_BLOCK;
+        for (k, &m) in ms.iter().enumerate() {
+            let end = (i0 + MANY_BLOCK).min(counts[k]);
+            if end > i0 {
+                acc[k] += if d == 2 { sumsq_o2(&x[i0..], m, end - i0) } else { sumsq_o3(&x[i0..], m, end - i0) };
+            }
+        }
+    });
     let norm = if d == 2 { 2.0 } else { 6.0 };
     ms.iter()
         .zip(&counts)
@@ -271,31 +258,24 @@ pub(crate) fn oadev_sums(x: &[f64], ms: &[usize]) -> Vec<f64> {
         Vec::new()
     } else {
         let count0 = n - 2 * near_ms[0];
-        (0..count0.div_ceil(NEAR_BLOCK))
-            .into_par_iter()
-            .fold(
-                || vec![0.0f64; near_ms.len()],
-                |mut acc, b| {
-                    let i0 = b * NEAR_BLOCK;
-                    let i1 = (i0 + NEAR_BLOCK).min(count0);
-                    // Levels whose terms cover the whole block go eight at a time; the rest alone, to their end.
-                    let full = near_ms.iter().take_while(|&&m| n - 2 * m >= i1).count();
-                    let mut k = 0;
-                    while k < full {
-                        let g = (full - k).min(GROUP);
-                        kernel.sums(x, &near_ms[k..k + g], i0, i1, &mut acc[k..k + g]);
-                        k += g;
-                    }
-                    for k in full..near_ms.len() {
-                        let end = (n - 2 * near_ms[k]).min(i1);
-                        if end > i0 {
-                            kernel.sums(x, &near_ms[k..k + 1], i0, end, &mut acc[k..k + 1]);
-                        }
-                    }
-                    acc
-                },
-            )
-            .reduce(|| vec![0.0f64; near_ms.len()], add_vecs)
+        ordered_sums((0..count0.div_ceil(NEAR_BLOCK)).into_par_iter(), near_ms.len(), |acc, b| {
+            let i0 = b * NEAR_BLOCK;
+            let i1 = (i0 + NEAR_BLOCK).min(count0);
+            // Levels whose terms cover the whole block go eight at a time; the rest alone, to their end.
+            let full = near_ms.iter().take_while(|&&m| n - 2 * m >= i1).count();
+            let mut k = 0;
+            while k < full {
+                let g = (full - k).min(GROUP);
+                kernel.sums(x, &near_ms[k..k + g], i0, i1, &mut acc[k..k + g]);
+                k += g;
+            }
+            for k in full..near_ms.len() {
+                let end = (n - 2 * near_ms[k]).min(i1);
+                if end > i0 {
+                    kernel.sums(x, &near_ms[k..k + 1], i0, end, &mut acc[k..k + 1]);
+                }
+            }
+        })
     };
     let far_sums = far_sums(n, &far_ms, |r0, buf| gather_column(x, r0, buf));
     let mut out = vec![0.0f64; ms.len()];
@@ -333,11 +313,6 @@ pub(crate) fn oadev_range_sums(x: &[f64], ms: &[usize], i0: usize, i1: usize, ou
     }
 }
 
-fn add_vecs(mut a: Vec<f64>, b: Vec<f64>) -> Vec<f64> {
-    a.iter_mut().zip(&b).for_each(|(u, v)| *u += v);
-    a
-}
-
 /// The far levels of [`oadev_sums`] (`far_ms` ascending, multiples of [`FAR_PITCH`]) of a record of `n` phase
 /// points, column by column: `fill(r0, buf)` writes row q of column r0 (`x[r0 + q FAR_PITCH + l]`, l <
 /// [`FAR_WIDTH`]) to `buf[q FAR_WIDTH + l]`, the points beyond the record as 0.
@@ -346,24 +321,17 @@ pub(crate) fn far_sums(n: usize, far_ms: &[usize], fill: impl Fn(usize, &mut [f6
         return Vec::new();
     }
     let kernel = Kernel::detect();
-    (0..FAR_PITCH / FAR_WIDTH)
-        .into_par_iter()
-        .fold(
-            || (vec![0.0f64; far_ms.len()], Vec::new()),
-            |(mut acc, mut buf), c| {
-                let r0 = c * FAR_WIDTH;
-                if r0 < n {
-                    let rows = (n - r0).div_ceil(FAR_PITCH);
-                    // (Zeroed once per buffer size: fill overwrites the rows.)
-                    buf.resize(rows * FAR_WIDTH, 0.0);
-                    fill(r0, &mut buf[..rows * FAR_WIDTH]);
-                    far_column(n, far_ms, r0, kernel, &buf[..rows * FAR_WIDTH], &mut acc);
-                }
-                (acc, buf)
-            },
-        )
-        .map(|(acc, _)| acc)
-        .reduce(|| vec![0.0f64; far_ms.len()], add_vecs)
+    // Runs of 16 columns: each run fills one buffer of a sixteenth of the record.
+    ordered_sums_with((0..FAR_PITCH / FAR_WIDTH).into_par_iter(), 16, far_ms.len(), Vec::new, |acc, buf, c| {
+        let r0 = c * FAR_WIDTH;
+        if r0 < n {
+            let rows = (n - r0).div_ceil(FAR_PITCH);
+            // (Zeroed once per buffer size: fill overwrites the rows.)
+            buf.resize(rows * FAR_WIDTH, 0.0);
+            fill(r0, &mut buf[..rows * FAR_WIDTH]);
+            far_column(n, far_ms, r0, kernel, &buf[..rows * FAR_WIDTH], acc);
+        }
+    })
 }
 
 /// Row q of column r0 of the far levels: `x[r0 + q P .. + W]` (the last row cut at the end of the record, padded

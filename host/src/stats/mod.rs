@@ -14,6 +14,7 @@ pub mod edf;
 pub mod error;
 pub mod noise_id;
 mod octave;
+mod ordered;
 pub mod series;
 pub mod taus;
 

@@ -22,6 +22,7 @@ use rayon::prelude::*;
 
 use super::deviation::oadev_range_sums;
 use super::error::StatsError;
+use super::ordered::ordered_sums;
 
 /// Work unit of the parallel passes over the samples.
 const CHUNK: usize = 1 << 18;
@@ -267,29 +268,16 @@ impl Series {
                 ms.retain(|&m| m > 0 && m <= FUSED_MAX_M && 2 * m < n_phase);
                 ms.sort_unstable();
                 ms.dedup();
-                let sums = out[1..]
-                    .par_chunks_mut(GROUP_LEN)
-                    .zip(d.par_chunks(GROUP_LEN))
-                    .zip(offsets.par_chunks(LANES))
-                    .fold(
-                        || vec![0.0f64; ms.len()],
-                        |mut acc, ((o, ch), off)| {
-                            integrate_lanes(o, ch, off, mean, tau0_s);
-                            if !ms.is_empty() {
-                                // SAFETY: integrate_lanes wrote every element of o.
-                                let xs = unsafe { &*(o as *const [std::mem::MaybeUninit<f64>] as *const [f64]) };
-                                oadev_range_sums(xs, &ms, 0, xs.len(), &mut acc);
-                            }
-                            acc
-                        },
-                    )
-                    .reduce(
-                        || vec![0.0f64; ms.len()],
-                        |mut a, b| {
-                            a.iter_mut().zip(&b).for_each(|(u, v)| *u += v);
-                            a
-                        },
-                    );
+                let groups =
+                    out[1..].par_chunks_mut(GROUP_LEN).zip(d.par_chunks(GROUP_LEN)).zip(offsets.par_chunks(LANES));
+                let sums = ordered_sums(groups, ms.len(), |acc, ((o, ch), off)| {
+                    integrate_lanes(o, ch, off, mean, tau0_s);
+                    if !ms.is_empty() {
+                        // SAFETY: integrate_lanes wrote every element of o.
+                        let xs = unsafe { &*(o as *const [std::mem::MaybeUninit<f64>] as *const [f64]) };
+                        oadev_range_sums(xs, &ms, 0, xs.len(), acc);
+                    }
+                });
                 fused = (ms, sums);
             }
             DataKind::Phase => {
@@ -311,24 +299,12 @@ impl Series {
         if !ms.is_empty() {
             // The terms that cross from one group into the next (or start at x[0]): i in [b - 2m, b) for each
             // group start b = 1 + g GROUP_LEN (2m <= GROUP_LEN: one boundary per term at most).
-            let extra = (0..n_phase - 1)
-                .step_by(GROUP_LEN)
-                .par_bridge()
-                .map(|g| {
-                    let b = g + 1;
-                    let mut acc = vec![0.0f64; ms.len()];
-                    for (k, &m) in ms.iter().enumerate() {
-                        oadev_range_sums(&x, &ms[k..k + 1], b.saturating_sub(2 * m), b, &mut acc[k..k + 1]);
-                    }
-                    acc
-                })
-                .reduce(
-                    || vec![0.0f64; ms.len()],
-                    |mut a, b| {
-                        a.iter_mut().zip(&b).for_each(|(u, v)| *u += v);
-                        a
-                    },
-                );
+            let extra = ordered_sums((0..(n_phase - 1).div_ceil(GROUP_LEN)).into_par_iter(), ms.len(), |acc, g| {
+                let b = g * GROUP_LEN + 1;
+                for (k, &m) in ms.iter().enumerate() {
+                    oadev_range_sums(&x, &ms[k..k + 1], b.saturating_sub(2 * m), b, &mut acc[k..k + 1]);
+                }
+            });
             sums.iter_mut().zip(&extra).for_each(|(u, v)| *u += v);
         }
         let oadev_fused = ms.into_iter().zip(sums).collect();
