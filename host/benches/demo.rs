@@ -20,15 +20,13 @@ fn main() {
     let capture = demo::snapshot_capture(&rounds);
     let snaps = demo::last_snapshots(&capture, rounds.len()).unwrap();
     let results = demo::analyse(&snaps, &model);
-    let gaps: Vec<_> = runs
-        .iter()
-        .zip(demo::TABLE1.iter())
-        .map(|(r, p)| demo::diagnose_channel(r, p, &|_, _, _| {}).unwrap())
-        .collect();
+    let t_gap = Instant::now();
+    let gaps: Vec<_> = demo::diagnose_channels(&runs, &|_, _, _| {}).into_iter().map(Result::unwrap).collect();
+    let t_gap = t_gap.elapsed().as_secs_f64();
     let total = t0.elapsed().as_secs_f64();
     let per_s = samples as f64 * rounds.len() as f64 / t_sim;
     println!(
-        "demo {hours} h x {} channels: simulate + accumulate {t_sim:.1} s ({:.1} M samples/s on {} threads), total {total:.1} s",
+        "demo {hours} h x {} channels: simulate + accumulate {t_sim:.1} s ({:.1} M samples/s on {} threads), gap {t_gap:.1} s, total {total:.1} s",
         rounds.len(),
         per_s / 1e6,
         rayon::current_num_threads()

@@ -321,6 +321,20 @@ pub fn diagnose_channel(
     crate::gap::diagnose(&input, &opts, progress)
 }
 
+/// [`diagnose_channel`] for every channel of a bench run (`runs` in [`TABLE1`]'s order), the channels at once:
+/// each diagnosis also runs its ensemble's members in parallel, and the others fill its serial stretches (the
+/// fits, the views of the record). `progress(channel, done, total)` follows each one.
+pub fn diagnose_channels(
+    runs: &[ChannelRun],
+    progress: &(dyn Fn(usize, usize, usize) + Sync),
+) -> Vec<Result<crate::gap::GapReport, crate::gap::GapError>> {
+    runs.par_iter()
+        .zip(TABLE1.par_iter())
+        .enumerate()
+        .map(|(i, (run, paper))| diagnose_channel(run, paper, &|_, done, total| progress(i, done, total)))
+        .collect()
+}
+
 /// The fit of the bench's full-rate snapshots: the white term shaped by the 600 Hz anti-alias filter, and the
 /// first octaves (m < 16, tau < 8 ms), where the discrete filter's shape differs from the continuous form the fit
 /// uses and whose huge EDF would let that pull N, left out.

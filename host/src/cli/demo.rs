@@ -10,8 +10,6 @@ use octavar::demo::{self, BENCH_RATE_HZ};
 use octavar::fit::Term;
 use octavar::plot;
 
-use rayon::prelude::*;
-
 use super::progress::Progress;
 
 /// The main job: the paper's experiment on the built-in virtual bench. Four gyros (ENV-05H, IDG1215 Y, IDG1215 X,
@@ -133,22 +131,15 @@ impl Args {
             "{:<10} {:>13} {:>12} {:>22} {:>24} {:>10}",
             "channel", "effect", "view", "band (s)", "held-out gap -> after", "shrink"
         )?;
-        // The four diagnoses run at once (each also runs its ensemble's members in parallel): a diagnosis has
-        // serial stretches (the fits, the views of the record) that the others fill.
+        // The four diagnoses run at once, each with its bar.
         let group = indicatif::MultiProgress::new();
-        let reports: Vec<_> = runs
-            .par_iter()
-            .zip(results.par_iter())
-            .map(|(run, r)| {
-                let bar = Progress::in_group(&group, 1, &format!("gap {}", r.paper.label));
-                let report = demo::diagnose_channel(run, &r.paper, &|_, done, total| {
-                    bar.set_length(total as u64);
-                    bar.set(done as u64);
-                });
-                bar.finish();
-                report
-            })
-            .collect();
+        let bars: Vec<Progress> =
+            results.iter().map(|r| Progress::in_group(&group, 1, &format!("gap {}", r.paper.label))).collect();
+        let reports = demo::diagnose_channels(&runs, &|i, done, total| {
+            bars[i].set_length(total as u64);
+            bars[i].set(done as u64);
+        });
+        bars.iter().for_each(Progress::finish);
         for (report, r) in reports.into_iter().zip(&results) {
             let report = report?;
             let slug: String = r
