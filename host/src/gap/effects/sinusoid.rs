@@ -36,67 +36,85 @@ pub(super) fn hann_power(y: &[f64], f: f64, dt: f64) -> f64 {
     re * re + im * im
 }
 
-/// Sinusoids on the rate.
-///
-/// Method: the Hann-windowed periodogram of the mean-removed record (block-averaged to at most 2^21 points, so a
-/// record of days still resolves periods of a day; each block's time is its centre and the amplitude is
-/// corrected for the block average's sinc), zero-padded to a power of two. The background at each bin is the
-/// median of the periodogram in a band around it (+-16 bins at low frequency, log bands of 1/8 relative width
-/// above, interpolated in log-log), so 1/f and 1/f^2 noise set their own level; a bin is a peak where it is a local
-/// maximum beyond `ln(bins) + 7` times the background mean (the periodogram ordinate is exponential, so about
-/// 1e-3 false peaks per record). Periods from a third of the record to two samples are searched. Each peak's
-/// frequency is refined by golden search on the windowed projection within +-1 bin; amplitudes and phases of up
-/// to four peaks come from one joint least-squares fit of sines and cosines (plus a quadratic trend). The base
-/// terms are re-fitted on the record without the sinusoids (the base fit covered their Allan bump with B or K).
 /// Joint least squares of `y` (sampled every `dt`, the first sample at `t_off`) on a quadratic trend (so slow
 /// wander does not leak into long periods) and a (cos, sin) pair per frequency, in one pass with rotating
 /// phasors: the coefficients (trend first) and the residual sum of squares.
 pub(super) fn sinusoid_ls(y: &[f64], freqs: &[f64], dt: f64, t_off: f64) -> Option<(Vec<f64>, f64)> {
-    let n = y.len();
-    let p = 3 + 2 * freqs.len();
-    let mut ata = vec![vec![0.0; p]; p];
-    let mut atb = vec![0.0; p];
-    let mut yy = 0.0;
-    let rot: Vec<(f64, f64)> = freqs
-        .iter()
-        .map(|f| {
-            let a = 2.0 * std::f64::consts::PI * f * dt;
-            (a.cos(), a.sin())
-        })
-        .collect();
-    let mut ph: Vec<(f64, f64)> = freqs
-        .iter()
-        .map(|f| {
-            let a = 2.0 * std::f64::consts::PI * f * t_off;
-            (a.cos(), a.sin())
-        })
-        .collect();
-    let mut row = vec![0.0; p];
-    for (i, &v) in y.iter().enumerate() {
-        let u = 2.0 * i as f64 / n as f64 - 1.0;
+    let (ata, atb, yy) = normal_equations(Some(y), y.len(), freqs, dt, t_off);
+    let sol = solve(ata, atb.clone())?;
+    let explained: f64 = sol.iter().zip(&atb).map(|(a, b)| a * b).sum();
+    Some((sol, yy - explained))
+}
+
+/// The rows of [`sinusoid_ls`]'s design, sample after sample: the quadratic trend `1, u, u^2 - 1/3` over
+/// `u = 2i/n - 1`, then `cos, sin` of each frequency at `t = t_off + i dt`, by rotating phasors (renormalised
+/// every 1024 samples).
+struct DesignRows {
+    n: usize,
+    i: usize,
+    rot: Vec<(f64, f64)>,
+    ph: Vec<(f64, f64)>,
+}
+
+impl DesignRows {
+    fn new(n: usize, freqs: &[f64], dt: f64, t_off: f64) -> Self {
+        let phasor = |a: f64| (a.cos(), a.sin());
+        let two_pi = 2.0 * std::f64::consts::PI;
+        DesignRows {
+            n,
+            i: 0,
+            rot: freqs.iter().map(|f| phasor(two_pi * f * dt)).collect(),
+            ph: freqs.iter().map(|f| phasor(two_pi * f * t_off)).collect(),
+        }
+    }
+
+    /// Columns: the trend's three and two per frequency.
+    fn width(&self) -> usize {
+        3 + 2 * self.rot.len()
+    }
+
+    /// Write the next sample's row into `row` (of [`DesignRows::width`]).
+    fn next_row(&mut self, row: &mut [f64]) {
+        let u = 2.0 * self.i as f64 / self.n as f64 - 1.0;
         row[0] = 1.0;
         row[1] = u;
         row[2] = u * u - 1.0 / 3.0;
-        for (j, (c, s)) in ph.iter().enumerate() {
+        for (j, ((c, s), &(cr, sr))) in self.ph.iter_mut().zip(&self.rot).enumerate() {
             row[3 + 2 * j] = *c;
             row[4 + 2 * j] = *s;
-        }
-        yy += v * v;
-        for r in 0..p {
-            atb[r] += row[r] * v;
-            for c in r..p {
-                ata[r][c] += row[r] * row[c];
-            }
-        }
-        for (j, (c, s)) in ph.iter_mut().enumerate() {
-            let (cr, sr) = rot[j];
             let c2 = *c * cr - *s * sr;
             *s = *s * cr + *c * sr;
             *c = c2;
-            if i & 1023 == 1023 {
+            if self.i & 1023 == 1023 {
                 let g = 1.5 - 0.5 * (*c * *c + *s * *s);
                 *c *= g;
                 *s *= g;
+            }
+        }
+        self.i += 1;
+    }
+}
+
+/// `A'A` of the design of `n` samples, and, with a record `y`, `A'y` and `y'y`.
+fn normal_equations(y: Option<&[f64]>, n: usize, freqs: &[f64], dt: f64, t_off: f64) -> (Vec<Vec<f64>>, Vec<f64>, f64) {
+    let mut rows = DesignRows::new(n, freqs, dt, t_off);
+    let p = rows.width();
+    let mut ata = vec![vec![0.0; p]; p];
+    let mut atb = vec![0.0; p];
+    let mut yy = 0.0;
+    let mut row = vec![0.0; p];
+    for i in 0..n {
+        rows.next_row(&mut row);
+        if let Some(y) = y {
+            let v = y[i];
+            yy += v * v;
+            for (b, r) in atb.iter_mut().zip(&row) {
+                *b += r * v;
+            }
+        }
+        for r in 0..p {
+            for c in r..p {
+                ata[r][c] += row[r] * row[c];
             }
         }
     }
@@ -105,9 +123,7 @@ pub(super) fn sinusoid_ls(y: &[f64], freqs: &[f64], dt: f64, t_off: f64) -> Opti
             ata[r][c] = ata[c][r];
         }
     }
-    let sol = solve(ata, atb.clone())?;
-    let explained: f64 = sol.iter().zip(&atb).map(|(a, b)| a * b).sum();
-    Some((sol, yy - explained))
+    (ata, atb, yy)
 }
 
 /// The standard deviations of the amplitude and of the phase (rad) of sinusoid `j` of [`sinusoid_ls`] (its
@@ -124,34 +140,8 @@ fn ls_amplitude_sd(
     a_b: (f64, f64),
     squares: &[f64; 5],
 ) -> Option<(f64, f64)> {
-    let p = 3 + 2 * freqs.len();
-    let row = |i: usize, r: &mut [f64]| {
-        let u = 2.0 * i as f64 / n as f64 - 1.0;
-        r[0] = 1.0;
-        r[1] = u;
-        r[2] = u * u - 1.0 / 3.0;
-        let t = t_off + i as f64 * dt;
-        for (q, f) in freqs.iter().enumerate() {
-            let a = 2.0 * std::f64::consts::PI * f * t;
-            r[3 + 2 * q] = a.cos();
-            r[4 + 2 * q] = a.sin();
-        }
-    };
-    let mut ata = vec![vec![0.0; p]; p];
-    let mut r = vec![0.0; p];
-    for i in 0..n {
-        row(i, &mut r);
-        for a in 0..p {
-            for b in a..p {
-                ata[a][b] += r[a] * r[b];
-            }
-        }
-    }
-    for a in 0..p {
-        for b in 0..a {
-            ata[a][b] = ata[b][a];
-        }
-    }
+    let (ata, _, _) = normal_equations(None, n, freqs, dt, t_off);
+    let p = ata.len();
     // The rows of (A'A)^-1 for the two coefficients.
     let col = |c: usize| {
         let mut e = vec![0.0; p];
@@ -162,8 +152,10 @@ fn ls_amplitude_sd(
     let big = (2 * n).next_power_of_two();
     let (mut ar, mut ai) = (vec![0.0; big], vec![0.0; big]);
     let (mut br, mut bi) = (vec![0.0; big], vec![0.0; big]);
+    let mut rows = DesignRows::new(n, freqs, dt, t_off);
+    let mut r = vec![0.0; p];
     for i in 0..n {
-        row(i, &mut r);
+        rows.next_row(&mut r);
         ar[i] = r.iter().zip(&ma).map(|(x, m)| x * m).sum();
         br[i] = r.iter().zip(&mb).map(|(x, m)| x * m).sum();
     }
@@ -190,6 +182,18 @@ fn ls_amplitude_sd(
     Some((var_amp.max(0.0).sqrt(), var_ph.max(0.0).sqrt()))
 }
 
+/// Sinusoids on the rate.
+///
+/// Method: the Hann-windowed periodogram of the mean-removed record (block-averaged to at most 2^21 points, so a
+/// record of days still resolves periods of a day; each block's time is its centre and the amplitude is
+/// corrected for the block average's sinc), zero-padded to a power of two. The background at each bin is the
+/// median of the periodogram in a band around it (+-16 bins at low frequency, log bands of 1/8 relative width
+/// above, interpolated in log-log), so 1/f and 1/f^2 noise set their own level; a bin is a peak where it is a local
+/// maximum beyond `ln(bins) + 7` times the background mean (the periodogram ordinate is exponential, so about
+/// 1e-3 false peaks per record). Periods from a third of the record to two samples are searched. Each peak's
+/// frequency is refined by golden search on the windowed projection within +-1 bin; amplitudes and phases of up
+/// to four peaks come from one joint least-squares fit of sines and cosines (plus a quadratic trend). The base
+/// terms are re-fitted on the record without the sinusoids (the base fit covered their Allan bump with B or K).
 pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n0 = x.len();
