@@ -253,28 +253,13 @@ pub(crate) fn oadev_sums(x: &[f64], ms: &[usize]) -> Vec<f64> {
         order.into_iter().partition(|&k| ms[k] >= FAR_PITCH && ms[k].is_multiple_of(FAR_PITCH));
     let near_ms: Vec<usize> = near.iter().map(|&k| ms[k]).collect();
     let far_ms: Vec<usize> = far.iter().map(|&k| ms[k]).collect();
-    let kernel = Kernel::detect();
     let near_sums = if near_ms.is_empty() {
         Vec::new()
     } else {
         let count0 = n - 2 * near_ms[0];
         ordered_sums((0..count0.div_ceil(NEAR_BLOCK)).into_par_iter(), near_ms.len(), |acc, b| {
             let i0 = b * NEAR_BLOCK;
-            let i1 = (i0 + NEAR_BLOCK).min(count0);
-            // Levels whose terms cover the whole block go eight at a time; the rest alone, to their end.
-            let full = near_ms.iter().take_while(|&&m| n - 2 * m >= i1).count();
-            let mut k = 0;
-            while k < full {
-                let g = (full - k).min(GROUP);
-                kernel.sums(x, &near_ms[k..k + g], i0, i1, &mut acc[k..k + g]);
-                k += g;
-            }
-            for k in full..near_ms.len() {
-                let end = (n - 2 * near_ms[k]).min(i1);
-                if end > i0 {
-                    kernel.sums(x, &near_ms[k..k + 1], i0, end, &mut acc[k..k + 1]);
-                }
-            }
+            oadev_range_sums(x, &near_ms, i0, (i0 + NEAR_BLOCK).min(count0), acc);
         })
     };
     let far_sums = far_sums(n, &far_ms, |r0, buf| gather_column(x, r0, buf));
