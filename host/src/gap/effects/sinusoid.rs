@@ -36,14 +36,24 @@ pub(super) fn hann_power(y: &[f64], f: f64, dt: f64) -> f64 {
     re * re + im * im
 }
 
+/// What [`sinusoid_ls`] finds.
+pub(super) struct LeastSquares {
+    /// The coefficients: the trend's three, then (cos, sin) per frequency.
+    pub coef: Vec<f64>,
+    /// The residual sum of squares.
+    pub rss: f64,
+    /// The design's `A'A`.
+    pub ata: Vec<Vec<f64>>,
+}
+
 /// Joint least squares of `y` (sampled every `dt`, the first sample at `t_off`) on a quadratic trend (so slow
 /// wander does not leak into long periods) and a (cos, sin) pair per frequency, in one pass with rotating
-/// phasors: the coefficients (trend first) and the residual sum of squares.
-pub(super) fn sinusoid_ls(y: &[f64], freqs: &[f64], dt: f64, t_off: f64) -> Option<(Vec<f64>, f64)> {
-    let (ata, atb, yy) = normal_equations(Some(y), y.len(), freqs, dt, t_off);
-    let sol = solve(ata, atb.clone())?;
-    let explained: f64 = sol.iter().zip(&atb).map(|(a, b)| a * b).sum();
-    Some((sol, yy - explained))
+/// phasors.
+pub(super) fn sinusoid_ls(y: &[f64], freqs: &[f64], dt: f64, t_off: f64) -> Option<LeastSquares> {
+    let (ata, atb, yy) = normal_equations(y, freqs, dt, t_off);
+    let coef = solve(ata.clone(), atb.clone())?;
+    let explained: f64 = coef.iter().zip(&atb).map(|(a, b)| a * b).sum();
+    Some(LeastSquares { coef, rss: yy - explained, ata })
 }
 
 /// The rows of [`sinusoid_ls`]'s design, sample after sample: the quadratic trend `1, u, u^2 - 1/3` over
@@ -95,22 +105,19 @@ impl DesignRows {
     }
 }
 
-/// `A'A` of the design of `n` samples, and, with a record `y`, `A'y` and `y'y`.
-fn normal_equations(y: Option<&[f64]>, n: usize, freqs: &[f64], dt: f64, t_off: f64) -> (Vec<Vec<f64>>, Vec<f64>, f64) {
-    let mut rows = DesignRows::new(n, freqs, dt, t_off);
+/// `A'A`, `A'y` and `y'y` of the design of the record `y`.
+fn normal_equations(y: &[f64], freqs: &[f64], dt: f64, t_off: f64) -> (Vec<Vec<f64>>, Vec<f64>, f64) {
+    let mut rows = DesignRows::new(y.len(), freqs, dt, t_off);
     let p = rows.width();
     let mut ata = vec![vec![0.0; p]; p];
     let mut atb = vec![0.0; p];
     let mut yy = 0.0;
     let mut row = vec![0.0; p];
-    for i in 0..n {
+    for &v in y {
         rows.next_row(&mut row);
-        if let Some(y) = y {
-            let v = y[i];
-            yy += v * v;
-            for (b, r) in atb.iter_mut().zip(&row) {
-                *b += r * v;
-            }
+        yy += v * v;
+        for (b, r) in atb.iter_mut().zip(&row) {
+            *b += r * v;
         }
         for r in 0..p {
             for c in r..p {
@@ -126,27 +133,27 @@ fn normal_equations(y: Option<&[f64]>, n: usize, freqs: &[f64], dt: f64, t_off: 
     (ata, atb, yy)
 }
 
-/// The standard deviations of the amplitude and of the phase (rad) of sinusoid `j` of [`sinusoid_ls`] (its
-/// coefficients `a_b`) under noise of two-sided spectrum `N^2 + B^2 / (2 pi f) + K^2 / (2 pi f)^2` (`squares`
+/// The standard deviations of the amplitude and of the phase (rad) of sinusoid `j` of the least squares `ls` of
+/// [`sinusoid_ls`] (on `n` samples) under noise of two-sided spectrum `N^2 + B^2 / (2 pi f) + K^2 / (2 pi f)^2` (`squares`
 /// of the IEEE fit): each coefficient is linear in the record, `a = sum g_i y_i`, so its variance is the
 /// integral of `|G(f)|^2 S(f)`, taken on a twice zero-padded grid, leakage of red noise through the record's
 /// rectangular window included.
 fn ls_amplitude_sd(
+    ls: &LeastSquares,
     n: usize,
     dt: f64,
     t_off: f64,
     freqs: &[f64],
     j: usize,
-    a_b: (f64, f64),
     squares: &[f64; 5],
 ) -> Option<(f64, f64)> {
-    let (ata, _, _) = normal_equations(None, n, freqs, dt, t_off);
+    let ata = &ls.ata;
     let p = ata.len();
     // The rows of (A'A)^-1 for the two coefficients.
     let col = |c: usize| {
         let mut e = vec![0.0; p];
         e[c] = 1.0;
-        solve(ata.clone(), e)
+        solve(ata.to_vec(), e)
     };
     let (ma, mb) = (col(3 + 2 * j)?, col(4 + 2 * j)?);
     let big = (2 * n).next_power_of_two();
@@ -171,7 +178,7 @@ fn ls_amplitude_sd(
         vb += 2.0 * (br[m] * br[m] + bi[m] * bi[m]) * s * df;
         cab += 2.0 * (ar[m] * br[m] + ai[m] * bi[m]) * s * df;
     }
-    let (a, b) = a_b;
+    let (a, b) = (ls.coef[3 + 2 * j], ls.coef[4 + 2 * j]);
     let amp2 = a * a + b * b;
     if !(amp2 > 0.0 && va > 0.0 && vb > 0.0) {
         return None;
@@ -305,17 +312,17 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             let (f, _) = golden(f0 - 0.5 * df, f0 + 0.5 * df, 20, |f| {
                 let mut trial = freqs.clone();
                 trial[j] = f;
-                sinusoid_ls(&y, &trial, dt, t_off).map_or(f64::INFINITY, |r| r.1)
+                sinusoid_ls(&y, &trial, dt, t_off).map_or(f64::INFINITY, |r| r.rss)
             });
             freqs[j] = f;
         }
     }
-    let (sol, _) = sinusoid_ls(&y, &freqs, dt, t_off)?;
+    let ls = sinusoid_ls(&y, &freqs, dt, t_off)?;
     let record_s = n as f64 * dt;
     // Each sinusoid with its first standard errors, its index in `freqs` and the block average's gain.
     let mut list: Vec<(Sinusoid, [f64; 3], usize, f64)> = Vec::new();
     for (j, &f) in freqs.iter().enumerate() {
-        let (a, b) = (sol[3 + 2 * j], sol[4 + 2 * j]);
+        let (a, b) = (ls.coef[3 + 2 * j], ls.coef[4 + 2 * j]);
         // Block averaging scales a sinusoid by sin(pi f D/fs) / (D sin(pi f/fs)).
         let g = if dec > 1 {
             let u = std::f64::consts::PI * f / d.fs_hz;
@@ -354,15 +361,12 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     // background above sees only the noise at the peak's bins.
     let se: Vec<[f64; 3]> = fitted
         .iter()
-        .map(|&(e, j, g)| {
-            let a_b = (sol[3 + 2 * j], sol[4 + 2 * j]);
-            match ls_amplitude_sd(n, dt, t_off, &freqs, j, a_b, &squares) {
-                Some((sd_a, sd_p)) => {
-                    let sd_a = sd_a / g;
-                    [sd_a, sd_p, e[2] * sd_a / e[0].max(1e-300)]
-                }
-                None => e,
+        .map(|&(e, j, g)| match ls_amplitude_sd(&ls, n, dt, t_off, &freqs, j, &squares) {
+            Some((sd_a, sd_p)) => {
+                let sd_a = sd_a / g;
+                [sd_a, sd_p, e[2] * sd_a / e[0].max(1e-300)]
             }
+            None => e,
         })
         .collect();
     gyro.sinusoids.clear();
