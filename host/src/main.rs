@@ -14,7 +14,7 @@ fn main() -> ExitCode {
             if cli::is_broken_pipe(&err) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("octavar: {err:#}");
+            eprintln!("octavar: {}", cli::error_line(&err));
             ExitCode::from(2)
         }
     }

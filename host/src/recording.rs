@@ -68,6 +68,9 @@ pub enum RecordingError {
     /// A cell that should be a number is not.
     #[error("{path}, line {line}, column {column:?}: {text:?} is not a number")]
     NotANumber { path: String, line: u64, column: String, text: String },
+    /// A cell that reads as an infinity (`inf`, `1e999`): no sensor reports one, and it would poison every sum.
+    #[error("{path}, line {line}, column {column:?}: {text:?} is not a finite number (leave the cell empty or write NaN for a missing sample)")]
+    NotFinite { path: String, line: u64, column: String, text: String },
     /// A row with fewer cells than the header.
     #[error("{path}, line {line}: {message}")]
     BadRow { path: String, line: u64, message: String },
@@ -273,12 +276,18 @@ pub fn read_csv_stream<R: BufRead>(
         if text.is_empty() || text.eq_ignore_ascii_case("nan") || text.eq_ignore_ascii_case("na") {
             return Ok(f64::NAN);
         }
-        text.parse::<f64>().map_err(|_| RecordingError::NotANumber {
-            path: path.to_string(),
-            line,
-            column: column.to_string(),
-            text: text.to_string(),
-        })
+        let at = || (path.to_string(), line, column.to_string(), text.to_string());
+        match text.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            Ok(_) => {
+                let (path, line, column, text) = at();
+                Err(RecordingError::NotFinite { path, line, column, text })
+            }
+            Err(_) => {
+                let (path, line, column, text) = at();
+                Err(RecordingError::NotANumber { path, line, column, text })
+            }
+        }
     };
 
     // With a time column the rate comes from the median step of the first rows, which are buffered.
@@ -473,6 +482,21 @@ mod tests {
         let bad = "t,g\n0.0,1\n0.1,2\n0.1,3\n";
         let e = read_csv(bad.as_bytes(), "f.csv", &o).unwrap_err();
         assert!(e.to_string().contains("line 4") && e.to_string().contains("does not increase"), "{e}");
+    }
+
+    #[test]
+    fn an_infinite_cell_is_an_error_that_names_its_line_and_column() {
+        for cell in ["inf", "-Infinity", "1e999"] {
+            let text = format!("g,temp\n1,20\n2,20\n{cell},20\n");
+            let e = read_csv(text.as_bytes(), "f.csv", &opts(&["g"])).unwrap_err();
+            assert!(matches!(e, RecordingError::NotFinite { line: 4, .. }), "{cell}: {e:?}");
+            assert!(e.to_string().contains("column \"g\"") && e.to_string().contains("not a finite number"), "{e}");
+        }
+        // The temperature column is read by the same rule.
+        let text = "g,temp\n1,20\n2,inf\n";
+        let o = CsvOptions { temp_column: Some("temp".into()), ..opts(&["g"]) };
+        let e = read_csv(text.as_bytes(), "f.csv", &o).unwrap_err();
+        assert!(matches!(e, RecordingError::NotFinite { line: 3, .. }), "{e:?}");
     }
 
     #[test]

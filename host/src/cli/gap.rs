@@ -111,7 +111,7 @@ impl Args {
             b.finish();
         }
         let mut out = std::io::stdout().lock();
-        writeln!(out, "# {} column {}: {:.1} s", rec.source, self.column, t0.elapsed().as_secs_f64())?;
+        writeln!(out, "# {}, column {}: diagnosed in {:.1} s", rec.source, self.column, t0.elapsed().as_secs_f64())?;
         write!(out, "{}", report.text())?;
         if let Some(path) = &self.json {
             std::fs::write(path, serde_json::to_string_pretty(&report.to_json())?)

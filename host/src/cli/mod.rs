@@ -63,3 +63,40 @@ pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
     err.chain()
         .any(|e| e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
 }
+
+/// The error as one line: each cause of the chain after the message, except a cause whose text the line already
+/// holds (most of octavar's errors name their cause in their own message, and anyhow's `{:#}` would print it twice:
+/// "training Allan deviation: too few valid samples: 0 ...: too few valid samples: 0 ...").
+pub fn error_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("training Allan deviation: {0}")]
+    struct Wraps(#[from] std::io::Error);
+
+    #[test]
+    fn a_cause_already_in_the_message_is_not_repeated() {
+        let io = || std::io::Error::new(std::io::ErrorKind::Other, "too few valid samples: 0");
+        let e = anyhow::Error::new(Wraps(io()));
+        assert_eq!(format!("{e:#}"), "training Allan deviation: too few valid samples: 0: too few valid samples: 0");
+        assert_eq!(error_line(&e), "training Allan deviation: too few valid samples: 0");
+        // A context whose cause it does not name keeps the cause.
+        let e = anyhow::Error::new(io()).context("writing gap.json");
+        assert_eq!(error_line(&e), "writing gap.json: too few valid samples: 0");
+    }
+}

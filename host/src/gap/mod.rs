@@ -63,12 +63,18 @@ pub const MIN_PART: usize = 256;
 #[derive(Debug, thiserror::Error)]
 pub enum GapError {
     /// A part of the record is too short.
-    #[error("the {part} part has {n} samples; the gap diagnosis needs at least {needed}")]
+    #[error(
+        "the {part} part has {} samples{}; the gap diagnosis needs at least {needed}",
+        n - missing,
+        if *missing > 0 { format!(" that are not gaps ({missing} of its {n} are NaN)") } else { String::new() }
+    )]
     TooShort {
         /// `training` or `holdout`.
         part: &'static str,
-        /// Samples it has.
+        /// Samples it has, gaps included.
         n: usize,
+        /// Of them, gaps (NaN samples).
+        missing: usize,
         /// Samples it needs.
         needed: usize,
     },
@@ -235,12 +241,14 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     input.check_temperature()?;
     let n_train = input.n_train;
     let n_hold = input.n_holdout();
-    if n_train < MIN_PART {
-        return Err(GapError::TooShort { part: "training", n: n_train, needed: MIN_PART });
+    let missing =
+        [&input.rate_dps[..n_train], &input.rate_dps[n_train..]].map(|part| part.iter().filter(|v| v.is_nan()).count());
+    if n_train - missing[0] < MIN_PART {
+        return Err(GapError::TooShort { part: "training", n: n_train, missing: missing[0], needed: MIN_PART });
     }
     let has_holdout = n_hold > 0;
-    if has_holdout && n_hold < MIN_PART {
-        return Err(GapError::TooShort { part: "holdout", n: n_hold, needed: MIN_PART });
+    if has_holdout && n_hold - missing[1] < MIN_PART {
+        return Err(GapError::TooShort { part: "holdout", n: n_hold, missing: missing[1], needed: MIN_PART });
     }
     let fs = input.fs_hz;
     let predictive = has_holdout && opts.holdout_check == HoldoutCheck::Predictive;
@@ -291,6 +299,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         fs_hz: fs,
         n_train,
         n_holdout: n_hold,
+        missing,
         seeds: opts.seeds,
         has_temperature: input.temp_c.is_some(),
         channel,
@@ -404,6 +413,39 @@ mod tests {
     fn gaps_are_filled_linearly() {
         let x = [f64::NAN, 1.0, f64::NAN, f64::NAN, 4.0, f64::NAN];
         assert_eq!(fill_gaps(&x), vec![1.0, 1.0, 2.0, 3.0, 4.0, 4.0]);
+    }
+
+    /// Gaps are counted per part and reported (text and JSON); a part that is mostly gaps is refused with the
+    /// count of its valid samples, before any statistic is tried on it.
+    #[test]
+    fn gaps_are_reported_and_a_part_of_gaps_is_too_short() {
+        let mut x = crate::test_signals::white(8192, 3);
+        for i in [10, 11, 500, 6000] {
+            x[i] = f64::NAN;
+        }
+        let opts = GapOptions { seeds: 3, effects: vec![], ..Default::default() };
+        let r = diagnose(&GapInput::split(x.clone(), None, 100.0, 0.5).unwrap(), &opts, &|_, _, _| {}).unwrap();
+        assert_eq!(r.missing, [3, 1]);
+        let text = r.text();
+        assert!(
+            text.starts_with("gap diagnosis: 4096 training samples (3 missing) at 100 Hz, 4096 held out (1 missing)"),
+            "{text}"
+        );
+        assert_eq!(r.to_json()["missing_samples"], serde_json::json!({"training": 3, "holdout": 1}));
+
+        // The holdout keeps one sample in 20 (sample 6000 was a gap already): 204 that are not gaps.
+        for (i, v) in x.iter_mut().enumerate().skip(4096) {
+            if i % 20 != 0 {
+                *v = f64::NAN;
+            }
+        }
+        let e = diagnose(&GapInput::split(x, None, 100.0, 0.5).unwrap(), &opts, &|_, _, _| {}).unwrap_err();
+        assert!(matches!(e, GapError::TooShort { part: "holdout", n: 4096, missing: 3892, .. }), "{e:?}");
+        assert_eq!(
+            e.to_string(),
+            "the holdout part has 204 samples that are not gaps (3892 of its 4096 are NaN); the gap diagnosis needs \
+             at least 256"
+        );
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! `candidates` `[{effect, params, gap_after, shrink, ...}]`, `model` (the base model plus the chosen effect, as a
 //! `model.toml` channel's `gyro`), `effect_params`. Also: `size`, `significant`, `threshold`, `total_before`,
 //! `total_after`, `base_model`, `base_fit`, `views` (every view's RMS on both parts, before and after), `n_train`,
-//! `n_holdout`, `fs_hz`, `seeds`; `holdout.shrink_if_right` (the shrink a right model would reach there,
+//! `n_holdout`, `missing_samples` `{training, holdout}` (NaN gaps), `fs_hz`, `seeds`; `holdout.shrink_if_right` (the shrink a right model would reach there,
 //! [`rank::shrink_if_right`]); `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
 //! [`HoldoutCheck::Predictive`] (null without).
 
@@ -109,6 +109,9 @@ pub struct GapReport {
     pub n_train: usize,
     /// Held-out samples.
     pub n_holdout: usize,
+    /// Gaps (NaN samples: empty cells, NaN text, time jumps) in the training part and in the holdout. The views
+    /// leave them out, every ensemble member has the same ones, and the estimators see them filled linearly.
+    pub missing: [usize; 2],
     /// Ensemble size.
     pub seeds: usize,
     /// Whether a temperature channel was used.
@@ -151,6 +154,7 @@ pub(crate) struct Parts {
     pub fs_hz: f64,
     pub n_train: usize,
     pub n_holdout: usize,
+    pub missing: [usize; 2],
     pub seeds: usize,
     pub has_temperature: bool,
     pub channel: Option<Channel>,
@@ -260,6 +264,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         fs_hz: p.fs_hz,
         n_train: p.n_train,
         n_holdout: p.n_holdout,
+        missing: p.missing,
         seeds: p.seeds,
         has_temperature: p.has_temperature,
     }
@@ -362,6 +367,7 @@ impl GapReport {
             "views_detail": self.views_detail(),
             "n_train": self.n_train,
             "n_holdout": self.n_holdout,
+            "missing_samples": {"training": self.missing[0], "holdout": self.missing[1]},
             "fs_hz": self.fs_hz,
             "seeds": self.seeds,
         })
@@ -403,11 +409,17 @@ impl GapReport {
     /// A short text a person can read: what, where, how big, how sure, what the fix buys on held-out data.
     pub fn text(&self) -> String {
         let mut s = String::new();
-        let hold = if self.n_holdout > 0 { format!("{} held out", self.n_holdout) } else { "no holdout".to_string() };
+        let missing = |m: usize| if m > 0 { format!(" ({m} missing)") } else { String::new() };
+        let hold = if self.n_holdout > 0 {
+            format!("{} held out{}", self.n_holdout, missing(self.missing[1]))
+        } else {
+            "no holdout".to_string()
+        };
         let _ = writeln!(
             s,
-            "gap diagnosis: {} training samples at {} Hz, {hold}; ensemble of {} seeds{}",
+            "gap diagnosis: {} training samples{} at {} Hz, {hold}; ensemble of {} seeds{}",
             self.n_train,
+            missing(self.missing[0]),
             self.fs_hz,
             self.seeds,
             if self.has_temperature { ", driven by the recorded temperature" } else { "" }

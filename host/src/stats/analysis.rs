@@ -146,7 +146,7 @@ pub fn analyze_series(
         ms.iter().zip(estimates.iter()).filter_map(row).collect()
     };
     if rows.is_empty() {
-        return Err(StatsError::NoTau { n_phase });
+        return Err(StatsError::NoTau { n_phase, gaps: series.gap_count() });
     }
     Ok(rows)
 }
@@ -273,6 +273,23 @@ mod tests {
                 assert_eq!(run(threads), one, "{kind:?} {stat:?} {taus:?} on {threads} threads");
             }
         }
+    }
+
+    /// A record whose every other sample is a gap has no two whole clusters side by side at any tau: the error
+    /// says so, with the share of gaps, instead of only that no tau could be computed.
+    #[test]
+    fn no_tau_in_a_record_of_dense_gaps_names_the_gaps() {
+        let y: Vec<f64> = (0..1000).map(|i| if i % 2 == 1 { f64::NAN } else { (i % 7) as f64 }).collect();
+        let e =
+            analyze(&y, DataKind::Frequency, 1.0, Statistic::Oadev, &TauSpec::Octave, &Options::default()).unwrap_err();
+        let StatsError::NoTau { n_phase, gaps } = e else { panic!("{e:?}") };
+        // 999 samples after trimming, 1000 phase points; the 499 NaN samples leave 499 intervals undefined.
+        assert_eq!((n_phase, gaps), (1000, 499), "{e}");
+        assert!(e.to_string().contains("50%, fall in gaps"), "{e}");
+        let whole = vec![1.0; 1000];
+        assert!(
+            analyze(&whole, DataKind::Frequency, 1.0, Statistic::Oadev, &TauSpec::Octave, &Options::default()).is_ok()
+        );
     }
 
     /// Process CPU time, s (both cores summed): steadier than wall time on a loaded machine.

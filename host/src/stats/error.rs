@@ -33,9 +33,24 @@ pub enum StatsError {
     #[error("bad tau request: {0}")]
     BadTau(String),
     /// The tau request left no averaging factor that the data can support.
-    #[error("no tau value can be computed from {n_phase} phase points")]
+    #[error("no tau value can be computed from {n_phase} phase points{}", gap_hint(*gaps, *n_phase))]
     NoTau {
         /// Number of phase points available.
         n_phase: usize,
+        /// How many of them fall in gaps (NaN samples): where gaps are dense, no averaging time has two whole
+        /// clusters beside each other.
+        gaps: usize,
     },
+}
+
+/// The note on gaps in [`StatsError::NoTau`]'s message.
+fn gap_hint(gaps: usize, n_phase: usize) -> String {
+    if gaps == 0 {
+        return String::new();
+    }
+    let share = 100.0 * gaps as f64 / n_phase.max(1) as f64;
+    format!(
+        " ({gaps} of them, {share:.0}%, fall in gaps: no averaging time has two whole clusters side by side without \
+         a NaN sample)"
+    )
 }

@@ -114,7 +114,7 @@ pub(crate) fn analyze_octave(
         ms.iter().zip(estimates.iter()).filter_map(one).collect()
     };
     if rows.is_empty() {
-        return Some(Err(StatsError::NoTau { n_phase }));
+        return Some(Err(StatsError::NoTau { n_phase, gaps: 0 }));
     }
     Some(Ok(rows))
 }

@@ -330,6 +330,11 @@ impl Series {
         self.x.len()
     }
 
+    /// Number of gap elements (phase points or frequency intervals that a NaN sample left undefined).
+    pub fn gap_count(&self) -> usize {
+        self.bad.as_ref().and_then(|b| b.last()).map_or(0, |&n| n as usize)
+    }
+
     /// The sample interval, seconds.
     pub fn tau0_s(&self) -> f64 {
         self.tau0_s
