@@ -91,7 +91,7 @@ mod tests {
 
     #[test]
     fn a_cause_already_in_the_message_is_not_repeated() {
-        let io = || std::io::Error::new(std::io::ErrorKind::Other, "too few valid samples: 0");
+        let io = || std::io::Error::other("too few valid samples: 0");
         let e = anyhow::Error::new(Wraps(io()));
         assert_eq!(format!("{e:#}"), "training Allan deviation: too few valid samples: 0: too few valid samples: 0");
         assert_eq!(error_line(&e), "training Allan deviation: too few valid samples: 0");
