@@ -38,28 +38,47 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use crate::fit::{NoiseFit, Term};
 use crate::stats::DevPoint;
 
-/// Draw with the backend the format asks for, then write the file.
+/// Draw with the backend the format asks for, into memory, then write the file in one piece: a file that cannot
+/// be written (no such directory, a full disk) is reported with the system's own reason, and nothing is drawn
+/// into a half-written file.
 macro_rules! render {
     ($format:expr, $path:expr, $opts:expr, |$root:ident| $draw:expr) => {{
         register_fonts();
         let size = ($opts.width, $opts.height);
         let path: &Path = $path;
         let fail = |message: String| PlotError::Write { path: path.to_path_buf(), message };
-        match $format {
+        let bytes: Vec<u8> = match $format {
             Format::Svg => {
-                let area = SVGBackend::new(path, size).into_drawing_area();
-                let $root = &area;
-                $draw.map_err(fail)?;
-                area.present().map_err(|e| fail(e.to_string()))
+                let mut text = String::new();
+                {
+                    let area = SVGBackend::with_string(&mut text, size).into_drawing_area();
+                    let $root = &area;
+                    $draw.map_err(fail)?;
+                    area.present().map_err(|e| fail(e.to_string()))?;
+                }
+                text.into_bytes()
             }
             Format::Png => {
-                let area = BitMapBackend::new(path, size).into_drawing_area();
-                let $root = &area;
-                $draw.map_err(fail)?;
-                area.present().map_err(|e| fail(e.to_string()))
+                let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+                {
+                    let area = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+                    let $root = &area;
+                    $draw.map_err(fail)?;
+                    area.present().map_err(|e| fail(e.to_string()))?;
+                }
+                png_bytes(&rgb, size).map_err(|e| fail(e.to_string()))?
             }
-        }
+        };
+        std::fs::write(path, bytes).map_err(|e| fail(e.to_string()))
     }};
+}
+
+/// An RGB buffer as a PNG file's bytes.
+fn png_bytes(rgb: &[u8], (width, height): (u32, u32)) -> image::ImageResult<Vec<u8>> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out).write_image(rgb, width, height, image::ColorType::Rgb8)?;
+    Ok(out)
 }
 
 /// One channel of an Allan deviation plot.
@@ -1321,6 +1340,16 @@ mod tests {
         let path = tmp.path().join("no/such/dir/f.png");
         let e = adev_plot(&figure5(), &PlotOptions::default(), &path).unwrap_err();
         assert!(matches!(&e, PlotError::Write { path: p, .. } if *p == path), "{e}");
+        // The system's reason, not a backend's debug dump.
+        assert!(e.to_string().ends_with("No such file or directory (os error 2)"), "{e}");
+        // A full disk: /dev/full takes no byte (reached through a link that has the plot's extension).
+        #[cfg(target_os = "linux")]
+        for name in ["f.svg", "f.png"] {
+            let link = tmp.path().join(name);
+            std::os::unix::fs::symlink("/dev/full", &link).unwrap();
+            let e = adev_plot(&figure5(), &PlotOptions::default(), &link).unwrap_err();
+            assert!(e.to_string().ends_with("No space left on device (os error 28)"), "{name}: {e}");
+        }
     }
 
     #[test]
