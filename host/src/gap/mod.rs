@@ -89,6 +89,21 @@ pub enum GapError {
         /// Rate samples.
         rate: usize,
     },
+    /// A sample that is infinite or beyond [`crate::stats::series::MAX_SAMPLE`] in magnitude.
+    #[error(
+        "the {part} part's {column} sample {index} is {value:e}: no sensor reports a value beyond 1e100 (a corrupted \
+         sample?)"
+    )]
+    BadSample {
+        /// `rate` or `temperature`.
+        column: &'static str,
+        /// `training` or `holdout`.
+        part: &'static str,
+        /// Index of the sample in its part.
+        index: usize,
+        /// Its value.
+        value: f64,
+    },
     /// Fewer than 3 seeds.
     #[error("the ensemble needs at least 3 seeds (20 or more recommended); got {0}")]
     TooFewSeeds(usize),
@@ -179,6 +194,22 @@ impl GapInput {
         Ok(())
     }
 
+    /// Every sample a number of a sensor's size or a gap: an infinity or a value beyond
+    /// [`crate::stats::series::MAX_SAMPLE`] is a corrupted sample, which would otherwise leave a view of the
+    /// holdout empty or a fit without points.
+    fn check_values(&self) -> Result<(), GapError> {
+        let columns = [("rate", Some(&self.rate_dps)), ("temperature", self.temp_c.as_ref())];
+        for (column, values) in columns {
+            let Some(values) = values else { continue };
+            let bad = values.iter().position(|v| !(v.is_nan() || v.abs() <= crate::stats::series::MAX_SAMPLE));
+            if let Some(i) = bad {
+                let (part, index) = if i < self.n_train { ("training", i) } else { ("holdout", i - self.n_train) };
+                return Err(GapError::BadSample { column, part, index, value: values[i] });
+            }
+        }
+        Ok(())
+    }
+
     /// Held-out samples.
     pub fn n_holdout(&self) -> usize {
         self.rate_dps.len() - self.n_train
@@ -239,6 +270,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         return Err(GapError::TooFewSeeds(opts.seeds));
     }
     input.check_temperature()?;
+    input.check_values()?;
     let n_train = input.n_train;
     let n_hold = input.n_holdout();
     let missing =
@@ -445,6 +477,33 @@ mod tests {
             e.to_string(),
             "the holdout part has 204 samples that are not gaps (3892 of its 4096 are NaN); the gap diagnosis needs \
              at least 256"
+        );
+    }
+
+    /// A corrupted sample (infinite, or too large for any sensor) is refused up front, named by its column, part
+    /// and index in the part, wherever it falls: a holdout's would otherwise leave that part's Allan view empty.
+    #[test]
+    fn a_corrupted_sample_is_named_by_part_and_index() {
+        let x = crate::test_signals::white(2048, 4);
+        let opts = GapOptions { seeds: 3, effects: vec![], ..Default::default() };
+        for (at, value, part, index) in
+            [(5, 1e200, "training", 5), (1500, -3e101, "holdout", 476), (2047, f64::INFINITY, "holdout", 1023)]
+        {
+            let mut y = x.clone();
+            y[at] = value;
+            let e = diagnose(&GapInput::split(y, None, 10.0, 0.5).unwrap(), &opts, &|_, _, _| {}).unwrap_err();
+            assert!(
+                matches!(e, GapError::BadSample { column: "rate", part: p, index: i, .. } if p == part && i == index),
+                "{e:?}"
+            );
+        }
+        let mut t = vec![23.0; 2048];
+        t[2000] = 1e150;
+        let e = diagnose(&GapInput::split(x, Some(t), 10.0, 0.5).unwrap(), &opts, &|_, _, _| {}).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "the holdout part's temperature sample 976 is 1e150: no sensor reports a value beyond 1e100 (a corrupted \
+             sample?)"
         );
     }
 

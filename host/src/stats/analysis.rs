@@ -292,6 +292,36 @@ mod tests {
         );
     }
 
+    /// A corrupted sample of 1e200 (its square overflows) is named, with its index, on the phase-free octave path
+    /// (a long gap-free record), on the phase-array path and for phase data, instead of every deviation reading
+    /// infinity; 1e99 is still a sample, and the deviations stay finite.
+    #[test]
+    fn a_sample_too_large_to_square_is_named() {
+        let white = crate::test_signals::white(1 << 17, 5);
+        let cases = [
+            (DataKind::Frequency, Statistic::Oadev, TauSpec::Octave),
+            (DataKind::Frequency, Statistic::Oadev, TauSpec::Explicit(vec![3.0, 5.0])),
+            (DataKind::Frequency, Statistic::Mdev, TauSpec::Octave),
+            (DataKind::Phase, Statistic::Oadev, TauSpec::Octave),
+        ];
+        for at in [0, 777, (1 << 17) - 1] {
+            for sign in [1.0, -1.0] {
+                let mut y = white.clone();
+                y[at] = sign * 1e200;
+                for (kind, stat, taus) in &cases {
+                    let e = analyze(&y, *kind, 1.0, *stat, taus, &Options::default()).unwrap_err();
+                    assert_eq!(e, StatsError::TooLarge { index: at, value: sign * 1e200 }, "{kind:?} {stat:?} at {at}");
+                    assert!(e.to_string().starts_with(&format!("sample {at} is ")), "{e}");
+                }
+                y[at] = sign * 1e99;
+                let rows =
+                    analyze(&y, DataKind::Frequency, 1.0, Statistic::Oadev, &TauSpec::Octave, &Options::default())
+                        .unwrap();
+                assert!(rows.iter().all(|r| r.dev.is_finite() && r.dev > 0.0));
+            }
+        }
+    }
+
     /// Process CPU time, s (both cores summed): steadier than wall time on a loaded machine.
     fn cpu_s() -> f64 {
         let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };

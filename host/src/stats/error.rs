@@ -26,6 +26,15 @@ pub enum StatsError {
         /// Index of the sample in the input.
         index: usize,
     },
+    /// A sample beyond [`super::series::MAX_SAMPLE`] in magnitude: a corrupted value, whose square would overflow
+    /// the Allan sums.
+    #[error("sample {index} is {value:e}: no sensor reports a value beyond 1e100 (a corrupted sample?), and its square would overflow the Allan sums")]
+    TooLarge {
+        /// Index of the sample in the input.
+        index: usize,
+        /// Its value.
+        value: f64,
+    },
     /// The confidence level must lie strictly between 0 and 1.
     #[error("confidence must be in (0, 1), got {0}")]
     BadConfidence(f64),

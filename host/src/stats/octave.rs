@@ -27,7 +27,9 @@ use super::analysis::{row, DevPoint, Options};
 use super::deviation::{estimate, far_sums, oadev_range_sums, Estimate, Statistic, FAR_PITCH, FAR_WIDTH};
 use super::error::StatsError;
 use super::noise_id::{acf_noise_id_from, b1_decide, NoiseMethod};
-use super::series::{mvar_from_coarse, DataKind, Series, COARSE, COARSE_MIN_POINTS, FUSED_MAX_M, GROUP_LEN, LANES};
+use super::series::{
+    mvar_from_coarse, DataKind, Series, COARSE, COARSE_MIN_POINTS, FUSED_MAX_M, GROUP_LEN, LANES, MAX_SAMPLE,
+};
 use super::taus::{averaging_factors, TauSpec};
 
 /// Records from this many samples on take this path (shorter ones: the phase array, which is cheap there).
@@ -150,7 +152,8 @@ fn prepare<'a>(
             let base = s0 - h; // the phase point in buf[0]
             let ys = &y[base..s1];
             let len = ys.len() + 1;
-            // Piece sums less the first sample (any NaN or infinity makes them non-finite: that record takes the
+            // Piece sums less the first sample (any NaN or infinity makes them non-finite, a sample beyond MAX_SAMPLE
+            // makes them that large: that record takes the
             // phase-array path), the group's mean c, and each piece's starting point.
             let c0 = ys[0];
             let piece = ys.len() / LANES;
@@ -159,7 +162,7 @@ fn prepare<'a>(
                 sum8(&ys[(l * piece).min(e)..e]) - (e - (l * piece).min(e)) as f64 * c0
             });
             let total: f64 = sums.iter().sum();
-            if !total.is_finite() {
+            if !(total.abs() <= MAX_SAMPLE) {
                 return None;
             }
             let shift = total / ys.len() as f64;

@@ -53,10 +53,16 @@ fn scan_segment(ch: &[f64], reference: f64) -> (f64, usize) {
     (s.iter().sum(), n.iter().sum::<u64>() as usize)
 }
 
+/// The largest magnitude a sample may have: far beyond any rate or phase a sensor reports in any unit, and small
+/// enough that the squares of its differences, summed over 2^40 samples, stay finite. Beyond it a sample is taken
+/// for a corrupted value ([`StatsError::TooLarge`]) instead of overflowing every Allan sum to infinity.
+pub const MAX_SAMPLE: f64 = 1e100;
+
 /// One parallel scan of the trimmed record `d`: per segment of SEG samples the sum of the valid samples less a
 /// reference (the first sample, which is valid after trimming: the segment sums stay small and exact enough to
-/// give each segment's offset), their number, and the index of the first infinity when the segment has one. No
-/// branch per sample: an infinity makes the segment's sum non-finite, and only then is the segment searched for it.
+/// give each segment's offset), their number, and the index of the first infinity or sample beyond
+/// [`MAX_SAMPLE`] when the segment has one. No branch per sample: such a sample makes the segment's sum
+/// non-finite or larger than the limit, and only then is the segment searched for it.
 pub(crate) fn scan(d: &[f64]) -> (f64, Vec<(f64, usize, Option<usize>)>) {
     let reference = d.first().copied().unwrap_or(0.0);
     let reference = if reference.is_finite() { reference } else { 0.0 };
@@ -65,8 +71,15 @@ pub(crate) fn scan(d: &[f64]) -> (f64, Vec<(f64, usize, Option<usize>)>) {
         .enumerate()
         .map(|(c, ch)| {
             let (s, n) = scan_segment(ch, reference);
-            let inf = if s.is_finite() { None } else { ch.iter().position(|v| v.is_infinite()) };
-            (s, n, inf.map(|k| c * SEG + k))
+            // A sum beyond the limit (or not finite) is searched for the sample that put it there. Two samples of
+            // opposite sign beyond the limit in one segment could cancel and slip through; their Allan sums then
+            // overflow to infinity instead.
+            let bad = if s.abs() <= MAX_SAMPLE {
+                None
+            } else {
+                ch.iter().position(|v| !(v.abs() <= MAX_SAMPLE || v.is_nan()))
+            };
+            (s, n, bad.map(|k| c * SEG + k))
         })
         .collect();
     (reference, chunks)
@@ -226,7 +239,12 @@ impl Series {
         // non-finite, and only then is the segment searched for it.
         let (reference, chunks) = scan(d);
         if let Some(i) = chunks.iter().find_map(|c| c.2) {
-            return Err(StatsError::Infinite { index: first + i });
+            let (index, value) = (first + i, d[i]);
+            return Err(if value.is_infinite() {
+                StatsError::Infinite { index }
+            } else {
+                StatsError::TooLarge { index, value }
+            });
         }
         let n_valid: usize = chunks.iter().map(|c| c.1).sum();
         let n_nan = d.len() - n_valid;
