@@ -91,8 +91,8 @@ pub enum GapError {
     },
     /// A sample that is infinite or beyond [`crate::stats::series::MAX_SAMPLE`] in magnitude.
     #[error(
-        "the {part} part's {column} sample {index} is {value:e}: no sensor reports a value beyond 1e100 (a corrupted \
-         sample?)"
+        "the {part} part's {column} sample {index} (sample {record_index} of the record) is {value:e}: no sensor \
+         reports a value beyond 1e100 (a corrupted sample?)"
     )]
     BadSample {
         /// `rate` or `temperature`.
@@ -101,6 +101,8 @@ pub enum GapError {
         part: &'static str,
         /// Index of the sample in its part.
         index: usize,
+        /// Index of the sample in the whole record (training, then holdout).
+        record_index: usize,
         /// Its value.
         value: f64,
     },
@@ -204,7 +206,7 @@ impl GapInput {
             let bad = values.iter().position(|v| !(v.is_nan() || v.abs() <= crate::stats::series::MAX_SAMPLE));
             if let Some(i) = bad {
                 let (part, index) = if i < self.n_train { ("training", i) } else { ("holdout", i - self.n_train) };
-                return Err(GapError::BadSample { column, part, index, value: values[i] });
+                return Err(GapError::BadSample { column, part, index, record_index: i, value: values[i] });
             }
         }
         Ok(())
@@ -502,8 +504,8 @@ mod tests {
         let e = diagnose(&GapInput::split(x, Some(t), 10.0, 0.5).unwrap(), &opts, &|_, _, _| {}).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "the holdout part's temperature sample 976 is 1e150: no sensor reports a value beyond 1e100 (a corrupted \
-             sample?)"
+            "the holdout part's temperature sample 976 (sample 2000 of the record) is 1e150: no sensor reports a \
+             value beyond 1e100 (a corrupted sample?)"
         );
     }
 
