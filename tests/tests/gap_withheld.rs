@@ -411,7 +411,7 @@ fn withheld_effects_are_found() {
 /// fix; the true model itself reaches 0.73 and 0.43 there (README, "How well it works").
 /// About 80 s in release: `cargo test -p octavar-tests --release gap_withheld::full_sweep -- --ignored`.
 #[test]
-#[ignore = "issue 5 floor, not met at every seed: run with --ignored"]
+#[ignore = "issue 5 floor: even the true model misses some seeds (README, How well it works); run with --ignored"]
 fn full_sweep() {
     let failures = sweep(0..10);
     assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
