@@ -203,7 +203,7 @@ impl GapInput {
         let columns = [("rate", Some(&self.rate_dps)), ("temperature", self.temp_c.as_ref())];
         for (column, values) in columns {
             let Some(values) = values else { continue };
-            let bad = values.iter().position(|v| !(v.is_nan() || v.abs() <= crate::stats::series::MAX_SAMPLE));
+            let bad = values.iter().position(|&v| crate::stats::series::is_corrupted(v));
             if let Some(i) = bad {
                 let (part, index) = if i < self.n_train { ("training", i) } else { ("holdout", i - self.n_train) };
                 return Err(GapError::BadSample { column, part, index, record_index: i, value: values[i] });

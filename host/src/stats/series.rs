@@ -58,6 +58,11 @@ fn scan_segment(ch: &[f64], reference: f64) -> (f64, usize) {
 /// for a corrupted value ([`StatsError::TooLarge`]) instead of overflowing every Allan sum to infinity.
 pub const MAX_SAMPLE: f64 = 1e100;
 
+/// Whether `v` is a corrupted sample: infinite, or beyond [`MAX_SAMPLE`] in magnitude (NaN is a gap, not this).
+pub fn is_corrupted(v: f64) -> bool {
+    !(v.abs() <= MAX_SAMPLE || v.is_nan())
+}
+
 /// One parallel scan of the trimmed record `d`: per segment of SEG samples the sum of the valid samples less a
 /// reference (the first sample, which is valid after trimming: the segment sums stay small and exact enough to
 /// give each segment's offset), their number, and the index of the first infinity or sample beyond
@@ -74,11 +79,7 @@ pub(crate) fn scan(d: &[f64]) -> (f64, Vec<(f64, usize, Option<usize>)>) {
             // A sum beyond the limit (or not finite) is searched for the sample that put it there. Two samples of
             // opposite sign beyond the limit in one segment could cancel and slip through; their Allan sums then
             // overflow to infinity instead.
-            let bad = if s.abs() <= MAX_SAMPLE {
-                None
-            } else {
-                ch.iter().position(|v| !(v.abs() <= MAX_SAMPLE || v.is_nan()))
-            };
+            let bad = if s.abs() <= MAX_SAMPLE { None } else { ch.iter().position(|&v| is_corrupted(v)) };
             (s, n, bad.map(|k| c * SEG + k))
         })
         .collect();
