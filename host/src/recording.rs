@@ -276,16 +276,15 @@ pub fn read_csv_stream<R: BufRead>(
         if text.is_empty() || text.eq_ignore_ascii_case("nan") || text.eq_ignore_ascii_case("na") {
             return Ok(f64::NAN);
         }
-        let at = || (path.to_string(), line, column.to_string(), text.to_string());
         match text.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => {
-                let (path, line, column, text) = at();
-                Err(RecordingError::NotFinite { path, line, column, text })
-            }
-            Err(_) => {
-                let (path, line, column, text) = at();
-                Err(RecordingError::NotANumber { path, line, column, text })
+            parsed => {
+                let (path, column, text) = (path.to_string(), column.to_string(), text.to_string());
+                Err(if parsed.is_ok() {
+                    RecordingError::NotFinite { path, line, column, text }
+                } else {
+                    RecordingError::NotANumber { path, line, column, text }
+                })
             }
         }
     };
