@@ -6,9 +6,9 @@
 //! `candidates` `[{effect, params, gap_after, shrink, ...}]`, `model` (the base model plus the chosen effect, as a
 //! `model.toml` channel's `gyro`), `effect_params`. Also: `size`, `significant`, `threshold`, `total_before`,
 //! `total_after`, `base_model`, `base_fit`, `views` (every view's RMS on both parts, before and after), `n_train`,
-//! `n_holdout`, `missing_samples` `{training, holdout}` (NaN gaps), `fs_hz`, `seeds`; `holdout.shrink_if_right` (the shrink a right model would reach there,
-//! [`rank::shrink_if_right`]); `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
-//! [`HoldoutCheck::Predictive`] (null without).
+//! `n_holdout`, `missing_samples` `{training, holdout}` (NaN gaps), `fs_hz`, `seeds`; `holdout.shrink_if_right`
+//! (the shrink a right model would reach there, [`rank::shrink_if_right`]); `holdout_predictive` `{gap_before,
+//! gap_after, shrink, worst}` with [`HoldoutCheck::Predictive`] (null without).
 
 use std::fmt::Write as _;
 

@@ -152,9 +152,9 @@ fn prepare<'a>(
             let base = s0 - h; // the phase point in buf[0]
             let ys = &y[base..s1];
             let len = ys.len() + 1;
-            // Piece sums less the first sample (any NaN or infinity makes them non-finite, a sample beyond MAX_SAMPLE
-            // makes them that large: that record takes the
-            // phase-array path), the group's mean c, and each piece's starting point.
+            // Piece sums less the first sample (any NaN or infinity makes them non-finite, a sample beyond
+            // MAX_SAMPLE makes them that large: that record takes the phase-array path, which names it), the group's
+            // mean c, and each piece's starting point.
             let c0 = ys[0];
             let piece = ys.len() / LANES;
             let sums: [f64; LANES + 1] = std::array::from_fn(|l| {
