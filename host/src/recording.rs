@@ -69,7 +69,10 @@ pub enum RecordingError {
     #[error("{path}, line {line}, column {column:?}: {text:?} is not a number")]
     NotANumber { path: String, line: u64, column: String, text: String },
     /// A cell that reads as an infinity (`inf`, `1e999`): no sensor reports one, and it would poison every sum.
-    #[error("{path}, line {line}, column {column:?}: {text:?} is not a finite number (leave the cell empty or write NaN for a missing sample)")]
+    #[error(
+        "{path}, line {line}, column {column:?}: {text:?} is not a finite number (leave the cell empty or write NaN \
+         for a missing sample)"
+    )]
     NotFinite { path: String, line: u64, column: String, text: String },
     /// A row with fewer cells than the header.
     #[error("{path}, line {line}: {message}")]

@@ -28,7 +28,10 @@ pub enum StatsError {
     },
     /// A sample beyond [`super::series::MAX_SAMPLE`] in magnitude: a corrupted value, whose square would overflow
     /// the Allan sums.
-    #[error("sample {index} is {value:e}: no sensor reports a value beyond 1e100 (a corrupted sample?), and its square would overflow the Allan sums")]
+    #[error(
+        "sample {index} is {value:e}: no sensor reports a value beyond 1e100 (a corrupted sample?), and its square \
+         would overflow the Allan sums"
+    )]
     TooLarge {
         /// Index of the sample in the input.
         index: usize,

@@ -134,8 +134,8 @@ fn normal_equations(y: &[f64], freqs: &[f64], dt: f64, t_off: f64) -> (Vec<Vec<f
 }
 
 /// The standard deviations of the amplitude and of the phase (rad) of sinusoid `j` of the least squares `ls` of
-/// [`sinusoid_ls`] (on `n` samples) under noise of two-sided spectrum `N^2 + B^2 / (2 pi f) + K^2 / (2 pi f)^2` (`squares`
-/// of the IEEE fit): each coefficient is linear in the record, `a = sum g_i y_i`, so its variance is the
+/// [`sinusoid_ls`] (on `n` samples) under noise of two-sided spectrum `N^2 + B^2 / (2 pi f) + K^2 / (2 pi f)^2`
+/// (`squares` of the IEEE fit): each coefficient is linear in the record, `a = sum g_i y_i`, so its variance is the
 /// integral of `|G(f)|^2 S(f)`, taken on a twice zero-padded grid, leakage of red noise through the record's
 /// rectangular window included.
 fn ls_amplitude_sd(
