@@ -5,7 +5,7 @@
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::GyroSim;
 
-use super::{effects, ensemble, fill_gaps, views, GapError, GapInput, GapOptions, ViewGap};
+use super::{compare, effects, ensemble, fill_gaps, views, GapError, GapInput, GapOptions, ViewGap};
 
 /// One model's ensemble, compared with the real record on both parts.
 #[derive(Clone, Debug)]
@@ -139,9 +139,9 @@ impl<'a> Judge<'a> {
             Some((t, h)) => (t, h.as_ref()),
             None => (&self.real_train, self.real_hold.as_ref()),
         };
-        let training = views::compare(&self.train_plan, real_train, &e.training);
+        let training = compare::compare(&self.train_plan, real_train, &e.training);
         let holdout = match (&self.hold_plan, real_hold) {
-            (Some(p), Some(r)) => views::compare(p, r, &e.holdout),
+            (Some(p), Some(r)) => compare::compare(p, r, &e.holdout),
             _ => Vec::new(),
         };
         let adev_band = self.train_plan.points[0]

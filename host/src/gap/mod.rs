@@ -36,25 +36,30 @@
 //! assert_eq!(r.effect_name(), "none");
 //! ```
 
+pub mod base;
+pub mod compare;
 pub mod effects;
 pub mod ensemble;
 pub mod holdout;
 pub mod judge;
 pub mod rank;
 pub mod report;
+pub mod spectral;
 pub mod views;
 
 use octavar_shared::sensor::Channel;
-use octavar_shared::sim::GyroSim;
 use rayon::prelude::*;
 
-use crate::fit::{fit, FitError, FitOptions, FitPoint, NoiseFit};
-use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
+use crate::fit::{FitError, FitOptions, NoiseFit};
+use crate::stats::{DevPoint, StatsError};
 
+pub use base::base_model;
+use base::{fit_base, training_adev};
+pub use compare::ViewGap;
 pub use effects::{Effect, EffectFit};
 pub use judge::{Evaluated, Judge};
 pub use report::{CandidateResult, GapReport, HoldoutCheck, PartGap};
-pub use views::{ViewGap, ViewKind};
+pub use views::ViewKind;
 
 /// Fewest samples a part may have.
 pub const MIN_PART: usize = 256;
@@ -361,7 +366,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                 let relearn = |t: &[f64]| (learner.base(t).1, channel);
                 let m = ensemble::predict_holdout(&report.base, channel.as_ref(), &rec, hp, seeds, None, &relearn)
                     .map_err(|err| GapError::Sim { model: "base".into(), err })?;
-                Some(views::compare(hp, real_hold, &m))
+                Some(compare::compare(hp, real_hold, &m))
             }
         };
         let chosen = report.chosen().and_then(|c| c.fit.as_ref().zip(c.eval.as_ref()));
@@ -375,7 +380,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                 let m = ensemble::predict_holdout(&f.gyro, ch.as_ref(), &rec, hp, seeds, resp_hold, &relearn)
                     .map_err(|err| GapError::Sim { model: effect.name().to_string(), err })?;
                 // The real holdout as this model was judged on it (less its own temperature response).
-                eval.real_holdout.as_ref().map(|real| views::compare(hp, real, &m))
+                eval.real_holdout.as_ref().map(|real| compare::compare(hp, real, &m))
             }
             None => None,
         };
@@ -383,31 +388,6 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         progress("holdout check", total_steps, total_steps);
     }
     Ok(report)
-}
-
-/// The octave OADEV of a training part.
-fn training_adev(training: &[f64], fs_hz: f64) -> Result<Vec<DevPoint>, GapError> {
-    let series = Series::new(training, DataKind::Frequency, 1.0 / fs_hz)?;
-    Ok(analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &Options::default())?)
-}
-
-/// The base fit of a training part: its octave OADEV and the IEEE 952 fit of it.
-pub(crate) fn fit_base(training: &[f64], fs_hz: f64, opts: &FitOptions) -> Result<(Vec<DevPoint>, NoiseFit), GapError> {
-    let real_adev = training_adev(training, fs_hz)?;
-    let pts: Vec<FitPoint> = real_adev
-        .iter()
-        .filter(|p| p.edf.is_finite() && p.edf > 0.0)
-        .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
-        .collect();
-    let f = fit(&pts, opts)?;
-    Ok((real_adev, f))
-}
-
-/// The base simulation model of a fit: every fitted term ([`NoiseFit::sim_terms`]), with the mean of `training`
-/// as the bias.
-pub fn base_model(f: &NoiseFit, training: &[f64]) -> GyroSim {
-    let (sum, n) = training.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
-    f.sim_terms(GyroSim { bias_dps: if n > 0 { sum / n as f64 } else { 0.0 }, ..Default::default() })
 }
 
 /// A copy with NaN runs filled by linear interpolation between their neighbours (the ends by the nearest value);

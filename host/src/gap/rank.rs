@@ -1,9 +1,7 @@
 //! The gap measure, where the gap lies, and the ranking of the candidate effects.
 //!
 //! - **Per view**: the RMS of its points' z-scores over its worst window one decade wide in tau
-//!   ([`worst_window`], [`super::views::ViewGap::gap`]); about 1 when real and simulation agree. A window, not the
-//!   whole view: an effect lives in a band, and an RMS over 17 octaves diluted a z of -4.5 at the top two taus
-//!   to 1.7.
+//!   ([`super::compare::worst_window`], [`ViewGap::gap`]); about 1 when real and simulation agree.
 //! - **The gap**: the worst view's gap ([`gap_of`]). It is significant above [`SIGNIFICANT_GAP`]. After a fix, and
 //!   on the holdout, the gap is the RMS z of the same view's points at the same taus ([`band_gap`]), so the
 //!   held-out check measures the gap the diagnosis is about; the worst view of each is reported beside it.
@@ -19,10 +17,8 @@
 
 use serde::Serialize;
 
-use super::views::{PointZ, ViewGap, ViewKind};
-
-/// Width of the window a gap is measured over, decades of tau.
-pub const WINDOW_DECADES: f64 = 1.0;
+use super::compare::ViewGap;
+use super::views::ViewKind;
 
 /// A gap (the worst view's worst-decade RMS z) above this is significant. Where real and simulation agree a
 /// view's gap is about 1; 2.5 leaves room for the worst window of four views whose sds come from 20 members.
@@ -83,29 +79,6 @@ pub struct Location {
     /// Real and mean simulated coherence with the temperature (its magnitude: the correlation of the two within
     /// the band at the best phase) at the band's strongest point (temperature view).
     pub correlation: Option<[f64; 2]>,
-}
-
-/// The largest RMS z over a window of `points` (sorted by tau) one decade wide in tau, as `(a, b, rms)` with
-/// the window's index range `a..b`; `(0, 0, 0.0)` without points. The windows start at every point and take the
-/// points up to ten times its tau; a window inside the previous one (the short ones at the top of the tau range)
-/// is skipped, so every window spans a full decade, or the whole view when it spans less.
-pub fn worst_window(points: &[PointZ]) -> (usize, usize, f64) {
-    let mut best = (0, 0, 0.0);
-    let mut prev_end = 0;
-    for i in 0..points.len() {
-        let top = points[i].info.tau_s * 10f64.powf(WINDOW_DECADES) * (1.0 + 1e-9);
-        let end = i + points[i..].iter().take_while(|p| p.info.tau_s <= top).count();
-        if i > 0 && end <= prev_end {
-            continue;
-        }
-        prev_end = end;
-        let w = &points[i..end];
-        let rms = (w.iter().map(|p| p.z * p.z).sum::<f64>() / w.len() as f64).sqrt();
-        if rms > best.2 {
-            best = (i, end, rms);
-        }
-    }
-    best
 }
 
 /// The gap: the worst view's gap (its worst decade window's RMS z; 0 without views).
@@ -205,6 +178,7 @@ pub fn locate(views: &[ViewGap]) -> Option<Location> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gap::compare::{worst_window, PointZ};
     use crate::gap::views::PointInfo;
 
     fn view(kind: ViewKind, zs: &[f64]) -> ViewGap {

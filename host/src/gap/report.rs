@@ -17,9 +17,10 @@ use octavar_shared::sim::GyroSim;
 use serde::Serialize;
 use serde_json::{json, Value};
 
+use super::compare::ViewGap;
 use super::effects::{Effect, EffectFit};
 use super::rank::{self, Location};
-use super::views::{ViewGap, ViewKind};
+use super::views::ViewKind;
 use super::Evaluated;
 use crate::fit::NoiseFit;
 use crate::plot::{Band, GapPlot};

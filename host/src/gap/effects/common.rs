@@ -7,7 +7,7 @@ use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
 use crate::fit::{fit, FitOptions, FitPoint, Term};
-pub(super) use crate::gap::views::{block_means, sine_tapers};
+pub(super) use crate::gap::spectral::{block_means, sine_tapers};
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
 
 pub(super) fn mean(x: &[f64]) -> f64 {
