@@ -168,6 +168,28 @@ impl GapPlot {
             band_label: "gap".to_string(),
         }
     }
+
+    /// The gap plot of a diagnosis: the real training OADEV, the base ensemble's band, the band of the model with
+    /// the whole chain, and the located band when the gap lies in a view with a tau axis.
+    pub fn from_report(r: &crate::gap::GapReport) -> GapPlot {
+        let to_bands = |e: &crate::gap::Evaluated| -> Vec<Band> {
+            e.adev_band.iter().map(|&(tau_s, lo, hi)| Band { tau_s, lo, hi }).collect()
+        };
+        let mut p = GapPlot::new(r.real_adev.clone(), to_bands(&r.base_eval));
+        p.before_label = "simulated, base model".to_string();
+        if let Some(last) = r.chain.last() {
+            p.after = Some(to_bands(&last.eval));
+            let names: Vec<&str> = r.chain.iter().map(|s| s.effect.name()).collect();
+            p.after_label = format!("simulated, + {}", names.join(" + "));
+        }
+        if let Some(l) = &r.location {
+            if r.significant && l.view != crate::gap::ViewKind::Distribution {
+                p.band_s = Some((l.band_s[0], l.band_s[1]));
+                p.band_label = format!("gap: {} ({})", l.view.name(), l.sign.name());
+            }
+        }
+        p
+    }
 }
 
 /// What went wrong.

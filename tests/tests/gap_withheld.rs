@@ -333,7 +333,7 @@ fn run_case(effect: Option<Effect>, seed: u64) -> (Case, Outcome) {
 /// (README, "How well it works").
 fn oracle_holdout_gap(c: &Case, input: &GapInput, loc: &octavar::gap::rank::Location) -> f64 {
     let judge = Judge::new(input, &GapOptions::default());
-    let e = judge.evaluate(&c.model, None, c.channel.as_ref(), "truth").unwrap();
+    let e = judge.evaluate(&c.model, &[], c.channel.as_ref(), "truth").unwrap();
     octavar::gap::rank::band_gap(&e.holdout, loc).unwrap_or(f64::NAN)
 }
 

@@ -153,27 +153,22 @@ impl Args {
                 .with_context(|| format!("writing {}", path.display()))?;
             let title = format!("Sim-to-real gap: {} ({})", r.paper.label, report.effect_name());
             let popts = plot::PlotOptions { title, ..Default::default() };
-            plot::gap_plot(&report.plot_data(), &popts, &self.out.join(format!("gap_{slug}.png")))?;
+            plot::gap_plot(&plot::GapPlot::from_report(&report), &popts, &self.out.join(format!("gap_{slug}.png")))?;
             let path = self.out.join(format!("gap_{slug}.txt"));
             std::fs::write(&path, report.text()).with_context(|| format!("writing {}", path.display()))?;
-            let j = report.to_json();
-            let band = match j["band_s"].as_array() {
-                Some(b) if b.len() == 2 => {
-                    format!("{:.3e}..{:.3e}", b[0].as_f64().unwrap_or(f64::NAN), b[1].as_f64().unwrap_or(f64::NAN))
-                }
-                _ => "-".to_string(),
-            };
-            let h = &j["holdout"];
+            let loc = report.location.as_ref();
+            let band = loc.map_or("-".to_string(), |l| format!("{:.3e}..{:.3e}", l.band_s[0], l.band_s[1]));
+            let h = report.holdout.unwrap_or(octavar::gap::PartGap::new(f64::NAN, f64::NAN));
             writeln!(
                 out,
                 "{:<10} {:>13} {:>12} {:>22} {:>11.2} -> {:>9.2} {:>9.1}%",
                 r.paper.label,
                 report.effect_name(),
-                j["view"].as_str().unwrap_or("-"),
+                loc.map_or("-", |l| l.view.name()),
                 band,
-                h["gap_before"].as_f64().unwrap_or(f64::NAN),
-                h["gap_after"].as_f64().unwrap_or(f64::NAN),
-                100.0 * h["shrink"].as_f64().unwrap_or(f64::NAN)
+                h.gap_before,
+                h.gap_after,
+                100.0 * h.shrink
             )?;
         }
         writeln!(out, "\nwrote gap_<channel>.json, .txt and .png; total {:.1} s", started.elapsed().as_secs_f64())?;

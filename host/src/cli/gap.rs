@@ -120,7 +120,8 @@ impl Args {
         if let Some(path) = &self.plot {
             let title = format!("Sim-to-real gap: {} {} ({})", rec.source, self.column, report.effect_name());
             let opts = plot::PlotOptions { title, ..Default::default() };
-            plot::gap_plot(&report.plot_data(), &opts, path).with_context(|| format!("drawing {}", path.display()))?;
+            plot::gap_plot(&plot::GapPlot::from_report(&report), &opts, path)
+                .with_context(|| format!("drawing {}", path.display()))?;
         }
         Ok(ExitCode::SUCCESS)
     }

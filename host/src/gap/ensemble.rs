@@ -79,15 +79,15 @@ pub fn temperature_response(gyro: &GyroSim, rec: &Record) -> Option<Vec<f64>> {
 const NO_TEMP_C: f64 = 25.0;
 
 /// Simulate `gyro` on `channel` once per seed over the whole record and measure both parts; `explained` is the
-/// model's [`temperature_response`] over the whole record, taken out for the temperature view; with `spread`,
-/// each member draws the effect's parameters from it ([`ParamSpread::draw`]).
+/// model's [`temperature_response`] over the whole record, taken out for the temperature view; each member draws
+/// the parameters of the model's effects from their `spreads` ([`ParamSpread::draw`]).
 ///
 /// # Errors
 /// The model's [`SimError`] (a parameter out of range).
 #[allow(clippy::too_many_arguments)] // the record's two plans, the model, its spread and channel, the seeds
 pub fn simulate(
     gyro: &GyroSim,
-    spread: Option<&ParamSpread>,
+    spreads: &[ParamSpread],
     channel: Option<&Channel>,
     rec: &Record,
     train_plan: &Plan,
@@ -106,7 +106,7 @@ pub fn simulate(
     let members: Vec<(Measure, Option<Measure>)> = seeds
         .par_iter()
         .map(|&seed| {
-            let drawn = spread.map(|s| s.draw(gyro, seed));
+            let drawn = (!spreads.is_empty()).then(|| draw_all(spreads, gyro, seed));
             let g = drawn.as_ref().filter(|g| VirtualGyro::new(g, adc_of(channel), fs_sim, 0).is_ok()).unwrap_or(gyro);
             let x = member(g, channel, &table, rec, rec.rate_dps.len(), seed);
             let train = train_plan.measure_explained(&x[..rec.n_train], rec.training_temp(), resp_train, false);
@@ -123,6 +123,12 @@ pub fn simulate(
         }
     }
     Ok(out)
+}
+
+/// `gyro` with the parameters of each spread drawn for the member of `seed` (the k-th spread with its own salt, so
+/// the draws of two effects are independent).
+fn draw_all(spreads: &[ParamSpread], gyro: &GyroSim, seed: u64) -> GyroSim {
+    spreads.iter().enumerate().fold(gyro.clone(), |g, (k, s)| s.draw(&g, seed ^ ((k as u64) << 48)))
 }
 
 /// The first `n` samples of one member: `gyro` on `channel` (its code table `table`; the analog rate without a
@@ -246,7 +252,7 @@ mod tests {
         let gyro = GyroSim { n_deg_per_rt_s: n_coef, r_dps_per_s: 0.02, ..Default::default() };
         let train = Plan::new(rec.training(), None, fs);
         let hold = Plan::new(rec.holdout(), None, fs);
-        let e = simulate(&gyro, None, None, &rec, &train, Some(&hold), &[1, 2, 3], None).unwrap();
+        let e = simulate(&gyro, &[], None, &rec, &train, Some(&hold), &[1, 2, 3], None).unwrap();
         let closed = (n_coef * fs.sqrt()).ln();
         for m in &e.holdout {
             let got = m.values[ViewKind::Adev as usize][0];

@@ -7,15 +7,17 @@
 //! the holdout. The predictive ensemble asks the question the held-out check is about: does the holdout look like
 //! what a model learnt from a training part like the real one predicts? Member `i` simulates the training part
 //! of the learnt model, learns from it exactly as the diagnosis learnt from the real one ([`Learner`]: the base
-//! fit, then the effect's estimator), and simulates what it learnt over the holdout
+//! fit, then the chain's estimators in order), and simulates what it learnt over the holdout
 //! ([`super::ensemble::predict_holdout`]). Every parameter applied to the real holdout is still the one frozen
 //! from the real training part; only the ensemble it is judged against changes.
 
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::GyroSim;
 
-use super::effects::{self, Effect, TrainingData};
-use super::{base_model, fill_gaps, fit_base};
+use super::base::{base_model, fit_base};
+use super::chain::{self, Model};
+use super::effects::Effect;
+use super::input::fill_gaps;
 use crate::fit::{FitOptions, NoiseFit};
 
 /// The diagnosis's learning procedure, to be re-run on simulated training parts.
@@ -45,17 +47,14 @@ impl Learner<'_> {
         (f, g)
     }
 
-    /// The model with `effect` learnt from `train` (the base model alone when the estimator finds no trace), and
-    /// its channel.
-    pub fn with_effect(&self, effect: Effect, train: &[f64]) -> (GyroSim, Option<Channel>) {
+    /// The model with the chain `effects` learnt from `train` as the diagnosis learns it ([`chain::learn`]; an
+    /// effect whose estimator finds no trace is left out), and its channel.
+    pub fn with_chain(&self, effects: &[Effect], train: &[f64]) -> (GyroSim, Option<Channel>) {
         let (f, base) = self.base(train);
         let filled = fill_gaps(train);
-        let data =
-            TrainingData { rate_dps: &filled, temp_c: self.temp_c, fs_hz: self.fs_hz, base: &base, base_fit: &f };
-        match effects::estimate(effect, &data) {
-            Some(e) => (e.gyro, e.channel.or(self.channel)),
-            None => (base, self.channel),
-        }
+        let start = Model { gyro: base, spreads: Vec::new(), channel: self.channel };
+        let m = chain::learn(effects, &start, &f, &filled, self.temp_c, self.fs_hz);
+        (m.gyro, m.channel)
     }
 }
 
@@ -82,7 +81,7 @@ mod tests {
         let same = |_: &[f64]| (gyro.clone(), None);
         let pred = predict_holdout(&gyro, None, &rec, &hold, &seeds, None, &same).unwrap();
         let salted: Vec<u64> = seeds.iter().map(|s| s.wrapping_add(super::super::ensemble::PREDICT_SALT)).collect();
-        let plain = simulate(&gyro, None, None, &rec, &train, Some(&hold), &salted, None).unwrap();
+        let plain = simulate(&gyro, &[], None, &rec, &train, Some(&hold), &salted, None).unwrap();
         let bits = |m: &[crate::gap::views::Measure]| -> Vec<Vec<u64>> {
             m.iter().flat_map(|m| m.values.iter().map(|v| v.iter().map(|x| x.to_bits()).collect())).collect()
         };
@@ -100,7 +99,7 @@ mod tests {
         let tau0 = 1.0 / fs;
         let x = white_record(1 << 15, 0.1);
         let rec = Record { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: 1 << 14, oversample: 1 };
-        let f = crate::gap::fit_base(rec.training(), fs, &FitOptions::default()).unwrap().1;
+        let f = crate::gap::base::fit_base(rec.training(), fs, &FitOptions::default()).unwrap().1;
         let gyro = base_model(&f, rec.training());
         let learner = Learner {
             fs_hz: fs,
@@ -120,7 +119,7 @@ mod tests {
             (g, None)
         };
         let pred = predict_holdout(&gyro, None, &rec, &hold, &seeds, None, &relearn).unwrap();
-        let plain = simulate(&gyro, None, None, &rec, &train, Some(&hold), &seeds, None).unwrap().holdout;
+        let plain = simulate(&gyro, &[], None, &rec, &train, Some(&hold), &seeds, None).unwrap().holdout;
         let sd = |v: &[f64]| {
             let mu = v.iter().sum::<f64>() / v.len() as f64;
             (v.iter().map(|x| (x - mu) * (x - mu)).sum::<f64>() / (v.len() - 1) as f64).sqrt()

@@ -5,7 +5,10 @@
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::GyroSim;
 
-use super::{compare, effects, ensemble, fill_gaps, views, GapError, GapInput, GapOptions, ViewGap};
+use super::compare::{self, ViewGap};
+use super::error::GapError;
+use super::input::{fill_gaps, GapInput, GapOptions};
+use super::{effects, ensemble, views};
 
 /// One model's ensemble, compared with the real record on both parts.
 #[derive(Clone, Debug)]
@@ -97,7 +100,7 @@ impl<'a> Judge<'a> {
         self.real_hold.as_ref()
     }
 
-    /// `gyro`'s ensemble (its members drawing `spread`'s parameters, on channel `ch` or as the analog rate)
+    /// `gyro`'s ensemble (its members drawing their effects' parameters from `spreads`, on channel `ch` or as the analog rate)
     /// compared with the record on both parts. A model with a temperature coupling is judged in the temperature
     /// view on what its coupling leaves, on the real record as on each member. `name` names the model in an
     /// error.
@@ -107,7 +110,7 @@ impl<'a> Judge<'a> {
     pub fn evaluate(
         &self,
         gyro: &GyroSim,
-        spread: Option<&effects::ParamSpread>,
+        spreads: &[effects::ParamSpread],
         ch: Option<&Channel>,
         name: &str,
     ) -> Result<Evaluated, GapError> {
@@ -115,7 +118,7 @@ impl<'a> Judge<'a> {
         let explained = ensemble::temperature_response(gyro, &rec);
         let e = ensemble::simulate(
             gyro,
-            spread,
+            spreads,
             ch,
             &rec,
             &self.train_plan,

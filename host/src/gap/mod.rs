@@ -1,25 +1,34 @@
 //! The sim-to-real gap diagnosis (`octavar gap`): where a gyro and its fitted simulation part, which unmodelled
-//! effect causes it, and how far the gap shrinks on data the fit never saw.
+//! effects cause it, and how far the gap shrinks on data the fit never saw.
 //!
-//! 1. **Split**: training is the first part of the record, the holdout the rest ([`GapInput::split`]), or a
-//!    second record ([`GapInput::joined`]).
-//! 2. **Base model**: the IEEE 952 fit ([`crate::fit::fit`], default options) on the training OADEV at octave tau;
-//!    its fitted terms and the training mean as the bias, on the record's ADC when it is known
+//! 1. **Split** ([`input`]): training is the first part of the record, the holdout the rest
+//!    ([`GapInput::split`]), or a second record ([`GapInput::joined`]).
+//! 2. **Base model** ([`base`]): the IEEE 952 fit ([`crate::fit::fit`], default options) on the training OADEV at
+//!    octave tau; its fitted terms and the training mean as the bias, on the record's ADC when it is known
 //!    ([`GapOptions::channel`]), else as the analog rate (no ADC: nothing quantises or clips it; a fine ADC over
 //!    a few times the record's range clipped members whose random walk or ramp wandered further than the
 //!    record's, and their stuck samples read as a heavy-tailed distribution).
 //! 3. **Ensemble** ([`ensemble`]): the model simulated with [`GapOptions::seeds`] seeds over the whole record,
 //!    driven by the real temperature; measured on each part and compared with the real record ([`Judge`]).
-//! 4. **Views** ([`views`]): ADEV, PSD, distribution, temperature; z-scores of the real values against the
-//!    ensemble.
+//! 4. **Views** ([`views`], one module per view, on the tools of [`spectral`]): ADEV, PSD, distribution,
+//!    temperature; z-scores of the real values against the ensemble ([`compare`]).
 //! 5. **Gap and location** ([`rank`]): the worst view's RMS z over its worst decade of tau, that band, its sign
 //!    and size.
 //! 6. **Candidates** ([`effects`]): each effect of the vocabulary fitted on the training data, re-simulated with the
 //!    same seeds, re-measured; ranked by total gap with a penalty per parameter; the best is named, or `none` when
 //!    the base gap is not significant.
-//! 7. **Holdout**: every parameter frozen from training, the gap on the holdout before and after each candidate.
+//! 7. **The chain** ([`chain`]): while a significant gap remains, the remaining candidates are ranked again on the
+//!    model that already has the effects found, and the best is added when it removes a quarter of the gap.
+//! 8. **Holdout** ([`holdout`] for the predictive check): every parameter frozen from training, the gap on the
+//!    holdout before and after each step and for the whole chain.
+//! 9. **What is left** ([`describe`]): a significant gap that no candidate explains is described by its view,
+//!    band, sign, size and shape.
 //!
-//! [`report`] turns the result into text, the JSON document and the plot's data.
+//! [`diagnose()`] runs these steps; [`report`] turns the result into text and the JSON document.
+//!
+//! Imports run one way: `input`, `error`, `spectral` and `base` import nothing of the diagnosis but each other;
+//! `views` the spectral tools; `compare` the views; `ensemble` and `judge` those; `rank` the comparison and the
+//! judge; `chain`, `describe` and `holdout` the ranking; `report` all of these; `diagnose` everything.
 //!
 //! # Examples
 //! ```
@@ -37,387 +46,34 @@
 //! ```
 
 pub mod base;
+pub mod chain;
 pub mod compare;
+pub mod describe;
+mod diagnose;
 pub mod effects;
 pub mod ensemble;
+pub mod error;
 pub mod holdout;
+pub mod input;
 pub mod judge;
 pub mod rank;
 pub mod report;
 pub mod spectral;
 pub mod views;
 
-use octavar_shared::sensor::Channel;
-use rayon::prelude::*;
-
-use crate::fit::{FitError, FitOptions, NoiseFit};
-use crate::stats::{DevPoint, StatsError};
-
 pub use base::base_model;
-use base::{fit_base, training_adev};
 pub use compare::ViewGap;
+pub use diagnose::{diagnose, ProgressFn};
 pub use effects::{Effect, EffectFit};
+pub use error::GapError;
+pub use input::{fill_gaps, GapInput, GapOptions, HoldoutCheck, MIN_PART};
 pub use judge::{Evaluated, Judge};
-pub use report::{CandidateResult, GapReport, HoldoutCheck, PartGap};
+pub use rank::{CandidateResult, PartGap};
+pub use report::GapReport;
 pub use views::ViewKind;
 
-/// Fewest samples a part may have.
-pub const MIN_PART: usize = 256;
-
-/// What went wrong.
-#[derive(Debug, thiserror::Error)]
-pub enum GapError {
-    /// A part of the record is too short.
-    #[error(
-        "the {part} part has {} samples{}; the gap diagnosis needs at least {needed}",
-        n - missing,
-        if *missing > 0 { format!(" that are not gaps ({missing} of its {n} are NaN)") } else { String::new() }
-    )]
-    TooShort {
-        /// `training` or `holdout`.
-        part: &'static str,
-        /// Samples it has, gaps included.
-        n: usize,
-        /// Of them, gaps (NaN samples).
-        missing: usize,
-        /// Samples it needs.
-        needed: usize,
-    },
-    /// The holdout fraction is not in [0, 1).
-    #[error("holdout fraction {0} must be at least 0 and below 1")]
-    BadFraction(f64),
-    /// The temperature column is not as long as the rate column, or has no value at all.
-    #[error("the temperature column has {temp} values for {rate} rate samples, or none that is a number")]
-    BadTemperature {
-        /// Temperature values.
-        temp: usize,
-        /// Rate samples.
-        rate: usize,
-    },
-    /// A sample that is infinite or beyond [`crate::stats::series::MAX_SAMPLE`] in magnitude.
-    #[error(
-        "the {part} part's {column} sample {index} (sample {record_index} of the record) is {value:e}: no sensor \
-         reports a value beyond 1e100 (a corrupted sample?)"
-    )]
-    BadSample {
-        /// `rate` or `temperature`.
-        column: &'static str,
-        /// `training` or `holdout`.
-        part: &'static str,
-        /// Index of the sample in its part.
-        index: usize,
-        /// Index of the sample in the whole record (training, then holdout).
-        record_index: usize,
-        /// Its value.
-        value: f64,
-    },
-    /// Fewer than 3 seeds.
-    #[error("the ensemble needs at least 3 seeds (20 or more recommended); got {0}")]
-    TooFewSeeds(usize),
-    /// The training OADEV could not be computed.
-    #[error("training Allan deviation: {0}")]
-    Stats(#[from] StatsError),
-    /// The base fit failed.
-    #[error("base fit on the training data: {0}")]
-    Fit(#[from] FitError),
-    /// A model could not be simulated.
-    #[error("simulating the {model} model: {err}")]
-    Sim {
-        /// `base` or the effect's name.
-        model: String,
-        /// The simulator's reason.
-        err: octavar_shared::sim::SimError,
-    },
-}
-
-/// The record to diagnose: training then holdout, one rate series (deg/s, NaN gaps) and its temperature.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GapInput {
-    /// Rate, deg/s: the training samples, then the held-out ones.
-    pub rate_dps: Vec<f64>,
-    /// Temperature at every sample, degC (NaN gaps allowed), if there is a temperature channel.
-    pub temp_c: Option<Vec<f64>>,
-    /// Sample rate, Hz.
-    pub fs_hz: f64,
-    /// Samples of the training part.
-    pub n_train: usize,
-}
-
-impl GapInput {
-    /// One record split in time: the first `1 - holdout_fraction` trains, the rest is held out.
-    ///
-    /// # Errors
-    /// [`GapError::BadFraction`], [`GapError::BadTemperature`].
-    pub fn split(
-        rate_dps: Vec<f64>,
-        temp_c: Option<Vec<f64>>,
-        fs_hz: f64,
-        holdout_fraction: f64,
-    ) -> Result<GapInput, GapError> {
-        if !(0.0..1.0).contains(&holdout_fraction) {
-            return Err(GapError::BadFraction(holdout_fraction));
-        }
-        let n_train = ((1.0 - holdout_fraction) * rate_dps.len() as f64).round() as usize;
-        let input = GapInput { rate_dps, temp_c, fs_hz, n_train };
-        input.check_temperature()?;
-        Ok(input)
-    }
-
-    /// A training record and a separate holdout record (same columns, same rate), diagnosed as one continuous
-    /// run.
-    ///
-    /// # Errors
-    /// [`GapError::BadTemperature`] when only one has a temperature column or the lengths differ.
-    pub fn joined(
-        training: Vec<f64>,
-        training_temp: Option<Vec<f64>>,
-        holdout: Vec<f64>,
-        holdout_temp: Option<Vec<f64>>,
-        fs_hz: f64,
-    ) -> Result<GapInput, GapError> {
-        let n_train = training.len();
-        let n = n_train + holdout.len();
-        let temp_c = match (training_temp, holdout_temp) {
-            (Some(mut a), Some(b)) => {
-                a.extend(b);
-                Some(a)
-            }
-            (None, None) => None,
-            (Some(a), None) | (None, Some(a)) => return Err(GapError::BadTemperature { temp: a.len(), rate: n }),
-        };
-        let mut rate_dps = training;
-        rate_dps.extend(holdout);
-        let input = GapInput { rate_dps, temp_c, fs_hz, n_train };
-        input.check_temperature()?;
-        Ok(input)
-    }
-
-    fn check_temperature(&self) -> Result<(), GapError> {
-        if let Some(t) = &self.temp_c {
-            if t.len() != self.rate_dps.len() || !t.iter().any(|v| v.is_finite()) {
-                return Err(GapError::BadTemperature { temp: t.len(), rate: self.rate_dps.len() });
-            }
-        }
-        Ok(())
-    }
-
-    /// Every sample a number of a sensor's size or a gap: an infinity or a value beyond
-    /// [`crate::stats::series::MAX_SAMPLE`] is a corrupted sample, which would otherwise leave a view of the
-    /// holdout empty or a fit without points.
-    fn check_values(&self) -> Result<(), GapError> {
-        let columns = [("rate", Some(&self.rate_dps)), ("temperature", self.temp_c.as_ref())];
-        for (column, values) in columns {
-            let Some(values) = values else { continue };
-            let bad = values.iter().position(|&v| crate::stats::series::is_corrupted(v));
-            if let Some(i) = bad {
-                let (part, index) = if i < self.n_train { ("training", i) } else { ("holdout", i - self.n_train) };
-                return Err(GapError::BadSample { column, part, index, record_index: i, value: values[i] });
-            }
-        }
-        Ok(())
-    }
-
-    /// Held-out samples.
-    pub fn n_holdout(&self) -> usize {
-        self.rate_dps.len() - self.n_train
-    }
-}
-
-/// Options of [`diagnose`].
-#[derive(Clone, Debug)]
-pub struct GapOptions {
-    /// Ensemble size (at least 3; 20 by default).
-    pub seeds: usize,
-    /// The first seed; member i uses `first_seed + i`.
-    pub first_seed: u64,
-    /// The record's ADC, when known and the record is its codes at the sensor's rate; `None`: the ensembles
-    /// simulate the analog rate (the CLI, and the demo, whose 1 Hz means of 2000 codes show no ADC step).
-    pub channel: Option<Channel>,
-    /// The base fit's options.
-    pub fit: FitOptions,
-    /// Candidates to try (all seven by default).
-    pub effects: Vec<Effect>,
-    /// A base fit made elsewhere on the training part (for example on the device's full-rate snapshot when the
-    /// record diagnosed is a decimated one, whose short taus cannot show N); `None`: fit the training record.
-    pub base_fit: Option<NoiseFit>,
-    /// When each sample of the record is the mean of a block of the sensor's samples: the ensemble members are
-    /// simulated at this many times the record's rate and averaged the same way (see
-    /// [`ensemble::Record::oversample`]); 1 (the default) for a record at the sensor's own rate.
-    pub oversample: usize,
-    /// How the holdout is judged: [`HoldoutCheck::Plain`] by default; [`HoldoutCheck::Predictive`] adds the check
-    /// against predictive ensembles (see [`holdout`]).
-    pub holdout_check: HoldoutCheck,
-}
-
-impl Default for GapOptions {
-    fn default() -> Self {
-        GapOptions {
-            seeds: 20,
-            first_seed: 1_000,
-            channel: None,
-            fit: FitOptions::default(),
-            effects: Effect::ALL.to_vec(),
-            base_fit: None,
-            oversample: 1,
-            holdout_check: HoldoutCheck::Plain,
-        }
-    }
-}
-
-/// Progress: `(stage, done, total)`, called after each ensemble.
-pub type ProgressFn<'a> = dyn Fn(&str, usize, usize) + Sync + 'a;
-
-/// Diagnose the gap between a record and the simulation of its fitted model (see the module doc).
-///
-/// # Errors
-/// A part too short, a bad temperature column, too few seeds, a base fit that fails, or a model the simulator
-/// rejects.
-pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> Result<GapReport, GapError> {
-    if opts.seeds < 3 {
-        return Err(GapError::TooFewSeeds(opts.seeds));
-    }
-    input.check_temperature()?;
-    input.check_values()?;
-    let n_train = input.n_train;
-    let n_hold = input.n_holdout();
-    let missing =
-        [&input.rate_dps[..n_train], &input.rate_dps[n_train..]].map(|part| part.iter().filter(|v| v.is_nan()).count());
-    if n_train - missing[0] < MIN_PART {
-        return Err(GapError::TooShort { part: "training", n: n_train, missing: missing[0], needed: MIN_PART });
-    }
-    let has_holdout = n_hold > 0;
-    if has_holdout && n_hold - missing[1] < MIN_PART {
-        return Err(GapError::TooShort { part: "holdout", n: n_hold, missing: missing[1], needed: MIN_PART });
-    }
-    let fs = input.fs_hz;
-    let predictive = has_holdout && opts.holdout_check == HoldoutCheck::Predictive;
-    let total_steps = 2 + opts.effects.len() + usize::from(predictive);
-    progress("base fit", 0, total_steps);
-
-    // Base model on the training part.
-    let training = &input.rate_dps[..n_train];
-    let (real_adev, base_fit) = match &opts.base_fit {
-        Some(f) => (training_adev(training, fs)?, f.clone()),
-        None => fit_base(training, fs, &opts.fit)?,
-    };
-    let base = base_model(&base_fit, training);
-    let channel = opts.channel;
-
-    // Plans and the real measures, against which every model is judged.
-    let judge = Judge::new(input, opts);
-    let rec = judge.record();
-    let seeds = judge.seeds();
-    progress("base fit", 1, total_steps);
-
-    let base_eval = judge.evaluate(&base, None, channel.as_ref(), "base")?;
-    progress("base ensemble", 2, total_steps);
-
-    // Candidates: estimate all (in parallel), then simulate each.
-    let filled_train = fill_gaps(training);
-    let data = effects::TrainingData {
-        rate_dps: &filled_train,
-        temp_c: rec.training_temp(),
-        fs_hz: fs,
-        base: &base,
-        base_fit: &base_fit,
-    };
-    let fits: Vec<(Effect, Option<EffectFit>)> =
-        opts.effects.par_iter().map(|&e| (e, effects::estimate(e, &data))).collect();
-    let mut candidates = Vec::new();
-    for (i, (effect, f)) in fits.into_iter().enumerate() {
-        let eval = match &f {
-            Some(f) => {
-                Some(judge.evaluate(&f.gyro, f.spread.as_ref(), f.channel.or(channel).as_ref(), effect.name())?)
-            }
-            None => None,
-        };
-        candidates.push((effect, f, eval));
-        progress(effect.name(), 3 + i, total_steps);
-    }
-    let mut report = report::assemble(report::Parts {
-        fs_hz: fs,
-        n_train,
-        n_holdout: n_hold,
-        missing,
-        seeds: opts.seeds,
-        has_temperature: input.temp_c.is_some(),
-        channel,
-        base,
-        base_fit,
-        real_adev,
-        base_eval,
-        candidates,
-    });
-
-    // The held-out check against predictive ensembles (see [`holdout`]).
-    if let (true, Some(hp), Some(real_hold)) = (predictive, judge.hold_plan(), judge.real_holdout()) {
-        let learner = holdout::Learner {
-            fs_hz: fs,
-            temp_c: rec.training_temp(),
-            fit: &opts.fit,
-            fixed_base: opts.base_fit.as_ref(),
-            fallback: &report.base_fit,
-            channel,
-        };
-        // A base model not learnt from the record predicts what its plain ensemble does.
-        let base_views = match opts.base_fit {
-            Some(_) => None,
-            None => {
-                let relearn = |t: &[f64]| (learner.base(t).1, channel);
-                let m = ensemble::predict_holdout(&report.base, channel.as_ref(), &rec, hp, seeds, None, &relearn)
-                    .map_err(|err| GapError::Sim { model: "base".into(), err })?;
-                Some(compare::compare(hp, real_hold, &m))
-            }
-        };
-        let chosen = report.chosen().and_then(|c| c.fit.as_ref().zip(c.eval.as_ref()));
-        let chosen_views = match chosen {
-            Some((f, eval)) => {
-                let effect = f.effect;
-                let explained = ensemble::temperature_response(&f.gyro, &rec);
-                let resp_hold = explained.as_deref().map(|r| &r[n_train..]);
-                let relearn = |t: &[f64]| learner.with_effect(effect, t);
-                let ch = f.channel.or(channel);
-                let m = ensemble::predict_holdout(&f.gyro, ch.as_ref(), &rec, hp, seeds, resp_hold, &relearn)
-                    .map_err(|err| GapError::Sim { model: effect.name().to_string(), err })?;
-                // The real holdout as this model was judged on it (less its own temperature response).
-                eval.real_holdout.as_ref().map(|real| compare::compare(hp, real, &m))
-            }
-            None => None,
-        };
-        report.apply_predictive(base_views, chosen_views);
-        progress("holdout check", total_steps, total_steps);
-    }
-    Ok(report)
-}
-
-/// A copy with NaN runs filled by linear interpolation between their neighbours (the ends by the nearest value);
-/// the estimators want gap-free samples, and the few gaps of a real record hardly move them.
-pub fn fill_gaps(x: &[f64]) -> Vec<f64> {
-    let mut out = x.to_vec();
-    let Some(first) = x.iter().position(|v| v.is_finite()) else { return out };
-    for v in out.iter_mut().take(first) {
-        *v = x[first];
-    }
-    let mut last = first;
-    for i in first + 1..x.len() {
-        if x[i].is_finite() {
-            if i > last + 1 {
-                let (a, b) = (x[last], x[i]);
-                for (j, v) in out.iter_mut().enumerate().take(i).skip(last + 1) {
-                    *v = a + (b - a) * (j - last) as f64 / (i - last) as f64;
-                }
-            }
-            last = i;
-        }
-    }
-    for v in out.iter_mut().skip(last + 1) {
-        *v = x[last];
-    }
-    out
-}
-
 /// The real OADEV points of the training part (kept for the plot).
-pub type RealAdev = Vec<DevPoint>;
+pub type RealAdev = Vec<crate::stats::DevPoint>;
 
 #[cfg(test)]
 mod tests {

@@ -6,18 +6,26 @@
 //!   on the holdout, the gap is the RMS z of the same view's points at the same taus ([`band_gap`]), so the
 //!   held-out check measures the gap the diagnosis is about; the worst view of each is reported beside it.
 //! - **The total**: the RMS over the views of their gaps ([`total_of`]); it ranks the candidates, because a fix
-//!   that cures one view must not look useless while an unrelated view stays the worst.
+//!   that cures one view must not look useless while an unrelated view stays the worst, and every view a
+//!   candidate fixes counts. A view's gap enters it in full up to [`SOFT_CAP`] and by its logarithm beyond
+//!   ([`soft`]): one view a hundred times off (a disturbance, a corrupted stretch) must not decide alone, and a
+//!   candidate that halves a gap of 4000 there must not beat one that takes another view from 9 to 1.
 //! - **Where** ([`locate`]): the worst view's worst window: its tau band in seconds, the sign of its summed z
 //!   (real above or below the ensemble) and its size (RMS z in the band, and for ADEV and PSD the ratio of real to
 //!   simulated there, for the temperature view the coherences).
-//! - **Ranking** ([`score`]): `score = total_after * (1 + PARAM_PENALTY * n_params)`; the best candidate has the
-//!   lowest score and must be below [`EXPLAINS`] (3/4) of the base model's total (`n_params = 0`). The penalty, 5% per parameter, is what
-//!   an extra parameter must buy: an effect with three parameters must cut the total by more than 15% against an
-//!   effect with none to win.
+//! - **Ranking** ([`score`], [`choose`]): `score = total_after * (1 + PARAM_PENALTY * n_params)`; the best
+//!   candidate has the lowest score and must be below [`EXPLAINS`] (3/4) of the current model's total
+//!   (`n_params = 0`). The penalty, 5% per parameter, is what an extra parameter must buy: an effect with three
+//!   parameters must cut the total by more than 15% against an effect with none to win. A gap in the temperature
+//!   view goes to the temperature coupling when it explains the total and scores within [`DRIVER_PREFERENCE`]
+//!   of the best or clears that view: a sinusoid at the temperature's cycle imitates it, but only the coupling
+//!   has a driver.
 
 use serde::Serialize;
 
 use super::compare::ViewGap;
+use super::effects::{Effect, EffectFit};
+use super::judge::Evaluated;
 use super::views::ViewKind;
 
 /// A gap (the worst view's worst-decade RMS z) above this is significant. Where real and simulation agree a
@@ -33,6 +41,14 @@ pub const PARAM_PENALTY: f64 = 0.05;
 /// at least a quarter of the total gap, parameters paid for. Below that the gap is reported as significant but
 /// unexplained (the effect is `none`), rather than naming an effect that changes little.
 pub const EXPLAINS: f64 = 0.75;
+
+/// A view's gap counts in full in the total up to this, and by its logarithm beyond ([`soft`]): four times the
+/// significance threshold, above the gaps a single effect of the withheld-effect tests leaves in any view.
+pub const SOFT_CAP: f64 = 10.0;
+
+/// How much worse a temperature coupling's score may be than the best candidate's and still be chosen, when the
+/// gap lies in the temperature view (see [`choose`]).
+pub const DRIVER_PREFERENCE: f64 = 1.25;
 
 /// |z| above which a point is part of the gap's band.
 pub const BAND_Z: f64 = 3.0;
@@ -86,12 +102,21 @@ pub fn gap_of(views: &[ViewGap]) -> f64 {
     views.iter().map(|v| v.gap).fold(0.0, f64::max)
 }
 
-/// The total: RMS over the views of their gaps.
+/// A view's gap as the total counts it: itself up to [`SOFT_CAP`], `SOFT_CAP (1 + ln(gap / SOFT_CAP))` beyond.
+pub fn soft(gap: f64) -> f64 {
+    if gap <= SOFT_CAP {
+        gap
+    } else {
+        SOFT_CAP * (1.0 + (gap / SOFT_CAP).ln())
+    }
+}
+
+/// The total: RMS over the views of their gaps, each through [`soft`].
 pub fn total_of(views: &[ViewGap]) -> f64 {
     if views.is_empty() {
         return 0.0;
     }
-    (views.iter().map(|v| v.gap * v.gap).sum::<f64>() / views.len() as f64).sqrt()
+    (views.iter().map(|v| soft(v.gap).powi(2)).sum::<f64>() / views.len() as f64).sqrt()
 }
 
 /// The worst view.
@@ -173,6 +198,115 @@ pub fn locate(views: &[ViewGap]) -> Option<Location> {
         ratio,
         correlation,
     })
+}
+
+/// A gap before and after, on one part.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PartGap {
+    /// The base model's gap (the located band's RMS z).
+    pub gap_before: f64,
+    /// With the effect.
+    pub gap_after: f64,
+    /// 1 - after / before.
+    pub shrink: f64,
+}
+
+impl PartGap {
+    /// Before and after, with their shrink.
+    pub fn new(gap_before: f64, gap_after: f64) -> PartGap {
+        PartGap { gap_before, gap_after, shrink: shrink(gap_before, gap_after) }
+    }
+}
+
+/// One candidate effect's result at a step of the diagnosis.
+#[derive(Clone, Debug)]
+pub struct CandidateResult {
+    /// The effect.
+    pub effect: Effect,
+    /// Its fit, or `None` when the data showed no trace of it.
+    pub fit: Option<EffectFit>,
+    /// Its ensemble's comparison.
+    pub eval: Option<Evaluated>,
+    /// Training gap after: the RMS z, with the effect, of the located view's points in the located band (`None`
+    /// without a fit).
+    pub gap_after: Option<f64>,
+    /// Training: the worst view's gap with the effect.
+    pub worst_after: Option<f64>,
+    /// Total (RMS over views) after, training.
+    pub total_after: Option<f64>,
+    /// Ranking score.
+    pub score: Option<f64>,
+    /// Holdout gap after (the same view and band).
+    pub holdout_after: Option<f64>,
+    /// Holdout: the worst view's gap with the effect.
+    pub holdout_worst_after: Option<f64>,
+}
+
+impl CandidateResult {
+    /// The measures of a candidate's comparison `eval` at the located band `loc` (`None`s without a fit).
+    pub fn new(effect: Effect, fit: Option<EffectFit>, eval: Option<Evaluated>, loc: Option<&Location>) -> Self {
+        let in_view = |v: &[ViewGap]| -> Option<f64> { loc.and_then(|l| band_gap(v, l)) };
+        match (&fit, &eval) {
+            (Some(f), Some(e)) => {
+                let t = total_of(&e.training);
+                let has_holdout = !e.holdout.is_empty();
+                CandidateResult {
+                    effect,
+                    gap_after: in_view(&e.training).or(Some(gap_of(&e.training))),
+                    worst_after: Some(gap_of(&e.training)),
+                    total_after: Some(t),
+                    score: Some(score(t, f.n_params)),
+                    holdout_after: if has_holdout { in_view(&e.holdout) } else { None },
+                    holdout_worst_after: has_holdout.then(|| gap_of(&e.holdout)),
+                    fit,
+                    eval,
+                }
+            }
+            _ => CandidateResult {
+                effect,
+                fit,
+                eval,
+                gap_after: None,
+                worst_after: None,
+                total_after: None,
+                score: None,
+                holdout_after: None,
+                holdout_worst_after: None,
+            },
+        }
+    }
+}
+
+/// The candidate that explains the current model's gap (see the module doc), by its index in `candidates`;
+/// `None` when none removes a quarter of the total `total_before`. `loc` is where the gap lies.
+///
+/// A gap in the temperature view is a relation with a recorded channel: the coupling to that channel is the first
+/// explanation, and one without a driver (a sinusoid at the temperature's cycle) wins only when it is clearly
+/// better. The coupling is kept when it explains the total and either scores within [`DRIVER_PREFERENCE`] of the
+/// best or leaves no significant gap in the temperature view. The second clause matters because the coupling is
+/// judged there on what it leaves, which a 4% error in the coefficient over ten cycles already shows, while a
+/// sinusoid is judged on the raw coherence.
+pub fn choose(candidates: &[CandidateResult], total_before: f64, loc: Option<&Location>) -> Option<usize> {
+    let explains = |c: &CandidateResult| c.score.is_some_and(|s| s < EXPLAINS * total_before);
+    let best = candidates
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| explains(c))
+        .min_by(|a, b| a.1.score.unwrap_or(f64::INFINITY).total_cmp(&b.1.score.unwrap_or(f64::INFINITY)))
+        .map(|(i, _)| i)?;
+    let b = &candidates[best];
+    if loc.is_some_and(|l| l.view == ViewKind::Temperature) && b.effect != Effect::Temperature {
+        let coupling = candidates.iter().position(|c| {
+            let clears = c.gap_after.is_some_and(|g| g < SIGNIFICANT_GAP);
+            c.effect == Effect::Temperature
+                && explains(c)
+                && c.score.is_some_and(|s| s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0) || clears)
+        });
+        if coupling.is_some() {
+            return coupling;
+        }
+    }
+    Some(best)
 }
 
 #[cfg(test)]

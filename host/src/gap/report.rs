@@ -1,99 +1,84 @@
-//! The diagnosis as a result: the chosen effect, where the gap lies, what each candidate buys on training and
-//! held-out data; as text for a person, as the JSON document scripts read, and as the gap plot's data.
+//! The diagnosis as a result: the chain of effects, where each gap lay, what each candidate bought on training and
+//! held-out data, what is left unexplained; as text for a person and as the JSON document scripts read.
 //!
-//! JSON keys (stable; scripts rely on them): `effect` (a vocabulary name, or `none`), `view`, `band_s` `[lo, hi]`,
-//! `sign` (`above`/`below`), `gap_before`, `gap_after`, `shrink`, `holdout` `{gap_before, gap_after, shrink}`,
-//! `candidates` `[{effect, params, gap_after, shrink, ...}]`, `model` (the base model plus the chosen effect, as a
-//! `model.toml` channel's `gyro`), `effect_params`. Also: `size`, `significant`, `threshold`, `total_before`,
-//! `total_after`, `base_model`, `base_fit`, `views` (every view's RMS on both parts, before and after), `n_train`,
-//! `n_holdout`, `missing_samples` `{training, holdout}` (NaN gaps), `fs_hz`, `seeds`; `holdout.shrink_if_right`
-//! (the shrink a right model would reach there, [`rank::shrink_if_right`]); `holdout_predictive` `{gap_before,
-//! gap_after, shrink, worst}` with [`HoldoutCheck::Predictive`] (null without).
+//! JSON keys (stable; scripts rely on them), in [`Document`]: `effect` (the chain's first effect, a vocabulary
+//! name, or `none`), `view`, `band_s` `[lo, hi]`, `sign` (`above`/`below`), `gap_before`, `gap_after`, `shrink`,
+//! `holdout` `{gap_before, gap_after, shrink, shrink_if_right}` (all of the first effect, at the base model's
+//! located band), `candidates` `[{effect, params, gap_after, shrink, ...}]` (the first step's ranking), `model`
+//! (the base model with every effect of the chain, as a `model.toml` channel's `gyro`), `effect_params` (the first
+//! effect's). The chain: `effects` `[{effect, params, view, band_s, sign, gap_before, gap_after, holdout:
+//! {gap_before, gap_after}}]` in the order found, and `holdout_total` `{gap_before, gap_after, shrink}`, the
+//! worst view's gap on the holdout of the base model and of the whole chain, every parameter frozen. Also:
+//! `verdict` (`no_gap`, `explained`, `unexplained`), `unexplained` (what the gap left after the chain looks like),
+//! `fit_strain` (the base fit's reduced chi-square when it is far above 1), `size`, `significant`, `explained`,
+//! `threshold`, `total_before`, `total_after`, `base_model`, `base_fit`, `views` (every view's gap on both parts,
+//! base and chain), `worst`, `views_detail`, `n_train`, `n_holdout`, `missing_samples` `{training, holdout}`,
+//! `fs_hz`, `seeds`; `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
+//! [`super::input::HoldoutCheck::Predictive`] (null without).
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::GyroSim;
 use serde::Serialize;
-use serde_json::{json, Value};
+use serde_json::Value;
 
+use super::chain::{Model, Step};
 use super::compare::ViewGap;
-use super::effects::{Effect, EffectFit};
-use super::rank::{self, Location};
+use super::describe::{shape_of, GapShape};
+use super::effects::Effect;
+use super::judge::Evaluated;
+use super::rank::{self, CandidateResult, Location, PartGap, Sign};
 use super::views::ViewKind;
-use super::Evaluated;
 use crate::fit::NoiseFit;
-use crate::plot::{Band, GapPlot};
 use crate::stats::DevPoint;
 
-/// A gap before and after, on one part.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct PartGap {
-    /// The base model's gap (the located band's RMS z).
-    pub gap_before: f64,
-    /// With the effect.
-    pub gap_after: f64,
-    /// 1 - after / before.
-    pub shrink: f64,
-}
+/// The base fit's reduced chi-square above which the report says the IEEE five-term model cannot follow the
+/// training curve (its 3% model allowance included, a fit that can scores about 1).
+pub const FIT_STRAIN: f64 = 10.0;
 
-impl PartGap {
-    /// Before and after, with their shrink.
-    pub fn new(gap_before: f64, gap_after: f64) -> PartGap {
-        PartGap { gap_before, gap_after, shrink: rank::shrink(gap_before, gap_after) }
-    }
-}
-
-/// One candidate effect's result.
-#[derive(Clone, Debug)]
-pub struct CandidateResult {
-    /// The effect.
-    pub effect: Effect,
-    /// Its fit, or `None` when the data showed no trace of it.
-    pub fit: Option<EffectFit>,
-    /// Its ensemble's comparison.
-    pub eval: Option<Evaluated>,
-    /// Training gap after: the RMS z, with the effect, of the view where the base gap lies (`None` without a fit).
-    pub gap_after: Option<f64>,
-    /// Training: the worst view's gap with the effect.
-    pub worst_after: Option<f64>,
-    /// Total (RMS over views) after, training.
-    pub total_after: Option<f64>,
-    /// Ranking score.
-    pub score: Option<f64>,
-    /// Holdout gap after (the same view).
-    pub holdout_after: Option<f64>,
-    /// Holdout: the worst view's gap with the effect.
-    pub holdout_worst_after: Option<f64>,
-}
+/// Below this shrink of a right model ([`rank::shrink_if_right`]) the text report says the held-out check is
+/// weak.
+const WEAK_HOLDOUT_SHRINK: f64 = 0.7;
 
 /// The diagnosis.
 #[derive(Clone, Debug)]
 pub struct GapReport {
-    /// The chosen effect (`None`: no significant gap, or no candidate removes a quarter of it).
+    /// The chain's first effect (`None`: no significant gap, or no candidate removes a quarter of it).
     pub effect: Option<Effect>,
     /// Whether the base gap is significant ([`rank::SIGNIFICANT_GAP`]).
     pub significant: bool,
     /// Where the base gap lies on the training part.
     pub location: Option<Location>,
-    /// The worst view's gap on each part, before and after: `[training before, training after, holdout before,
-    /// holdout after]` (the holdout's NaN without one). On the holdout the worst view may differ from the one the
-    /// diagnosis is about (a disturbance only the held-out part has).
+    /// The worst view's gap on each part, of the base model and of the whole chain: `[training base, training
+    /// chain, holdout base, holdout chain]` (the holdout's NaN without one).
     pub worst: [f64; 4],
-    /// Training gap before/after.
+    /// Training gap at the base's located band, before and after the first effect.
     pub training: PartGap,
-    /// Holdout gap before/after (`None` without a holdout), against the ensembles of the models learnt from the
-    /// real training part.
+    /// Holdout gap at the same band, before and after the first effect (`None` without a holdout).
     pub holdout: Option<PartGap>,
-    /// With [`HoldoutCheck::Predictive`]: the holdout gap before/after against the predictive ensembles (see
-    /// [`super::holdout`]), whose spread carries the error of the parameters learnt on training.
+    /// The holdout's worst-view gap of the base model and of the whole chain, every parameter frozen (`None`
+    /// without a holdout).
+    pub holdout_total: Option<PartGap>,
+    /// With [`super::input::HoldoutCheck::Predictive`]: the holdout gap at the base's band against the predictive ensembles,
+    /// base and chain (see [`super::holdout`]).
     pub holdout_predictive: Option<PartGap>,
-    /// The worst view's gap on the holdout against the predictive ensembles, before and after (NaN without).
+    /// The worst view's gap on the holdout against the predictive ensembles, base and chain (NaN without).
     pub holdout_predictive_worst: [f64; 2],
-    /// Totals (RMS over views) before and after, training.
+    /// Totals (RMS over views) on training, base and chain.
     pub total: [f64; 2],
-    /// Every candidate, in vocabulary order.
+    /// The first step's candidates, in vocabulary order.
     pub candidates: Vec<CandidateResult>,
+    /// The chain of effects, in the order found.
+    pub chain: Vec<Step>,
+    /// The candidates tried on the chain's model when none of them removed a quarter of the gap it left (empty
+    /// when the chain ended for want of a significant gap, or found no effect).
+    pub last_tried: Vec<CandidateResult>,
+    /// The model with every effect of the chain.
+    pub model: Model,
+    /// What the significant gap left after the chain looks like (`None`: nothing significant is left).
+    pub unexplained: Option<GapShape>,
     /// The base model.
     pub base: GyroSim,
     /// Its fit.
@@ -119,37 +104,6 @@ pub struct GapReport {
     pub has_temperature: bool,
 }
 
-/// How the held-out gap is judged.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum HoldoutCheck {
-    /// Against the ensembles of the models learnt from the real training part: their spread is the noise's.
-    #[default]
-    Plain,
-    /// Also against predictive ensembles: each member re-learns the model from a simulated training part and
-    /// predicts the holdout ([`super::ensemble::predict_holdout`]), so the spread carries the error of the
-    /// parameters learnt on training as well as the noise.
-    Predictive,
-}
-
-impl HoldoutCheck {
-    /// `predictive` or `plain`.
-    pub fn name(self) -> &'static str {
-        match self {
-            HoldoutCheck::Predictive => "predictive",
-            HoldoutCheck::Plain => "plain",
-        }
-    }
-}
-
-/// How much worse a temperature coupling's score may be than the best candidate's and still be chosen, when the
-/// gap lies in the temperature view (see `assemble`).
-pub const DRIVER_PREFERENCE: f64 = 1.25;
-
-/// Below this shrink of a right model ([`rank::shrink_if_right`]) the text report says the held-out check is
-/// weak: the 70% the withheld-effect tests ask of a diagnosis.
-const WEAK_HOLDOUT_SHRINK: f64 = 0.7;
-
 /// What [`assemble`] needs.
 pub(crate) struct Parts {
     pub fs_hz: f64,
@@ -163,100 +117,65 @@ pub(crate) struct Parts {
     pub base_fit: NoiseFit,
     pub real_adev: Vec<DevPoint>,
     pub base_eval: Evaluated,
-    pub candidates: Vec<(Effect, Option<EffectFit>, Option<Evaluated>)>,
+    /// The first step's candidates.
+    pub candidates: Vec<CandidateResult>,
+    pub chain: Vec<Step>,
+    /// The candidates tried on the chain's model when none explained what it left.
+    pub last_tried: Vec<CandidateResult>,
+    /// The model with every effect of the chain.
+    pub model: Model,
+    /// The holdout views against the predictive ensembles: the base model's and the chain's (`None`: the plain
+    /// ones stand).
+    pub predictive: Option<(Vec<ViewGap>, Option<Vec<ViewGap>>)>,
 }
 
-/// Rank the candidates and build the report. The gap before is the worst decade window of the base model's worst
-/// view on training, which is where the gap is located; "after" and the holdout gaps are the RMS z of the same
-/// view's points at the same taus, so the held-out check measures the gap the diagnosis is about (the worst views
-/// are reported beside them).
+/// Build the report from the chain the diagnosis found.
 pub(crate) fn assemble(p: Parts) -> GapReport {
     let location = rank::locate(&p.base_eval.training);
-    let in_view = |v: &[ViewGap]| -> Option<f64> { location.as_ref().and_then(|l| rank::band_gap(v, l)) };
+    let in_band = |v: &[ViewGap]| -> Option<f64> { location.as_ref().and_then(|l| rank::band_gap(v, l)) };
     let gap_before = rank::gap_of(&p.base_eval.training);
-    let total_before = rank::total_of(&p.base_eval.training);
-    let has_holdout = !p.base_eval.holdout.is_empty();
-    let hold_before = if has_holdout { in_view(&p.base_eval.holdout) } else { None };
-    let candidates: Vec<CandidateResult> = p
-        .candidates
-        .into_iter()
-        .map(|(effect, fit, eval)| match (&fit, &eval) {
-            (Some(f), Some(e)) => {
-                let t = rank::total_of(&e.training);
-                CandidateResult {
-                    effect,
-                    gap_after: in_view(&e.training).or(Some(rank::gap_of(&e.training))),
-                    worst_after: Some(rank::gap_of(&e.training)),
-                    total_after: Some(t),
-                    score: Some(rank::score(t, f.n_params)),
-                    holdout_after: if has_holdout { in_view(&e.holdout) } else { None },
-                    holdout_worst_after: has_holdout.then(|| rank::gap_of(&e.holdout)),
-                    fit,
-                    eval,
-                }
-            }
-            _ => CandidateResult {
-                effect,
-                fit,
-                eval,
-                gap_after: None,
-                worst_after: None,
-                total_after: None,
-                score: None,
-                holdout_after: None,
-                holdout_worst_after: None,
-            },
-        })
-        .collect();
     let significant = gap_before > rank::SIGNIFICANT_GAP;
-    let best = candidates
-        .iter()
-        .filter(|c| c.score.is_some_and(|s| s < rank::EXPLAINS * total_before))
-        .min_by(|a, b| a.score.unwrap_or(f64::INFINITY).total_cmp(&b.score.unwrap_or(f64::INFINITY)));
-    // A gap in the temperature view is a relation with a recorded channel: the coupling to that channel is the
-    // first explanation, and one without a driver (a sinusoid at the temperature's cycle) wins only when it is
-    // clearly better: the coupling is kept when it explains the total (below EXPLAINS of the base's) and either
-    // scores within DRIVER_PREFERENCE of the best or leaves no significant gap in the temperature view. The
-    // second clause matters because the coupling is judged there on what it leaves, which a 4% error in the
-    // coefficient over ten cycles already shows, while a sinusoid is judged on the raw coherence.
-    let best = match (&location, best) {
-        (Some(l), Some(b)) if l.view == ViewKind::Temperature && b.effect != Effect::Temperature => candidates
-            .iter()
-            .find(|c| {
-                let clears = c.gap_after.is_some_and(|g| g < rank::SIGNIFICANT_GAP);
-                c.effect == Effect::Temperature
-                    && c.score.is_some_and(|s| {
-                        s < rank::EXPLAINS * total_before && (s <= DRIVER_PREFERENCE * b.score.unwrap_or(0.0) || clears)
-                    })
-            })
-            .or(Some(b)),
-        (_, b) => b,
-    };
-    let chosen = if significant { best } else { None };
-    let gap_after = chosen.and_then(|c| c.gap_after).unwrap_or(gap_before);
-    let total_after = chosen.and_then(|c| c.total_after).unwrap_or(total_before);
-    let holdout = hold_before.map(|b| {
-        let a = chosen.and_then(|c| c.holdout_after).unwrap_or(b);
-        PartGap::new(b, a)
+    let has_holdout = !p.base_eval.holdout.is_empty();
+    let first = p.chain.first();
+    let last_eval = p.chain.last().map_or(&p.base_eval, |s| &s.eval);
+    let training = PartGap::new(gap_before, first.map_or(gap_before, |s| s.training.gap_after));
+    let holdout = if has_holdout { in_band(&p.base_eval.holdout) } else { None }.map(|b| {
+        let first_after = first.and_then(|s| s.candidates.iter().find(|c| c.effect == s.effect));
+        PartGap::new(b, first_after.and_then(|c| c.holdout_after).unwrap_or(b))
     });
     let hold_worst = if has_holdout { rank::gap_of(&p.base_eval.holdout) } else { f64::NAN };
-    let worst = [
-        gap_before,
-        chosen.and_then(|c| c.worst_after).unwrap_or(gap_before),
-        hold_worst,
-        chosen.and_then(|c| c.holdout_worst_after).unwrap_or(hold_worst),
-    ];
+    let hold_worst_after = if has_holdout { rank::gap_of(&last_eval.holdout) } else { f64::NAN };
+    let holdout_total = has_holdout.then(|| PartGap::new(hold_worst, hold_worst_after));
+    let (holdout_predictive, holdout_predictive_worst) = match &p.predictive {
+        Some((base, chain)) => {
+            let after = chain.as_ref().unwrap_or(if p.chain.is_empty() { base } else { &last_eval.holdout });
+            let gap = in_band(base).map(|b| PartGap::new(b, in_band(after).unwrap_or(b)));
+            (gap, [rank::gap_of(base), rank::gap_of(after)])
+        }
+        None => (None, [f64::NAN; 2]),
+    };
+    let worst_after = rank::gap_of(&last_eval.training);
+    let unexplained = if worst_after > rank::SIGNIFICANT_GAP {
+        rank::locate(&last_eval.training).and_then(|l| shape_of(&last_eval.training, &l))
+    } else {
+        None
+    };
     GapReport {
-        effect: chosen.map(|c| c.effect),
+        effect: first.map(|s| s.effect),
         significant,
         location,
-        worst,
-        training: PartGap::new(gap_before, gap_after),
+        worst: [gap_before, worst_after, hold_worst, hold_worst_after],
+        training,
         holdout,
-        holdout_predictive: None,
-        holdout_predictive_worst: [f64::NAN; 2],
-        total: [total_before, total_after],
-        candidates,
+        holdout_total,
+        holdout_predictive,
+        holdout_predictive_worst,
+        total: [rank::total_of(&p.base_eval.training), rank::total_of(&last_eval.training)],
+        candidates: p.candidates,
+        model: p.model,
+        unexplained,
+        chain: p.chain,
+        last_tried: p.last_tried,
         base: p.base,
         base_fit: p.base_fit,
         channel: p.channel,
@@ -271,140 +190,199 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
     }
 }
 
-impl GapReport {
-    /// Add the held-out check against the predictive ensembles (see [`super::holdout`]): `base` is the base
-    /// model's holdout comparison (`None`: the plain one stands, which is the same distribution when the base
-    /// model is not re-learnt from the record), `chosen` the chosen effect's.
-    pub(crate) fn apply_predictive(&mut self, base: Option<Vec<ViewGap>>, chosen: Option<Vec<ViewGap>>) {
-        let loc = self.location.clone();
-        let in_view = |v: &[ViewGap]| loc.as_ref().and_then(|l| rank::band_gap(v, l));
-        let plain_after = self.chosen().and_then(|c| c.eval.as_ref()).map(|e| e.holdout.clone());
-        let base = base.unwrap_or_else(|| self.base_eval.holdout.clone());
-        let after = chosen.or(plain_after).unwrap_or_else(|| base.clone());
-        self.holdout_predictive = in_view(&base).map(|b| {
-            let a = in_view(&after).unwrap_or(b);
-            PartGap::new(b, a)
-        });
-        self.holdout_predictive_worst = [rank::gap_of(&base), rank::gap_of(&after)];
-    }
+/// The answer of a diagnosis, kept apart as the user needs them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The simulation of the fitted model agrees with the record.
+    NoGap,
+    /// A significant gap, and the chain leaves none.
+    Explained,
+    /// A significant gap is left that no candidate explains (after the chain, if it found any effect).
+    Unexplained,
+}
 
-    /// The chosen effect's name, or `none`.
+impl GapReport {
+    /// The chain's first effect's name, or `none`.
     pub fn effect_name(&self) -> &'static str {
         self.effect.map_or("none", Effect::name)
     }
 
-    /// The chosen candidate.
+    /// The effects of the chain, in the order found.
+    pub fn effects(&self) -> Vec<Effect> {
+        self.chain.iter().map(|s| s.effect).collect()
+    }
+
+    /// The first step's candidate of the chain's first effect.
     pub fn chosen(&self) -> Option<&CandidateResult> {
         let e = self.effect?;
         self.candidates.iter().find(|c| c.effect == e)
     }
 
-    /// The recommended model: the base, or the chosen effect's model (parameters from training).
+    /// The recommended model: the base with every effect of the chain (parameters from training).
     pub fn model(&self) -> &GyroSim {
-        self.chosen().and_then(|c| c.fit.as_ref()).map_or(&self.base, |f| &f.gyro)
+        &self.model.gyro
+    }
+
+    /// The comparison of the whole chain's model (the base's without a chain).
+    pub fn final_eval(&self) -> &Evaluated {
+        self.chain.last().map_or(&self.base_eval, |s| &s.eval)
+    }
+
+    /// No gap, explained, or a gap left unexplained.
+    pub fn verdict(&self) -> Verdict {
+        match (self.significant, &self.unexplained) {
+            (false, _) => Verdict::NoGap,
+            (true, None) if !self.chain.is_empty() => Verdict::Explained,
+            _ => Verdict::Unexplained,
+        }
+    }
+
+    /// The base fit's reduced chi-square when it is above [`FIT_STRAIN`]: the IEEE terms cannot follow the
+    /// training curve.
+    pub fn fit_strain(&self) -> Option<f64> {
+        let r = self.base_fit.chi2 / self.base_fit.dof.max(1) as f64;
+        (r > FIT_STRAIN && r.is_finite()).then_some(r)
     }
 
     /// The JSON document (see the module doc for its keys).
-    pub fn to_json(&self) -> Value {
+    pub fn document(&self) -> Document<'_> {
         let loc = self.location.as_ref();
-        let candidates: Vec<Value> = self
+        let hb = self.holdout.map(|p| p.gap_before);
+        let candidates = self
             .candidates
             .iter()
             .map(|c| {
                 let f = c.fit.as_ref();
-                let h = c.holdout_after;
-                let hb = self.holdout.map(|p| p.gap_before);
-                json!({
-                    "effect": c.effect.name(),
-                    "params": f.map_or(Value::Null, |f| f.params.clone()),
-                    "n_params": f.map(|f| f.n_params),
-                    "gap_after": c.gap_after,
-                    "shrink": c.gap_after.map(|a| rank::shrink(self.training.gap_before, a)),
-                    "total_after": c.total_after,
-                    "score": c.score,
-                    "holdout": {
-                        "gap_after": h,
-                        "shrink": h.zip(hb).map(|(a, b)| rank::shrink(b, a)),
+                CandidateDoc {
+                    effect: c.effect,
+                    params: f.map(|f| &f.params),
+                    n_params: f.map(|f| f.n_params),
+                    gap_after: c.gap_after,
+                    shrink: c.gap_after.map(|a| rank::shrink(self.training.gap_before, a)),
+                    total_after: c.total_after,
+                    score: c.score,
+                    holdout: CandidateHoldout {
+                        gap_after: c.holdout_after,
+                        shrink: c.holdout_after.zip(hb).map(|(a, b)| rank::shrink(b, a)),
                     },
-                    "worst_after": c.worst_after,
-                    "holdout_worst_after": c.holdout_worst_after,
-                    "chosen": Some(c.effect) == self.effect,
-                    "note": if f.is_none() { Value::from("no trace of this effect in the training data") } else { Value::Null },
-                })
+                    worst_after: c.worst_after,
+                    holdout_worst_after: c.holdout_worst_after,
+                    chosen: Some(c.effect) == self.effect,
+                    note: f.is_none().then_some("no trace of this effect in the training data"),
+                }
             })
             .collect();
-        let views = self.view_table();
-        json!({
-            "effect": self.effect_name(),
-            "view": loc.map(|l| l.view.name()),
-            "band_s": loc.map(|l| l.band_s),
-            "sign": loc.map(|l| l.sign.name()),
-            "size": loc.map(|l| json!({"z_rms": l.z_rms, "points": l.points, "labels": l.labels,
-                                         "ratio": l.ratio, "correlation_real_sim": l.correlation})),
-            "gap_before": self.training.gap_before,
-            "gap_after": self.training.gap_after,
-            "shrink": self.training.shrink,
-            "holdout": self.holdout.map_or(Value::Null, |h| json!({
-                "gap_before": h.gap_before, "gap_after": h.gap_after, "shrink": h.shrink,
-                "shrink_if_right": rank::shrink_if_right(h.gap_before) })),
-            "holdout_predictive": self.holdout_predictive.map_or(Value::Null, |h| json!({
-                "gap_before": h.gap_before, "gap_after": h.gap_after, "shrink": h.shrink,
-                "worst": [finite(self.holdout_predictive_worst[0]), finite(self.holdout_predictive_worst[1])] })),
-            "candidates": candidates,
-            "model": serde_json::to_value(self.model()).unwrap_or(Value::Null),
-            "model_channel": self.chosen().and_then(|c| c.fit.as_ref()).and_then(|f| f.channel)
-                .map(|c| serde_json::to_value(c).unwrap_or(Value::Null)),
-            "effect_params": self.chosen().and_then(|c| c.fit.as_ref()).map_or(Value::Null, |f| f.params.clone()),
-            "significant": self.significant,
-            "explained": !self.significant || self.effect.is_some(),
-            "threshold": rank::SIGNIFICANT_GAP,
-            "total_before": self.total[0],
-            "total_after": self.total[1],
-            "base_model": serde_json::to_value(&self.base).unwrap_or(Value::Null),
-            "base_fit": serde_json::to_value(&self.base_fit).unwrap_or(Value::Null),
-            "views": views,
-            "worst": {"training": [self.worst[0], self.worst[1]],
-                      "holdout": [finite(self.worst[2]), finite(self.worst[3])]},
-            "views_detail": self.views_detail(),
-            "n_train": self.n_train,
-            "n_holdout": self.n_holdout,
-            "missing_samples": {"training": self.missing[0], "holdout": self.missing[1]},
-            "fs_hz": self.fs_hz,
-            "seeds": self.seeds,
-        })
-    }
-
-    /// Every view's gap: `{"adev": {"training": [before, after], "holdout": [before, after]}, ...}`.
-    fn view_table(&self) -> Value {
-        let after = self.chosen().and_then(|c| c.eval.as_ref());
-        let rms = |v: &[ViewGap], k: ViewKind| v.iter().find(|g| g.view == k).map(|g| g.gap);
-        let mut m = serde_json::Map::new();
-        for k in ViewKind::ALL {
-            let tb = rms(&self.base_eval.training, k);
-            if tb.is_none() {
-                continue;
-            }
-            let ta = after.map_or(tb, |e| rms(&e.training, k));
-            let hb = rms(&self.base_eval.holdout, k);
-            let ha = after.map_or(hb, |e| rms(&e.holdout, k));
-            m.insert(k.name().into(), json!({"training": [tb, ta], "holdout": [hb, ha]}));
+        let effects = self
+            .chain
+            .iter()
+            .map(|s| StepDoc {
+                effect: s.effect,
+                params: &s.fit.params,
+                view: s.location.view,
+                band_s: s.location.band_s,
+                sign: s.location.sign,
+                gap_before: s.training.gap_before,
+                gap_after: s.training.gap_after,
+                holdout: s.holdout.map(|h| StepHoldout { gap_before: h.gap_before, gap_after: h.gap_after }),
+            })
+            .collect();
+        let first = self.chain.first();
+        Document {
+            effect: self.effect_name(),
+            view: loc.map(|l| l.view),
+            band_s: loc.map(|l| l.band_s),
+            sign: loc.map(|l| l.sign),
+            size: loc.map(|l| Size {
+                z_rms: l.z_rms,
+                points: l.points,
+                labels: &l.labels,
+                ratio: l.ratio,
+                correlation_real_sim: l.correlation,
+            }),
+            gap_before: self.training.gap_before,
+            gap_after: self.training.gap_after,
+            shrink: self.training.shrink,
+            holdout: self.holdout.map(|h| HoldoutDoc {
+                gap_before: h.gap_before,
+                gap_after: h.gap_after,
+                shrink: h.shrink,
+                shrink_if_right: rank::shrink_if_right(h.gap_before),
+            }),
+            holdout_predictive: self.holdout_predictive.map(|h| PredictiveDoc {
+                gap_before: h.gap_before,
+                gap_after: h.gap_after,
+                shrink: h.shrink,
+                worst: self.holdout_predictive_worst.map(finite),
+            }),
+            candidates,
+            model: self.model(),
+            model_channel: self.model.channel.filter(|_| self.model.channel != self.channel),
+            effect_params: first.map(|s| &s.fit.params),
+            effects,
+            holdout_total: self.holdout_total,
+            verdict: self.verdict(),
+            unexplained: self.unexplained.as_ref(),
+            fit_strain: self.fit_strain(),
+            significant: self.significant,
+            explained: self.verdict() != Verdict::Unexplained,
+            threshold: rank::SIGNIFICANT_GAP,
+            total_before: self.total[0],
+            total_after: self.total[1],
+            base_model: &self.base,
+            base_fit: &self.base_fit,
+            views: self.view_table(),
+            worst: Worst {
+                training: [self.worst[0], self.worst[1]],
+                holdout: [finite(self.worst[2]), finite(self.worst[3])],
+            },
+            views_detail: self.views_detail(),
+            n_train: self.n_train,
+            n_holdout: self.n_holdout,
+            missing_samples: Missing { training: self.missing[0], holdout: self.missing[1] },
+            fs_hz: self.fs_hz,
+            seeds: self.seeds,
         }
-        Value::Object(m)
     }
 
-    /// Every point of every view for the base model and each candidate: `{"base": {"training": [view...],
-    /// "holdout": [...]}, "<effect>": {...}}`, each view `{"view", "rms", "points": [{"label", "tau_s",
-    /// "tau_lo_s", "tau_hi_s", "floor_sd", "real", "sim_mean", "sd", "z"}]}`.
-    pub fn views_detail(&self) -> Value {
-        let one = |e: &Evaluated| json!({"training": e.training, "holdout": e.holdout});
-        let mut m = serde_json::Map::new();
-        m.insert("base".into(), one(&self.base_eval));
+    /// The JSON document as a value (see the module doc for its keys).
+    pub fn to_json(&self) -> Value {
+        serde_json::to_value(self.document()).unwrap_or(Value::Null)
+    }
+
+    /// Every view's gap, of the base model and of the whole chain, on both parts.
+    fn view_table(&self) -> BTreeMap<&'static str, ViewRow> {
+        let after = self.final_eval();
+        let gap = |v: &[ViewGap], k: ViewKind| v.iter().find(|g| g.view == k).map(|g| g.gap);
+        let mut m = BTreeMap::new();
+        for k in ViewKind::ALL {
+            let Some(tb) = gap(&self.base_eval.training, k) else { continue };
+            let row = ViewRow {
+                training: [Some(tb), gap(&after.training, k)],
+                holdout: [gap(&self.base_eval.holdout, k), gap(&after.holdout, k)],
+            };
+            m.insert(k.name(), row);
+        }
+        m
+    }
+
+    /// Every point of every view for the base model, each candidate of the first step and each step of the chain
+    /// after the first (`chain_2`, ...).
+    fn views_detail(&self) -> BTreeMap<String, PartViews<'_>> {
+        fn one(e: &Evaluated) -> PartViews<'_> {
+            PartViews { training: &e.training, holdout: &e.holdout }
+        }
+        let mut m = BTreeMap::new();
+        m.insert("base".to_string(), one(&self.base_eval));
         for c in &self.candidates {
             if let Some(e) = &c.eval {
-                m.insert(c.effect.name().into(), one(e));
+                m.insert(c.effect.name().to_string(), one(e));
             }
         }
-        Value::Object(m)
+        for (k, s) in self.chain.iter().enumerate().skip(1) {
+            m.insert(format!("chain_{}", k + 1), one(&s.eval));
+        }
+        m
     }
 
     /// A short text a person can read: what, where, how big, how sure, what the fix buys on held-out data.
@@ -431,64 +409,69 @@ impl GapReport {
             "base model (IEEE 952 fit on training): N {:.3e} deg/sqrt(s), B {:.3e} deg/s, K {:.3e} deg/s/sqrt(s), R {:.3e} deg/s^2, bias {:.4e} deg/s",
             b.n_deg_per_rt_s, b.b_dps, b.k_dps_per_rt_s, b.r_dps_per_s, b.bias_dps
         );
-        let _ = writeln!(s, "views (gap: the RMS z of real against the ensemble over the worst decade of tau; about 1 when they agree):");
-        let after = self.chosen().and_then(|c| c.eval.as_ref());
+        if let Some(r) = self.fit_strain() {
+            let _ = writeln!(
+                s,
+                "note: the IEEE five-term fit cannot follow the training curve (reduced chi-square {r:.1}, about 1 when it can): the record has a shape those terms lack"
+            );
+        }
+        let _ = writeln!(s, "views (gap: the RMS z of real against the ensemble over the worst decade of tau; about 1 when they agree; base -> {}):", if self.chain.is_empty() { "base" } else { "with the chain" });
+        let after = self.final_eval();
+        let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+        let gap = |v: &[ViewGap], k: ViewKind| v.iter().find(|x| x.view == k).map(|x| x.gap);
         for g in &self.base_eval.training {
-            let a = after.and_then(|e| e.training.iter().find(|x| x.view == g.view)).map(|x| x.gap);
-            let hb = self.base_eval.holdout.iter().find(|x| x.view == g.view).map(|x| x.gap);
-            let ha = after.and_then(|e| e.holdout.iter().find(|x| x.view == g.view)).map(|x| x.gap);
-            let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
             let _ = writeln!(
                 s,
                 "  {:<13} training {:>7.2} -> {:>7}   holdout {:>7} -> {:>7}",
                 g.view.name(),
                 g.gap,
-                f(a.or(Some(g.gap))),
-                f(hb),
-                f(ha.or(hb))
+                f(gap(&after.training, g.view)),
+                f(gap(&self.base_eval.holdout, g.view)),
+                f(gap(&after.holdout, g.view))
             );
         }
         if let Some(l) = &self.location {
-            let size = match (l.ratio, l.correlation) {
-                (Some(r), _) if l.view == ViewKind::Adev => format!(", real/sim Allan deviation x{r:.3}"),
-                (Some(r), _) => format!(", real/sim power x{r:.3}"),
-                (_, Some([a, b])) => format!(", coherence with temperature {a:.2} real vs {b:.2} simulated"),
-                _ => format!(" ({})", l.labels.join(", ")),
-            };
             let _ = writeln!(
                 s,
-                "gap {:.2} (threshold {:.1}: {}): worst view {}, tau {:.3e} .. {:.3e} s, real {} the simulation, |z| RMS {:.1} over {} point(s){size}",
+                "gap {:.2} (threshold {:.1}: {}): {}",
                 self.training.gap_before,
                 rank::SIGNIFICANT_GAP,
                 if self.significant { "significant" } else { "not significant" },
-                l.view.name(),
-                l.band_s[0],
-                l.band_s[1],
-                l.sign.name(),
-                l.z_rms,
-                l.points,
+                where_text(l)
             );
         }
-        let _ = writeln!(
-            s,
-            "candidates (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):"
-        );
-        for c in &self.candidates {
-            let mark = if Some(c.effect) == self.effect { "*" } else { " " };
-            match (&c.fit, c.gap_after, c.total_after, c.score) {
-                (Some(f), Some(g), Some(t), Some(sc)) => {
-                    let h = c.holdout_after.map_or("-".to_string(), |h| format!("{h:.2}"));
-                    let _ = writeln!(
-                        s,
-                        " {mark}{:<13} gap {g:>7.2} total {t:>7.2} score {sc:>7.2}  holdout {h:>7}  {}",
-                        c.effect.name(),
-                        compact(&f.params)
-                    );
-                }
-                _ => {
-                    let _ = writeln!(s, " {mark}{:<13} no trace in the training data", c.effect.name());
-                }
+        for (k, step) in self.chain.iter().enumerate() {
+            if k > 0 {
+                let _ = writeln!(
+                    s,
+                    "step {}: the gap left on the model with {}: {:.2}: {}",
+                    k + 1,
+                    chain_names(&self.chain[..k]),
+                    step.training.gap_before,
+                    where_text(&step.location)
+                );
             }
+            let _ = writeln!(
+                s,
+                "candidates{} (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):",
+                if self.chain.len() > 1 { format!(" of step {}", k + 1) } else { String::new() }
+            );
+            candidate_lines(&mut s, &step.candidates, Some(step.effect));
+        }
+        if !self.last_tried.is_empty() {
+            let _ = writeln!(
+                s,
+                "candidates tried on the model with {} (none removes a quarter of the gap it leaves):",
+                chain_names(&self.chain)
+            );
+            candidate_lines(&mut s, &self.last_tried, None);
+        }
+        if self.chain.is_empty() {
+            let _ = writeln!(
+                s,
+                "candidates (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):"
+            );
+            candidate_lines(&mut s, &self.candidates, None);
         }
         if self.worst[2].is_finite() {
             let _ = writeln!(
@@ -497,75 +480,280 @@ impl GapReport {
                 self.worst[2],
                 self.worst[3],
                 match self.base_eval.holdout.iter().max_by(|a, b| a.gap.total_cmp(&b.gap)) {
-                    Some(w) if Some(w.view) != self.location.as_ref().map(|l| l.view) =>
+                    Some(w) if self.significant && Some(w.view) != self.location.as_ref().map(|l| l.view) =>
                         format!(" ({}: the holdout has a gap of its own that training did not show)", w.view.name()),
                     _ => String::new(),
                 }
             );
         }
-        match (self.effect, self.significant) {
-            (Some(e), _) => {
+        if let Some(first) = self.chain.first() {
+            let _ = write!(
+                s,
+                "diagnosis: {} (gap {:.2} -> {:.2} on training, shrink {:.0}%",
+                first.effect.name(),
+                self.training.gap_before,
+                self.training.gap_after,
+                100.0 * self.training.shrink
+            );
+            if let Some(h) = self.holdout {
                 let _ = write!(
                     s,
-                    "diagnosis: {} (gap {:.2} -> {:.2} on training, shrink {:.0}%",
-                    e.name(),
-                    self.training.gap_before,
-                    self.training.gap_after,
-                    100.0 * self.training.shrink
+                    "; held out, parameters frozen: {:.2} -> {:.2}, shrink {:.0}%{}",
+                    h.gap_before,
+                    h.gap_after,
+                    100.0 * h.shrink,
+                    match self.holdout_predictive {
+                        Some(p) => format!(
+                            "; against the predictive ensembles, which carry the learnt parameters' error: {:.2} -> {:.2}, shrink {:.0}%",
+                            p.gap_before,
+                            p.gap_after,
+                            100.0 * p.shrink
+                        ),
+                        None => String::new(),
+                    }
                 );
-                if let Some(h) = self.holdout {
-                    let _ = write!(
-                        s,
-                        "; held out, parameters frozen: {:.2} -> {:.2}, shrink {:.0}%{}",
-                        h.gap_before,
-                        h.gap_after,
-                        100.0 * h.shrink,
-                        match self.holdout_predictive {
-                            Some(p) => format!(
-                                "; against the predictive ensembles, which carry the learnt parameters' error: {:.2} -> {:.2}, shrink {:.0}%",
-                                p.gap_before,
-                                p.gap_after,
-                                100.0 * p.shrink
-                            ),
-                            None => String::new(),
-                        }
-                    );
-                }
-                let _ = writeln!(s, ")");
-                if let Some(note) = self.holdout.as_ref().and_then(weak_holdout_note) {
-                    let _ = writeln!(s, "{note}");
-                }
             }
-            (None, false) => {
+            let _ = writeln!(s, ")");
+            for step in &self.chain[1..] {
+                let _ = writeln!(
+                    s,
+                    "  then {} ({} {}, gap {:.2} -> {:.2} on training{})",
+                    step.effect.name(),
+                    step.location.view.name(),
+                    band_text(&step.location),
+                    step.training.gap_before,
+                    step.training.gap_after,
+                    step.holdout
+                        .map_or(String::new(), |h| format!(", {:.2} -> {:.2} held out", h.gap_before, h.gap_after))
+                );
+            }
+            if let (true, Some(t)) = (self.chain.len() > 1, self.holdout_total) {
+                let _ = writeln!(
+                    s,
+                    "the whole chain ({}), held out with every parameter frozen: worst view {:.2} -> {:.2}, shrink {:.0}%",
+                    chain_names(&self.chain),
+                    t.gap_before,
+                    t.gap_after,
+                    100.0 * t.shrink
+                );
+            }
+            if let Some(note) = self.holdout.as_ref().and_then(weak_holdout_note) {
+                let _ = writeln!(s, "{note}");
+            }
+        }
+        match self.verdict() {
+            Verdict::NoGap => {
                 let _ = writeln!(s, "diagnosis: none (the simulation of the fitted model agrees with the record)");
             }
-            (None, true) => {
-                let _ = writeln!(s, "diagnosis: none: the gap is significant, but no candidate removes a quarter of it; it is not one of the known effects");
+            Verdict::Unexplained => {
+                let what = match &self.unexplained {
+                    Some(u) => format!(
+                        ": {} view, {} the simulation, |z| RMS {:.1}: {}",
+                        u.view.name(),
+                        u.sign.name(),
+                        u.z_rms,
+                        u.text
+                    ),
+                    None => String::new(),
+                };
+                if self.chain.is_empty() {
+                    let _ = writeln!(s, "diagnosis: none: the gap is significant, but no candidate removes a quarter of it; it is not one of the known effects{what}");
+                } else {
+                    let _ = writeln!(s, "left unexplained after the chain: a significant gap that no candidate removes a quarter of{what}");
+                }
             }
+            Verdict::Explained => {}
         }
         s
     }
+}
 
-    /// The gap plot's data: real training OADEV, the ensemble band before and after, and the gap's band when the
-    /// worst view has a tau axis.
-    pub fn plot_data(&self) -> GapPlot {
-        let to_bands = |e: &Evaluated| -> Vec<Band> {
-            e.adev_band.iter().map(|&(tau_s, lo, hi)| Band { tau_s, lo, hi }).collect()
-        };
-        let mut p = GapPlot::new(self.real_adev.clone(), to_bands(&self.base_eval));
-        p.before_label = "simulated, base model".to_string();
-        if let Some(c) = self.chosen() {
-            p.after = c.eval.as_ref().map(to_bands);
-            p.after_label = format!("simulated, + {}", c.effect.name());
-        }
-        if let Some(l) = &self.location {
-            if self.significant && l.view != ViewKind::Distribution {
-                p.band_s = Some((l.band_s[0], l.band_s[1]));
-                p.band_label = format!("gap: {} ({})", l.view.name(), l.sign.name());
+/// `a, b then c` of a chain's effects.
+fn chain_names(steps: &[Step]) -> String {
+    steps.iter().map(|s| s.effect.name()).collect::<Vec<_>>().join(" + ")
+}
+
+/// `tau 1.0e0 .. 2.0e1 s`.
+fn band_text(l: &Location) -> String {
+    format!("tau {:.3e} .. {:.3e} s", l.band_s[0], l.band_s[1])
+}
+
+/// Where a gap lies and its size, as the report's line says it.
+fn where_text(l: &Location) -> String {
+    let size = match (l.ratio, l.correlation) {
+        (Some(r), _) if l.view == ViewKind::Adev => format!(", real/sim Allan deviation x{r:.3}"),
+        (Some(r), _) => format!(", real/sim power x{r:.3}"),
+        (_, Some([a, b])) => format!(", coherence with temperature {a:.2} real vs {b:.2} simulated"),
+        _ => format!(" ({})", l.labels.join(", ")),
+    };
+    format!(
+        "worst view {}, {}, real {} the simulation, |z| RMS {:.1} over {} point(s){size}",
+        l.view.name(),
+        band_text(l),
+        l.sign.name(),
+        l.z_rms,
+        l.points
+    )
+}
+
+/// One line per candidate of a step, the chosen one starred.
+fn candidate_lines(s: &mut String, candidates: &[CandidateResult], chosen: Option<Effect>) {
+    for c in candidates {
+        let mark = if Some(c.effect) == chosen { "*" } else { " " };
+        match (&c.fit, c.gap_after, c.total_after, c.score) {
+            (Some(f), Some(g), Some(t), Some(sc)) => {
+                let h = c.holdout_after.map_or("-".to_string(), |h| format!("{h:.2}"));
+                let _ = writeln!(
+                    s,
+                    " {mark}{:<13} gap {g:>7.2} total {t:>7.2} score {sc:>7.2}  holdout {h:>7}  {}",
+                    c.effect.name(),
+                    compact(&f.params)
+                );
+            }
+            _ => {
+                let _ = writeln!(s, " {mark}{:<13} no trace in the training data", c.effect.name());
             }
         }
-        p
     }
+}
+
+/// The JSON document of a report (see the module doc).
+#[derive(Debug, Serialize)]
+pub struct Document<'a> {
+    effect: &'static str,
+    view: Option<ViewKind>,
+    band_s: Option<[f64; 2]>,
+    sign: Option<Sign>,
+    size: Option<Size<'a>>,
+    gap_before: f64,
+    gap_after: f64,
+    shrink: f64,
+    holdout: Option<HoldoutDoc>,
+    holdout_predictive: Option<PredictiveDoc>,
+    candidates: Vec<CandidateDoc<'a>>,
+    model: &'a GyroSim,
+    model_channel: Option<Channel>,
+    effect_params: Option<&'a Value>,
+    effects: Vec<StepDoc<'a>>,
+    holdout_total: Option<PartGap>,
+    verdict: Verdict,
+    unexplained: Option<&'a GapShape>,
+    fit_strain: Option<f64>,
+    significant: bool,
+    explained: bool,
+    threshold: f64,
+    total_before: f64,
+    total_after: f64,
+    base_model: &'a GyroSim,
+    base_fit: &'a NoiseFit,
+    views: BTreeMap<&'static str, ViewRow>,
+    worst: Worst,
+    views_detail: BTreeMap<String, PartViews<'a>>,
+    n_train: usize,
+    n_holdout: usize,
+    missing_samples: Missing,
+    fs_hz: f64,
+    seeds: usize,
+}
+
+/// The located band's size.
+#[derive(Debug, Serialize)]
+struct Size<'a> {
+    z_rms: f64,
+    points: usize,
+    labels: &'a [&'static str],
+    ratio: Option<f64>,
+    correlation_real_sim: Option<[f64; 2]>,
+}
+
+/// The first effect's held-out check.
+#[derive(Debug, Serialize)]
+struct HoldoutDoc {
+    gap_before: f64,
+    gap_after: f64,
+    shrink: f64,
+    shrink_if_right: f64,
+}
+
+/// The held-out check against the predictive ensembles.
+#[derive(Debug, Serialize)]
+struct PredictiveDoc {
+    gap_before: f64,
+    gap_after: f64,
+    shrink: f64,
+    worst: [Option<f64>; 2],
+}
+
+/// One candidate of the first step.
+#[derive(Debug, Serialize)]
+struct CandidateDoc<'a> {
+    effect: Effect,
+    params: Option<&'a Value>,
+    n_params: Option<usize>,
+    gap_after: Option<f64>,
+    shrink: Option<f64>,
+    total_after: Option<f64>,
+    score: Option<f64>,
+    holdout: CandidateHoldout,
+    worst_after: Option<f64>,
+    holdout_worst_after: Option<f64>,
+    chosen: bool,
+    note: Option<&'static str>,
+}
+
+/// A candidate's held-out gap at the located band.
+#[derive(Debug, Serialize)]
+struct CandidateHoldout {
+    gap_after: Option<f64>,
+    shrink: Option<f64>,
+}
+
+/// One step of the chain.
+#[derive(Debug, Serialize)]
+struct StepDoc<'a> {
+    effect: Effect,
+    params: &'a Value,
+    view: ViewKind,
+    band_s: [f64; 2],
+    sign: Sign,
+    gap_before: f64,
+    gap_after: f64,
+    holdout: Option<StepHoldout>,
+}
+
+/// A step's held-out gap at its band.
+#[derive(Debug, Serialize)]
+struct StepHoldout {
+    gap_before: f64,
+    gap_after: f64,
+}
+
+/// A view's gap before and after on each part.
+#[derive(Debug, Serialize)]
+struct ViewRow {
+    training: [Option<f64>; 2],
+    holdout: [Option<f64>; 2],
+}
+
+/// The worst view's gap, before and after, on each part.
+#[derive(Debug, Serialize)]
+struct Worst {
+    training: [f64; 2],
+    holdout: [Option<f64>; 2],
+}
+
+/// One comparison's views on both parts.
+#[derive(Debug, Serialize)]
+struct PartViews<'a> {
+    training: &'a [ViewGap],
+    holdout: &'a [ViewGap],
+}
+
+/// Gaps per part.
+#[derive(Debug, Serialize)]
+struct Missing {
+    training: usize,
+    holdout: usize,
 }
 
 fn finite(v: f64) -> Option<f64> {

@@ -1,0 +1,186 @@
+//! The chain of effects: after the best effect, the remaining candidates are ranked again on the model that
+//! already has it, while a significant gap remains and a candidate removes at least a quarter of it.
+//!
+//! A real bench record often carries more than one effect (a temperature coupling and a resonance, a Gauss-Markov
+//! hump and outliers). Each step of the chain starts from the model so far ([`Model`]): its ensemble is the
+//! comparison the step ranks against, and its estimators see the training samples less the model's deterministic
+//! part ([`deterministic_part`]: the temperature response, the sinusoids), with the model itself as their base, so
+//! that the effect they add is added to every effect found before. The IEEE base terms are re-fitted on those
+//! samples for the estimators that need a base fit. Each step reports where the gap lay on the model before it,
+//! the gap there before and after on both parts, and its ranking; the held-out check of the whole chain compares
+//! the base model with the last one, every parameter frozen from training.
+
+use octavar_shared::sensor::Channel;
+use octavar_shared::sim::effects::Sinusoids;
+use octavar_shared::sim::noise::LowPass;
+use octavar_shared::sim::temperature::ThermalLag;
+use octavar_shared::sim::GyroSim;
+
+use super::base::fit_base;
+use super::effects::{self, Effect, EffectFit, ParamSpread, TrainingData};
+use super::judge::Evaluated;
+use super::rank::{CandidateResult, Location, PartGap};
+use crate::fit::{FitOptions, NoiseFit};
+
+/// Most effects a chain holds.
+pub const MAX_STEPS: usize = 4;
+
+/// A model of the chain: the simulation model, the spreads of its effects' parameters and its ADC channel.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// The simulation model (the base terms and every effect so far).
+    pub gyro: GyroSim,
+    /// The sampling spread of each effect's parameters, in the chain's order.
+    pub spreads: Vec<ParamSpread>,
+    /// The ADC channel (`None`: the analog rate).
+    pub channel: Option<Channel>,
+}
+
+impl Model {
+    /// This model with `fit`'s effect added (its model already holds this one's effects).
+    pub fn with(&self, fit: &EffectFit) -> Model {
+        let mut spreads = self.spreads.clone();
+        spreads.extend(fit.spread.clone());
+        Model { gyro: fit.gyro.clone(), spreads, channel: fit.channel.or(self.channel) }
+    }
+}
+
+/// One step of the chain.
+#[derive(Clone, Debug)]
+pub struct Step {
+    /// The effect added.
+    pub effect: Effect,
+    /// Its fit (its model has every effect of the chain up to this one).
+    pub fit: EffectFit,
+    /// The comparison of that model with the record.
+    pub eval: Evaluated,
+    /// Where the gap lay on the model before this step.
+    pub location: Location,
+    /// The training gap at that location, before and after this step.
+    pub training: PartGap,
+    /// The held-out gap at that location (the same view and band), before and after (`None` without a holdout).
+    pub holdout: Option<PartGap>,
+    /// Every candidate of this step, in vocabulary order.
+    pub candidates: Vec<CandidateResult>,
+}
+
+/// The deterministic part of `gyro`'s rate over the `temp_c.len()` (or `n`) first samples of the record at
+/// `fs_hz`: its temperature response through the thermal lag, its sinusoids, through its bandwidth as the
+/// simulator applies it. `None` when it has none.
+pub fn deterministic_part(gyro: &GyroSim, fs_hz: f64, temp_c: Option<&[f64]>, n: usize) -> Option<Vec<f64>> {
+    let coupling = gyro.temperature.filter(|_| temp_c.is_some());
+    if coupling.is_none() && gyro.sinusoids.is_empty() {
+        return None;
+    }
+    let tau0 = 1.0 / fs_hz;
+    let mut sines = Sinusoids::new(&gyro.sinusoids, tau0);
+    let mut lag = coupling.map(|c| ThermalLag::new(&c, tau0));
+    let mut low_pass = gyro.bandwidth_hz.map(|f| LowPass::new(f, fs_hz));
+    Some(
+        (0..n)
+            .map(|i| {
+                let mut v = sines.next(i as u64);
+                if let (Some(l), Some(t)) = (lag.as_mut(), temp_c) {
+                    v += l.next(t[i]);
+                }
+                match low_pass.as_mut() {
+                    Some(lp) => lp.next(v),
+                    None => v,
+                }
+            })
+            .collect(),
+    )
+}
+
+/// What a step's estimators learn from: the training samples (gaps filled) less the model's deterministic part,
+/// and an IEEE fit of them (the base fit itself while the model is the base).
+pub struct StepData {
+    /// The samples, deg/s.
+    pub rate_dps: Vec<f64>,
+    /// Their base fit.
+    pub base_fit: NoiseFit,
+}
+
+impl StepData {
+    /// The data of a step on `model`, from the training samples `filled` (no gaps) and their temperature;
+    /// `first` says whether this is the chain's first step (the model is the base, fitted as `base_fit`).
+    pub fn new(
+        model: &GyroSim,
+        filled: &[f64],
+        temp_c: Option<&[f64]>,
+        fs_hz: f64,
+        base_fit: &NoiseFit,
+        first: bool,
+    ) -> StepData {
+        if first {
+            return StepData { rate_dps: filled.to_vec(), base_fit: base_fit.clone() };
+        }
+        let rate_dps: Vec<f64> = match deterministic_part(model, fs_hz, temp_c, filled.len()) {
+            Some(d) => filled.iter().zip(&d).map(|(x, d)| x - d).collect(),
+            None => filled.to_vec(),
+        };
+        let base_fit =
+            fit_base(&rate_dps, fs_hz, &FitOptions::default()).map(|(_, f)| f).unwrap_or_else(|_| base_fit.clone());
+        StepData { rate_dps, base_fit }
+    }
+
+    /// The estimators' view of it, on `model`.
+    pub fn training<'a>(&'a self, model: &'a GyroSim, temp_c: Option<&'a [f64]>, fs_hz: f64) -> TrainingData<'a> {
+        TrainingData { rate_dps: &self.rate_dps, temp_c, fs_hz, base: model, base_fit: &self.base_fit }
+    }
+}
+
+/// The chain `effects` learnt from the training samples `filled` (no gaps) as the diagnosis learns it, step by
+/// step from the base model `base` (fitted as `base_fit`); an effect whose estimator finds no trace is skipped.
+pub fn learn(
+    effects: &[Effect],
+    base: &Model,
+    base_fit: &NoiseFit,
+    filled: &[f64],
+    temp_c: Option<&[f64]>,
+    fs_hz: f64,
+) -> Model {
+    let mut model = base.clone();
+    for (k, &effect) in effects.iter().enumerate() {
+        let data = StepData::new(&model.gyro, filled, temp_c, fs_hz, base_fit, k == 0);
+        if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, temp_c, fs_hz)) {
+            model = model.with(&f);
+        }
+    }
+    model
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use octavar_shared::sim::{Sinusoid, TempCoupling};
+
+    /// The deterministic part is the sinusoids and the lagged coupling as written out here from their
+    /// definitions, through the first-order low-pass `y = a y + (1 - a) x` started at its first input.
+    #[test]
+    fn the_deterministic_part_follows_its_closed_form() {
+        let fs = 10.0;
+        let n = 5000;
+        let mut gyro = GyroSim {
+            temperature: Some(TempCoupling { dps_per_c: 0.02, ref_c: 25.0, lag_s: 30.0 }),
+            bandwidth_hz: Some(2.0),
+            ..Default::default()
+        };
+        gyro.sinusoids.push(Sinusoid { amplitude_dps: 0.3, period_s: 7.0, phase_rad: 0.4 }).unwrap();
+        let temp: Vec<f64> = (0..n).map(|i| 25.0 + 2.0 * (i as f64 / 800.0).sin()).collect();
+        let got = deterministic_part(&gyro, fs, Some(&temp), n).unwrap();
+        let a_lag = (-1.0 / (fs * 30.0f64)).exp();
+        let a_lp = (-2.0 * std::f64::consts::PI * 2.0 / fs).exp();
+        let (mut t_lag, mut y) = (temp[0], 0.0);
+        for i in 0..n {
+            t_lag = if i == 0 { temp[0] } else { a_lag * t_lag + (1.0 - a_lag) * temp[i] };
+            let x = 0.3 * (2.0 * std::f64::consts::PI * i as f64 / (7.0 * fs) + 0.4).sin() + 0.02 * (t_lag - 25.0);
+            y = if i == 0 { x } else { a_lp * y + (1.0 - a_lp) * x };
+            assert!((got[i] - y).abs() < 1e-9, "sample {i}: {} vs {y}", got[i]);
+        }
+        // Without a temperature the coupling adds nothing; a model of noise terms alone has no deterministic part.
+        gyro.sinusoids.clear();
+        assert!(deterministic_part(&gyro, fs, None, n).is_none());
+        assert!(deterministic_part(&GyroSim { n_deg_per_rt_s: 0.1, ..Default::default() }, fs, None, n).is_none());
+    }
+}
