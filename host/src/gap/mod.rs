@@ -42,6 +42,7 @@ pub mod holdout;
 pub mod judge;
 pub mod rank;
 pub mod report;
+pub mod transients;
 pub mod views;
 
 use octavar_shared::sensor::Channel;
