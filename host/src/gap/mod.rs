@@ -59,6 +59,7 @@ pub mod judge;
 pub mod rank;
 pub mod report;
 pub mod spectral;
+pub mod transients;
 pub mod views;
 
 pub use base::base_model;
