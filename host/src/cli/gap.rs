@@ -9,14 +9,17 @@ use anyhow::{bail, Context};
 use octavar::gap::{self, GapInput, GapOptions};
 use octavar::plot;
 use octavar::recording::{self, CsvOptions, Recording};
+use octavar_shared::sensor::SensorKind;
+use octavar_shared::sim::{BenchSim, ChannelSim};
 
 use super::csv_args::CsvArgs;
 use super::progress::Progress;
 
 /// Diagnose the sim-to-real gap: fit the IEEE 952 terms on the training part, simulate an ensemble of the fitted
 /// model, find where real and simulation part (ADEV, PSD, distribution, temperature), try each candidate effect
-/// (temperature, sinusoid, bandwidth, gauss_markov, quantization, bias_steps, outliers), and check the best on
-/// held-out data with every parameter frozen.
+/// (temperature, sinusoid, bandwidth, gauss_markov, quantization, bias_steps, outliers), add the best and rank the
+/// rest again while a significant gap remains, and check the chain on held-out data with every parameter frozen.
+/// Transient disturbances are found and masked first; a gap no candidate explains is described.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The recording: CSV with a header (.gz is read as such); - is stdin.
@@ -54,6 +57,15 @@ pub struct Args {
     /// parameters too (JSON `holdout_predictive`; it costs two more ensembles and the estimator on each member).
     #[arg(long, value_name = "CHECK", value_enum, default_value_t = gap::HoldoutCheck::Plain)]
     pub holdout_check: gap::HoldoutCheck,
+    /// Leave transient disturbances (bumps, bursts of spikes, seconds to minutes long) in the record; by default
+    /// they are found in both parts, reported, and masked as gaps before the diagnosis.
+    #[arg(long)]
+    pub keep_transients: bool,
+    /// Write the model with every effect the diagnosis found (the base fit and the chain, parameters from the
+    /// training part) as a model.toml for `octavar simulate --model` (a temperature coupling acts only where the
+    /// simulation has a temperature profile).
+    #[arg(long, value_name = "FILE")]
+    pub model_out: Option<PathBuf>,
     /// Write the JSON document here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -97,6 +109,7 @@ impl Args {
             seeds: self.seeds,
             oversample: self.oversample as usize,
             holdout_check: self.holdout_check,
+            keep_transients: self.keep_transients,
             ..Default::default()
         };
         let bar = Mutex::new(None::<Progress>);
@@ -115,6 +128,19 @@ impl Args {
         write!(out, "{}", report.text())?;
         if let Some(path) = &self.json {
             std::fs::write(path, serde_json::to_string_pretty(&report.to_json())?)
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        if let Some(path) = &self.model_out {
+            let range = input.rate_dps.iter().filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()));
+            let channel = report.model.channel.unwrap_or_else(|| octavar::analyze::fine_channel(4.0 * range.max(1e-3)));
+            let mut channels = heapless::Vec::new();
+            let _ = channels.push(ChannelSim {
+                sensor: SensorKind::Generic,
+                channel: Some(channel),
+                gyro: report.model().clone(),
+            });
+            let bench = BenchSim { fs_hz: fs, seed: 0, temperature: Default::default(), channels };
+            std::fs::write(path, octavar::simulate::model_to_toml(&bench))
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         if let Some(path) = &self.plot {

@@ -12,7 +12,7 @@ use super::input::{fill_gaps, GapInput, GapOptions, HoldoutCheck, MIN_PART};
 use super::judge::Judge;
 use super::rank::{self, CandidateResult, PartGap};
 use super::report::{self, GapReport};
-use super::{compare, holdout};
+use super::{compare, disturbances, holdout};
 
 /// Progress: `(stage, done, total)`, called after each ensemble.
 pub type ProgressFn<'a> = dyn Fn(&str, usize, usize) + Sync + 'a;
@@ -29,10 +29,23 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     }
     input.check_temperature()?;
     input.check_values()?;
+    // Transient disturbances become gaps in both parts before anything else sees the record.
+    let transients = if opts.keep_transients { Vec::new() } else { disturbances::find(input) };
+    let masked_input;
+    let original = input;
+    let input = if transients.is_empty() {
+        input
+    } else {
+        masked_input = disturbances::masked(input, &transients);
+        &masked_input
+    };
     let n_train = input.n_train;
     let n_hold = input.n_holdout();
-    let missing =
-        [&input.rate_dps[..n_train], &input.rate_dps[n_train..]].map(|part| part.iter().filter(|v| v.is_nan()).count());
+    let nan_count = |x: &GapInput| {
+        [&x.rate_dps[..n_train], &x.rate_dps[n_train..]].map(|p| p.iter().filter(|v| v.is_nan()).count())
+    };
+    let missing = nan_count(input);
+    let missing_before_mask = nan_count(original);
     if n_train - missing[0] < MIN_PART {
         return Err(GapError::TooShort { part: "training", n: n_train, missing: missing[0], needed: MIN_PART });
     }
@@ -187,7 +200,8 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         fs_hz: fs,
         n_train,
         n_holdout: n_hold,
-        missing,
+        missing: missing_before_mask,
+        transients,
         seeds: opts.seeds,
         has_temperature: input.temp_c.is_some(),
         channel: opts.channel,

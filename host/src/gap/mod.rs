@@ -2,7 +2,9 @@
 //! effects cause it, and how far the gap shrinks on data the fit never saw.
 //!
 //! 1. **Split** ([`input`]): training is the first part of the record, the holdout the rest
-//!    ([`GapInput::split`]), or a second record ([`GapInput::joined`]).
+//!    ([`GapInput::split`]), or a second record ([`GapInput::joined`]). **Transients** ([`disturbances`], on the
+//!    scan of [`transients`]): bumps and bursts found in each part are masked as gaps before anything else
+//!    ([`GapOptions::keep_transients`] leaves them in).
 //! 2. **Base model** ([`base`]): the IEEE 952 fit ([`crate::fit::fit`], default options) on the training OADEV at
 //!    octave tau; its fitted terms and the training mean as the bias, on the record's ADC when it is known
 //!    ([`GapOptions::channel`]), else as the analog rate (no ADC: nothing quantises or clips it; a fine ADC over
@@ -50,6 +52,7 @@ pub mod chain;
 pub mod compare;
 pub mod describe;
 mod diagnose;
+pub mod disturbances;
 pub mod effects;
 pub mod ensemble;
 pub mod error;

@@ -9,7 +9,8 @@
 //! effect's). The chain: `effects` `[{effect, params, view, band_s, sign, gap_before, gap_after, holdout:
 //! {gap_before, gap_after}}]` in the order found, and `holdout_total` `{gap_before, gap_after, shrink}`, the
 //! worst view's gap on the holdout of the base model and of the whole chain, every parameter frozen. Also:
-//! `verdict` (`no_gap`, `explained`, `unexplained`), `unexplained` (what the gap left after the chain looks like),
+//! `transients` `[{part, start_s, duration_s, peak_dps}]` (the disturbances masked as gaps, `start_s` from the
+//! start of their part), `verdict` (`no_gap`, `explained`, `unexplained`), `unexplained` (what the gap left after the chain looks like),
 //! `fit_strain` (the base fit's reduced chi-square when it is far above 1), `size`, `significant`, `explained`,
 //! `threshold`, `total_before`, `total_after`, `base_model`, `base_fit`, `views` (every view's gap on both parts,
 //! base and chain), `worst`, `views_detail`, `n_train`, `n_holdout`, `missing_samples` `{training, holdout}`,
@@ -27,6 +28,7 @@ use serde_json::Value;
 use super::chain::{Model, Step};
 use super::compare::ViewGap;
 use super::describe::{shape_of, GapShape};
+use super::disturbances::{self, Masked};
 use super::effects::Effect;
 use super::judge::Evaluated;
 use super::rank::{self, CandidateResult, Location, PartGap, Sign};
@@ -98,6 +100,9 @@ pub struct GapReport {
     /// Gaps (NaN samples: empty cells, NaN text, time jumps) in the training part and in the holdout. The views
     /// leave them out, every ensemble member has the same ones, and the estimators see them filled linearly.
     pub missing: [usize; 2],
+    /// The transient disturbances masked as gaps before the diagnosis, in time order (empty with
+    /// [`super::input::GapOptions::keep_transients`]).
+    pub transients: Vec<Masked>,
     /// Ensemble size.
     pub seeds: usize,
     /// Whether a temperature channel was used.
@@ -110,6 +115,7 @@ pub(crate) struct Parts {
     pub n_train: usize,
     pub n_holdout: usize,
     pub missing: [usize; 2],
+    pub transients: Vec<Masked>,
     pub seeds: usize,
     pub has_temperature: bool,
     pub channel: Option<Channel>,
@@ -185,6 +191,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         n_train: p.n_train,
         n_holdout: p.n_holdout,
         missing: p.missing,
+        transients: p.transients,
         seeds: p.seeds,
         has_temperature: p.has_temperature,
     }
@@ -203,6 +210,11 @@ pub enum Verdict {
 }
 
 impl GapReport {
+    /// `input` as this diagnosis saw it: with its transients masked as gaps.
+    pub fn masked_input(&self, input: &super::input::GapInput) -> super::input::GapInput {
+        disturbances::masked(input, &self.transients)
+    }
+
     /// The chain's first effect's name, or `none`.
     pub fn effect_name(&self) -> &'static str {
         self.effect.map_or("none", Effect::name)
@@ -321,6 +333,7 @@ impl GapReport {
             effect_params: first.map(|s| &s.fit.params),
             effects,
             holdout_total: self.holdout_total,
+            transients: &self.transients,
             verdict: self.verdict(),
             unexplained: self.unexplained.as_ref(),
             fit_strain: self.fit_strain(),
@@ -394,15 +407,35 @@ impl GapReport {
         } else {
             "no holdout".to_string()
         };
+        let [mt, mh] = disturbances::seconds(&self.transients);
+        let masked = if self.transients.is_empty() {
+            "no transient masked".to_string()
+        } else {
+            format!(
+                "{} transient{} masked ({mt:.1} s of training, {mh:.1} s of holdout)",
+                self.transients.len(),
+                if self.transients.len() == 1 { "" } else { "s" }
+            )
+        };
         let _ = writeln!(
             s,
-            "gap diagnosis: {} training samples{} at {} Hz, {hold}; ensemble of {} seeds{}",
+            "gap diagnosis: {} training samples{} at {} Hz, {hold}; {masked}; ensemble of {} seeds{}",
             self.n_train,
             missing(self.missing[0]),
             self.fs_hz,
             self.seeds,
             if self.has_temperature { ", driven by the recorded temperature" } else { "" }
         );
+        for t in &self.transients {
+            let _ = writeln!(
+                s,
+                "  transient in the {} part at {:.1} s for {:.1} s, peak {:.3e} deg/s: masked as a gap",
+                t.part.name(),
+                t.start_s,
+                t.duration_s,
+                t.peak_dps
+            );
+        }
         let b = &self.base;
         let _ = writeln!(
             s,
@@ -636,6 +669,7 @@ pub struct Document<'a> {
     effect_params: Option<&'a Value>,
     effects: Vec<StepDoc<'a>>,
     holdout_total: Option<PartGap>,
+    transients: &'a [Masked],
     verdict: Verdict,
     unexplained: Option<&'a GapShape>,
     fit_strain: Option<f64>,
