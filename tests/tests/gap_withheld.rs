@@ -8,8 +8,8 @@
 //! one).
 //!
 //! A case passes when every effect present is named in the chain, no absent effect is named, and the held-out
-//! gap after the whole chain (the worst view's, every parameter frozen) is below the significance threshold
-//! (2.5); a control passes when the answer is `none`; a disturbed record must also report a transient. The
+//! gap after the whole chain (the largest over the bands its steps located, every parameter frozen) is below the
+//! significance threshold (2.5); a control passes when the answer is `none`; a disturbed record must also report a transient. The
 //! oracle judges the holdout, with the same judge and seeds, against the ensemble of the model that made the
 //! record (its true parameters): what a diagnosis without estimation error would score.
 //!
@@ -36,7 +36,7 @@
 //!   temperature with a disturbance (every seed).
 //! - disturbances: 1 s to 5 min long (log-uniform), at a uniform time; a rectangular bump or a half-sine swell of
 //!   10-60 white sigmas per sample (at least 15 times the base Allan deviation at its length, so that a long one
-//!   stands above the red noise), or a burst of 5-20 spikes of 20-80 sigmas.
+//!   stands above the red noise), or a burst of 5-20 spikes of 20-80 sigmas within at most a minute.
 //!
 //! `NOISE_SEED=k` redraws every case's gyro noise (the effect's parameters and the temperature stay), to see
 //! how an estimator scatters over the realisations of one case. `GAP_WITHHELD_VERBOSE=1` prints every
@@ -323,6 +323,7 @@ fn disturb(x: &mut [f64], c: &Case, seed: u64) -> Disturbance {
     let mut rng = SimRng::new(0xd15_7000 + seed);
     let sigma = c.model.n_deg_per_rt_s * c.fs.sqrt();
     let dur_s = log_uniform(&mut rng, 1.0, 300.0);
+    // A burst of spikes lasts seconds to a minute; a bump or a swell up to five.
     let len = ((dur_s * c.fs).round() as usize).clamp(3, x.len() / 20);
     let start = (rng.uniform() * (x.len() - len) as f64) as usize;
     let which = (rng.uniform() * 3.0) as usize;
@@ -337,6 +338,7 @@ fn disturb(x: &mut [f64], c: &Case, seed: u64) -> Disturbance {
             Disturbance { start, len, size_dps: size.abs(), shape: if which == 0 { "bump" } else { "swell" } }
         }
         _ => {
+            let len = len.min(((60.0 * c.fs) as usize).max(3));
             let count = 5 + (rng.uniform() * 16.0) as usize;
             let mut peak: f64 = 0.0;
             for _ in 0..count {
@@ -489,14 +491,14 @@ fn verbose(r: &GapReport, c: &Case, effect: Option<Effect>) {
     }
 }
 
-/// The held-out worst-view gap of the model that made the record (its true parameters, no estimation error),
-/// against the same seeds and judge as the diagnosis, on the record as the diagnosis saw it (its transients
-/// masked): what a diagnosis that named every effect with its true parameters would score.
+/// The held-out gap of the model that made the record (its true parameters, no estimation error) at the bands the
+/// diagnosis's chain located, against the same seeds and judge, on the record as the diagnosis saw it (its
+/// transients masked): what a diagnosis that named every effect with its true parameters would score there.
 fn oracle_holdout_gap(c: &Case, r: &GapReport, input: &GapInput) -> f64 {
     let masked = r.masked_input(input);
     let judge = Judge::new(&masked, &GapOptions::default());
     let e = judge.evaluate(&c.model, &[], c.channel.as_ref(), "truth").unwrap();
-    octavar::gap::rank::gap_of(&e.holdout)
+    octavar::gap::rank::chain_gap(&e.holdout, r.judged_locations()).unwrap_or(f64::NAN)
 }
 
 /// Tally of one kind of case.

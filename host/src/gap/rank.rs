@@ -139,6 +139,12 @@ pub fn band_gap(views: &[ViewGap], loc: &Location) -> Option<f64> {
     (!z.is_empty()).then(|| (z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64).sqrt())
 }
 
+/// The gap of a chain on `views`: the largest RMS z over the bands where its steps located the gap ([`band_gap`]
+/// at each of `locations`); `None` when the views have no point in any of them.
+pub fn chain_gap<'a>(views: &[ViewGap], locations: impl IntoIterator<Item = &'a Location>) -> Option<f64> {
+    locations.into_iter().filter_map(|l| band_gap(views, l)).reduce(f64::max)
+}
+
 /// The ranking score of a model: its total gap with the parameter penalty.
 pub fn score(total: f64, n_params: usize) -> f64 {
     total * (1.0 + PARAM_PENALTY * n_params as f64)

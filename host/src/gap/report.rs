@@ -8,7 +8,8 @@
 //! (the base model with every effect of the chain, as a `model.toml` channel's `gyro`), `effect_params` (the first
 //! effect's). The chain: `effects` `[{effect, params, view, band_s, sign, gap_before, gap_after, holdout:
 //! {gap_before, gap_after}}]` in the order found, and `holdout_total` `{gap_before, gap_after, shrink}`, the
-//! worst view's gap on the holdout of the base model and of the whole chain, every parameter frozen. Also:
+//! largest held-out gap over the chain's located bands, of the base model and of the whole chain, every
+//! parameter frozen. Also:
 //! `transients` `[{part, start_s, duration_s, peak_dps}]` (the disturbances masked as gaps, `start_s` from the
 //! start of their part), `verdict` (`no_gap`, `explained`, `unexplained`), `unexplained` (what the gap left after the chain looks like),
 //! `fit_strain` (the base fit's reduced chi-square when it is far above 1), `size`, `significant`, `explained`,
@@ -60,8 +61,9 @@ pub struct GapReport {
     pub training: PartGap,
     /// Holdout gap at the same band, before and after the first effect (`None` without a holdout).
     pub holdout: Option<PartGap>,
-    /// The holdout's worst-view gap of the base model and of the whole chain, every parameter frozen (`None`
-    /// without a holdout).
+    /// The whole chain held out, every parameter frozen: the largest held-out gap over the bands its steps
+    /// located (the base's band without a chain), of the base model and of the chain's model (`None` without a
+    /// holdout). The worst view of the holdout, wherever it lies, is [`GapReport::worst`].
     pub holdout_total: Option<PartGap>,
     /// With [`super::input::HoldoutCheck::Predictive`]: the holdout gap at the base's band against the predictive ensembles,
     /// base and chain (see [`super::holdout`]).
@@ -151,7 +153,17 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
     });
     let hold_worst = if has_holdout { rank::gap_of(&p.base_eval.holdout) } else { f64::NAN };
     let hold_worst_after = if has_holdout { rank::gap_of(&last_eval.holdout) } else { f64::NAN };
-    let holdout_total = has_holdout.then(|| PartGap::new(hold_worst, hold_worst_after));
+    // The whole chain held out: at the bands its steps located (the base's band without a chain), the worst of
+    // them, for the base model and for the chain's.
+    let judged: Vec<&Location> =
+        if p.chain.is_empty() { location.iter().collect() } else { p.chain.iter().map(|s| &s.location).collect() };
+    let holdout_total = match (
+        rank::chain_gap(&p.base_eval.holdout, judged.iter().copied()),
+        rank::chain_gap(&last_eval.holdout, judged.iter().copied()),
+    ) {
+        (Some(b), Some(a)) if has_holdout => Some(PartGap::new(b, a)),
+        _ => None,
+    };
     let (holdout_predictive, holdout_predictive_worst) = match &p.predictive {
         Some((base, chain)) => {
             let after = chain.as_ref().unwrap_or(if p.chain.is_empty() { base } else { &last_eval.holdout });
@@ -210,6 +222,16 @@ pub enum Verdict {
 }
 
 impl GapReport {
+    /// The bands the held-out check of the whole chain is judged at: each step's location (the base's without a
+    /// chain).
+    pub fn judged_locations(&self) -> Vec<&Location> {
+        if self.chain.is_empty() {
+            self.location.iter().collect()
+        } else {
+            self.chain.iter().map(|s| &s.location).collect()
+        }
+    }
+
     /// `input` as this diagnosis saw it: with its transients masked as gaps.
     pub fn masked_input(&self, input: &super::input::GapInput) -> super::input::GapInput {
         disturbances::masked(input, &self.transients)
@@ -563,7 +585,7 @@ impl GapReport {
             if let (true, Some(t)) = (self.chain.len() > 1, self.holdout_total) {
                 let _ = writeln!(
                     s,
-                    "the whole chain ({}), held out with every parameter frozen: worst view {:.2} -> {:.2}, shrink {:.0}%",
+                    "the whole chain ({}), held out with every parameter frozen, at the worst of its bands: {:.2} -> {:.2}, shrink {:.0}%",
                     chain_names(&self.chain),
                     t.gap_before,
                     t.gap_after,
