@@ -9,6 +9,14 @@ use super::{Effect, EffectFit, TrainingData};
 /// Sigmas beyond which an isolated sample is an outlier.
 pub(super) const OUTLIER_SIGMAS: f64 = 6.0;
 
+/// Fewest spikes that make a rate: two or three events are not a process.
+const MIN_SPIKES: usize = 5;
+
+/// Spikes of a steady process are spread over the record: when more than half of them fall within this fraction
+/// of it, they are a cluster (what a burst leaves), not a rate. For five spikes at uniform times, three or more
+/// within a fiftieth of the record happen about once in a hundred records.
+const CLUSTER_SPAN: f64 = 0.02;
+
 /// The median of four: the mean of the middle two.
 pub(super) fn median4(mut v: [f64; 4]) -> f64 {
     v.sort_unstable_by(f64::total_cmp);
@@ -22,7 +30,8 @@ pub(super) fn median4(mut v: [f64; 4]) -> f64 {
 /// samples leave no residual), its robust scale 1.4826 MAD (the mean absolute residual times 1.2533 when the MAD is 0 on coarse quantisation); a
 /// sample is a spike when its residual exceeds [`OUTLIER_SIGMAS`] scales while its neighbours' do not. A
 /// Gaussian record of 1e6 samples leaves about 0.002 such samples. Parameters: the fraction of samples and the
-/// median spike size. The base terms are re-fitted with the spikes replaced by their neighbours' median (the
+/// median spike size. A process needs a rate: at least [`MIN_SPIKES`] spikes, not most of them within
+/// [`CLUSTER_SPAN`] of the record (a burst's remnant is an event, not a steady process). The base terms are re-fitted with the spikes replaced by their neighbours' median (the
 /// base N contained their white variance `p size^2`).
 pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
@@ -42,7 +51,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let thr = OUTLIER_SIGMAS * scale;
     let big = |i: usize| r[i].abs() > thr;
     let hits: Vec<usize> = (3..n - 3).filter(|&i| big(i) && !big(i - 1) && !big(i + 1)).collect();
-    if hits.is_empty() {
+    if hits.len() < MIN_SPIKES || clustered(&hits, n) {
         return None;
     }
     let sizes: Vec<f64> = hits.iter().map(|&i| r[i].abs()).collect();
@@ -64,4 +73,27 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
         channel: None,
         spread: None,
     })
+}
+
+/// Whether more than half of the spikes at sample indices `hits` (sorted) lie within [`CLUSTER_SPAN`] of a record
+/// of `n` samples.
+fn clustered(hits: &[usize], n: usize) -> bool {
+    let span = (CLUSTER_SPAN * n as f64) as usize;
+    let need = hits.len() / 2 + 1;
+    hits.windows(need).any(|w| w[need - 1] - w[0] <= span)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spikes_most_of_them_in_one_place_are_a_cluster() {
+        let n = 100_000;
+        // Five spread over the record: a rate. Three of five within 1% of it: a cluster.
+        assert!(!clustered(&[1_000, 21_000, 41_000, 61_000, 81_000], n));
+        assert!(clustered(&[1_000, 50_000, 50_400, 50_900, 81_000], n));
+        // Half of them (two of four) is not more than half.
+        assert!(!clustered(&[1_000, 50_000, 50_400, 81_000], n));
+    }
 }
