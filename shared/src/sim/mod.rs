@@ -15,6 +15,9 @@
 //! | sinusoid A, f0 | `sinusoids` | `A^2 sin^4(pi f0 tau) / (pi f0 tau)^2` |
 //! | temperature coupling | `temperature` | through the thermal lag ([`temperature`]) |
 //! | bias steps, outliers | `bias_steps`, `outliers` | random-walk-like, white-like ([`effects`]) |
+//! | resonance (second-order Gauss-Markov) | `resonance` | exact AR(2) form ([`noise::Resonance`]) |
+//! | bistable bias (random telegraph) | `bistable` | Gauss-Markov form, T = 1/(l1 + l2) ([`effects::Telegraph`]) |
+//! | warm-up | `warm_up` | deterministic, `size exp(-t / tau)` |
 //!
 //! ADC quantisation and clipping come from the channel's [`crate::sensor::Channel`]. A [`Bench`] drives several
 //! channels and one shared temperature profile ([`BenchSim`]).
@@ -59,6 +62,6 @@ pub mod temperature;
 pub use bench::{Bench, BenchSample};
 pub use gyro::{Sample, SimError, VirtualGyro};
 pub use model::{
-    BenchSim, BiasSteps, ChannelSim, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling, TemperatureProfile,
-    Wander, MAX_CHANNELS, MAX_SINUSOIDS,
+    BenchSim, BiasSteps, BistableSim, ChannelSim, GaussMarkovSim, GyroSim, Outliers, ResonanceSim, Sinusoid,
+    TempCoupling, TemperatureProfile, Wander, WarmUpSim, MAX_CHANNELS, MAX_SINUSOIDS,
 };
