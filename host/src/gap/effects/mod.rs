@@ -31,15 +31,18 @@ use crate::fit::NoiseFit;
 
 mod bandwidth;
 mod bias_steps;
+mod bistable;
 mod common;
 mod curve;
 mod gauss_markov;
 mod outliers;
 mod quantization;
+mod resonance;
 mod sinusoid;
 mod temperature;
 #[cfg(test)]
 mod tests;
+mod warm_up;
 
 /// A candidate effect: something the IEEE 952 base model does not have.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -59,11 +62,17 @@ pub enum Effect {
     BiasSteps,
     /// Isolated spikes.
     Outliers,
+    /// Narrowband random vibration: a second-order Gauss-Markov process (a spectral bump wider than a line).
+    Resonance,
+    /// A bias that flips between two levels at random (random telegraph, popcorn noise).
+    Bistable,
+    /// The bias settling exponentially after power-on.
+    WarmUp,
 }
 
 impl Effect {
     /// Every effect, in the vocabulary's order.
-    pub const ALL: [Effect; 7] = [
+    pub const ALL: [Effect; 10] = [
         Effect::Temperature,
         Effect::Sinusoid,
         Effect::Bandwidth,
@@ -71,6 +80,9 @@ impl Effect {
         Effect::Quantization,
         Effect::BiasSteps,
         Effect::Outliers,
+        Effect::Resonance,
+        Effect::Bistable,
+        Effect::WarmUp,
     ];
 
     /// The name in the vocabulary (CLI, JSON).
@@ -83,6 +95,9 @@ impl Effect {
             Effect::Quantization => "quantization",
             Effect::BiasSteps => "bias_steps",
             Effect::Outliers => "outliers",
+            Effect::Resonance => "resonance",
+            Effect::Bistable => "bistable",
+            Effect::WarmUp => "warm_up",
         }
     }
 
@@ -221,5 +236,8 @@ pub fn estimate(effect: Effect, data: &TrainingData) -> Option<EffectFit> {
         Effect::Quantization => quantization::quantization(data),
         Effect::BiasSteps => bias_steps::bias_steps(data),
         Effect::Outliers => outliers::outliers(data),
+        Effect::Resonance => resonance::resonance(data),
+        Effect::Bistable => bistable::bistable(data),
+        Effect::WarmUp => warm_up::warm_up(data),
     }
 }

@@ -356,3 +356,65 @@ fn a_couplings_members_draw_its_in_band_coefficient() {
         assert!((sd / (se * gain) - 1.0).abs() < 0.05, "part {i}: sd {sd} vs {}", se * gain);
     }
 }
+
+#[test]
+#[ignore]
+fn explore_resonance() {
+    use octavar_shared::sim::ResonanceSim;
+    let fs = 100.0;
+    for (sigma, f0, q) in [(0.05, 20.0, 10.0), (0.03, 7.0, 30.0), (0.05, 2.0, 4.0), (0.05, 40.0, 5.0)] {
+        for seed in [1, 2] {
+            let m = GyroSim { resonance: Some(ResonanceSim { sigma_dps: sigma, freq_hz: f0, q }), ..base_model() };
+            let (x, _) = simulate(&m, fs, 500_000, seed, None);
+            let e = run(Effect::Resonance, &x, None, fs);
+            eprintln!("truth {sigma} {f0} {q}: {:?}", e.map(|e| (e.params, e.gyro.n_deg_per_rt_s)));
+        }
+    }
+    for seed in 1..6 {
+        let (x, _) = simulate(&base_model(), fs, 500_000, seed, None);
+        run(Effect::Resonance, &x, None, fs);
+        let mut m = base_model();
+        m.sinusoids.push(Sinusoid { amplitude_dps: 0.05, period_s: 1.0 / 13.3, phase_rad: 0.3 }).unwrap();
+        let (x, _) = simulate(&m, fs, 500_000, seed, None);
+        run(Effect::Resonance, &x, None, fs);
+    }
+}
+
+#[test]
+#[ignore]
+fn explore_real() {
+    use crate::recording::{read_csv, CsvOptions, RateUnit};
+    let path = std::path::Path::new("/work/shared/data/imu/adis16405_session1.csv.gz");
+    for axis in ["x", "y", "z"] {
+        let input = crate::input::open(path).unwrap();
+        let opts = CsvOptions {
+            columns: vec![format!("gyro_{axis}_dps")],
+            rate_hz: Some(100.0),
+            unit: RateUnit::DegPerS,
+            ..Default::default()
+        };
+        let rec = read_csv(input.reader, &input.name, &opts).unwrap();
+        let x = &rec.channels[0][..500_000];
+        eprintln!("ADIS {axis}");
+        for e in [Effect::Resonance, Effect::Bistable, Effect::WarmUp] {
+            run(e, x, None, 100.0);
+        }
+    }
+    let path = std::path::Path::new("/work/shared/data/imu/cats_temperature_p12.csv.gz");
+    for axis in ["x", "y", "z"] {
+        let input = crate::input::open(path).unwrap();
+        let opts = CsvOptions {
+            columns: vec![format!("gyro_{axis}_mrads")],
+            rate_hz: Some(1.0),
+            unit: RateUnit::MradPerS,
+            filters: vec![crate::recording::RowFilter::parse("period=1").unwrap()],
+            ..Default::default()
+        };
+        let rec = read_csv(input.reader, &input.name, &opts).unwrap();
+        let x = &rec.channels[0];
+        eprintln!("CATS {axis} n {}", x.len());
+        for e in [Effect::Resonance, Effect::Bistable, Effect::WarmUp] {
+            run(e, x, None, 1.0);
+        }
+    }
+}

@@ -1,0 +1,5 @@
+//! stub
+use super::{EffectFit, TrainingData};
+pub(super) fn bistable(_d: &TrainingData) -> Option<EffectFit> {
+    None
+}
