@@ -418,3 +418,36 @@ fn explore_real() {
         }
     }
 }
+
+#[test]
+#[ignore]
+fn explore_bistable() {
+    use octavar_shared::sim::BistableSim;
+    let fs = 10.0;
+    for (step, lo, hi) in [(0.1, 120.0, 60.0), (0.08, 300.0, 30.0), (0.15, 20.0, 20.0), (0.05, 600.0, 600.0)] {
+        for seed in [1, 2] {
+            let m = GyroSim {
+                bistable: Some(BistableSim { step_dps: step, dwell_low_s: lo, dwell_high_s: hi }),
+                ..base_model()
+            };
+            let (x, _) = simulate(&m, fs, 500_000, seed, None);
+            eprintln!("truth {step} {lo} {hi}");
+            let e = run(Effect::Bistable, &x, None, fs);
+            eprintln!("   N {:?}", e.map(|e| e.gyro.n_deg_per_rt_s));
+            run(Effect::BiasSteps, &x, None, fs);
+        }
+    }
+    for seed in 1..4 {
+        eprintln!("plain");
+        let (x, _) = simulate(&base_model(), fs, 500_000, seed, None);
+        run(Effect::Bistable, &x, None, fs);
+        eprintln!("steps");
+        let m = GyroSim { bias_steps: Some(BiasSteps { per_hour: 6.0, sigma_dps: 0.04 }), ..base_model() };
+        let (x, _) = simulate(&m, fs, 500_000, seed, None);
+        run(Effect::Bistable, &x, None, fs);
+        eprintln!("gm");
+        let m = GyroSim { gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.02, tau_s: 60.0 }), ..base_model() };
+        let (x, _) = simulate(&m, fs, 500_000, seed, None);
+        run(Effect::Bistable, &x, None, fs);
+    }
+}
