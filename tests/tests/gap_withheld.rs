@@ -53,7 +53,7 @@ use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::temperature::Thermal;
 use octavar_shared::sim::{
     BiasSteps, BistableSim, GaussMarkovSim, GyroSim, Outliers, ResonanceSim, Sinusoid, TempCoupling,
-    TemperatureProfile, VirtualGyro, WarmUpSim, Wander,
+    TemperatureProfile, VirtualGyro, Wander, WarmUpSim,
 };
 
 const N_SAMPLES: usize = 1 << 19;

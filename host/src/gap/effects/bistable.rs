@@ -45,9 +45,7 @@ fn binomial_half_tail(n: usize, k: usize) -> f64 {
         return 1.0;
     }
     // Sum in the log domain: ln C(n, j) - n ln 2.
-    let ln_choose = |j: usize| -> f64 {
-        (1..=j).map(|i| ((n - j + i) as f64).ln() - (i as f64).ln()).sum::<f64>()
-    };
+    let ln_choose = |j: usize| -> f64 { (1..=j).map(|i| ((n - j + i) as f64).ln() - (i as f64).ln()).sum::<f64>() };
     (k..=n).map(|j| (ln_choose(j) - n as f64 * std::f64::consts::LN_2).exp()).sum::<f64>().min(1.0)
 }
 
@@ -58,7 +56,13 @@ fn flips_at(x: &[f64], l: usize) -> Option<Flips> {
     jumps.sort_by_key(|j| j.0);
     let pairs = jumps.len().saturating_sub(1);
     let alternating = jumps.windows(2).filter(|w| w[0].1 * w[1].1 < 0.0).count();
-    Some(Flips { window: l, p_value: binomial_half_tail(pairs, alternating), jumps, alternating, threshold: scan.threshold })
+    Some(Flips {
+        window: l,
+        p_value: binomial_half_tail(pairs, alternating),
+        jumps,
+        alternating,
+        threshold: scan.threshold,
+    })
 }
 
 /// The jumps with the ones the scan missed between two of the same sign put back: the scan keeps one jump of
@@ -164,18 +168,16 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
             })
             .collect()
     };
-    let abs: Vec<f64> = refined_sizes(x, &jumps, best.window)
-        .iter()
-        .zip(&detected)
-        .filter(|(_, &d)| d)
-        .map(|(s, _)| s.abs())
-        .collect();
+    let abs: Vec<f64> =
+        refined_sizes(x, &jumps, best.window).iter().zip(&detected).filter(|(_, &d)| d).map(|(s, _)| s.abs()).collect();
     let step = median(&abs);
     let spread = 1.4826 * median(&abs.iter().map(|a| (a - step).abs()).collect::<Vec<_>>()) / step;
     if !(step > 0.0 && spread <= MAX_SIZE_SPREAD) {
         return None;
     }
     let step = mean(&abs);
+    let step_se =
+        (abs.iter().map(|a| (a - step).powi(2)).sum::<f64>() / (abs.len() - 1) as f64 / abs.len() as f64).sqrt();
     // States between jumps, from the sign of the jump into each stretch; the stretch before the first jump is the
     // other state.
     let (mut time_high, mut time_low, mut count_high, mut count_low) = (0.0, 0.0, 0usize, 0usize);
@@ -228,6 +230,8 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     Some(EffectFit {
         effect: Effect::Bistable,
         params: json!({"step_dps": step, "dwell_low_s": dwell_low, "dwell_high_s": dwell_high,
+                       "step_se_dps": step_se, "dwell_low_se_s": dwell_low / (count_low as f64).sqrt(),
+                       "dwell_high_se_s": dwell_high / (count_high as f64).sqrt(),
                        "jumps": best.jumps.len(), "alternating": best.alternating,
                        "window_s": best.window as f64 / fs, "shortest_seen_s": c,
                        "p_value": best.p_value, "size_spread": spread}),

@@ -125,6 +125,8 @@ struct Bump {
     peak_ratio: f64,
     /// Longest run of adjacent bins above the fitted background by 3 standard deviations of ln P.
     run_bins: usize,
+    /// Standard errors of ln power, ln f0 and ln Q.
+    se_ln: [f64; 3],
 }
 
 /// The spectrum's log over a window, and the model `ln(exp(c0 + c1 u + c2 u^2) + s2 H(f; f0, Q))`,
@@ -173,32 +175,52 @@ impl Window<'_> {
         Some(([c[0], c[1], c[2]], rss))
     }
 
-    /// Levenberg-Marquardt from `th` (forward-difference Jacobian); the parameters and their residual sum of
-    /// squares.
+    /// The residuals at `th` and the model's forward-difference Jacobian there; `None` outside the range.
+    fn jacobian(&self, th: &[f64; 6]) -> Option<(Vec<f64>, Vec<[f64; 6]>)> {
+        let m0 = self.model(th)?;
+        let r: Vec<f64> = self.y.iter().zip(&m0).map(|(y, m)| y - m).collect();
+        let mut jac = vec![[0.0; 6]; self.y.len()];
+        for p in 0..6 {
+            let h = 1e-6 * th[p].abs().max(1e-3);
+            let mut t2 = *th;
+            t2[p] += h;
+            let m1 = self.model(&t2)?;
+            for (row, (a, b)) in jac.iter_mut().zip(m1.iter().zip(&m0)) {
+                row[p] = (a - b) / h;
+            }
+        }
+        Some((r, jac))
+    }
+
+    /// The standard errors of the parameters at `th` for a residual variance `sigma2` per bin: the diagonal of
+    /// `sigma2 (J'J)^-1`, times sqrt(1.5) for the correlation of neighbouring bins of a Hann-windowed periodogram
+    /// (1/4 each side).
+    fn standard_errors(&self, th: &[f64; 6], sigma2: f64) -> Option<[f64; 6]> {
+        let (_, jac) = self.jacobian(th)?;
+        let mut jtj = vec![vec![0.0; 6]; 6];
+        for row in &jac {
+            for a in 0..6 {
+                for b in 0..6 {
+                    jtj[a][b] += row[a] * row[b];
+                }
+            }
+        }
+        let mut se = [0.0; 6];
+        for (p, out) in se.iter_mut().enumerate() {
+            let mut e = vec![0.0; 6];
+            e[p] = 1.0;
+            let col = solve(jtj.clone(), e)?;
+            *out = (1.5 * sigma2 * col[p]).max(0.0).sqrt();
+        }
+        Some(se)
+    }
+
+    /// Levenberg-Marquardt from `th`; the parameters and their residual sum of squares.
     fn fit(&self, mut th: [f64; 6]) -> ([f64; 6], f64) {
-        let n = self.y.len();
         let mut rss = self.rss(&th);
         let mut lambda = 1e-3;
         for _ in 0..100 {
-            let Some(m0) = self.model(&th) else { break };
-            let r: Vec<f64> = self.y.iter().zip(&m0).map(|(y, m)| y - m).collect();
-            let mut jac = vec![[0.0; 6]; n];
-            let mut ok = true;
-            for p in 0..6 {
-                let h = 1e-6 * th[p].abs().max(1e-3);
-                let mut t2 = th;
-                t2[p] += h;
-                let Some(m1) = self.model(&t2) else {
-                    ok = false;
-                    break;
-                };
-                for (row, (a, b)) in jac.iter_mut().zip(m1.iter().zip(&m0)) {
-                    row[p] = (a - b) / h;
-                }
-            }
-            if !ok {
-                break;
-            }
+            let Some((r, jac)) = self.jacobian(&th) else { break };
             let mut jtj = [[0.0; 6]; 6];
             let mut jtr = [0.0; 6];
             for (row, ri) in jac.iter().zip(&r) {
@@ -212,7 +234,9 @@ impl Window<'_> {
             let mut improved = false;
             for _ in 0..12 {
                 let a: Vec<Vec<f64>> = (0..6)
-                    .map(|i| (0..6).map(|j| jtj[i][j] + if i == j { lambda * jtj[i][i].max(1e-12) } else { 0.0 }).collect())
+                    .map(|i| {
+                        (0..6).map(|j| jtj[i][j] + if i == j { lambda * jtj[i][i].max(1e-12) } else { 0.0 }).collect()
+                    })
                     .collect();
                 let Some(step) = solve(a, jtr.to_vec()) else { break };
                 let mut t2 = th;
@@ -278,7 +302,9 @@ fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64
             run = if w.y[i] - bg_fit(i).ln() > thr { run + 1 } else { 0 };
             longest = longest.max(run);
         }
+        let se = w.standard_errors(&th, sigma2)?;
         let bump = Bump {
+            se_ln: [se[3], se[4], se[5]],
             freq_hz: f_fit,
             q: q_fit,
             power,
@@ -379,6 +405,8 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
         effect: Effect::Resonance,
         params: json!({"sigma_dps": sigma, "freq_hz": bump.freq_hz, "q": bump.q,
                        "width_hz": bump.freq_hz / bump.q, "peak_ratio": bump.peak_ratio,
+                       "sigma_se_dps": 0.5 * sigma * bump.se_ln[0], "freq_se_hz": bump.freq_hz * bump.se_ln[1],
+                       "q_se": bump.q * bump.se_ln[2],
                        "delta_chi2": bump.delta_chi2}),
         n_params: 3,
         gyro,
