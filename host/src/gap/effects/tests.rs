@@ -371,8 +371,8 @@ fn within_se(e: &EffectFit, key: &str, se_key: &str, truth: f64, k: f64) -> bool
 /// The resonance's centre, quality factor and sd come back within four of their standard errors (the least
 /// squares' in ln P, widened for the Welch bins' correlation) over two seeds each of a narrow bump at 20 Hz, a
 /// broad one at 2 Hz and a sharp one at 7 Hz, on the base gyro's white noise, flicker and random walk; and the
-/// base terms re-fitted under it keep N within 3% (the base fit alone took the bump's Allan variance for white
-/// noise: 5-20% high).
+/// base terms re-fitted under it keep N within 3% (the base fit alone takes part of the bump's Allan variance for
+/// white noise).
 #[test]
 fn resonance_recovered() {
     let fs = 100.0;
