@@ -31,8 +31,10 @@
 //! - bistable: 10 Hz for 14.5 h like the bias steps; each mean dwell 30 s to 10 min (log-uniform), the step 8-16
 //!   times the sd of a mean difference at a tenth of the shorter dwell (`sqrt(2)` times the Allan deviation
 //!   there), where the jumps can be seen one by one.
-//! - warm_up: 10 Hz; tau a tenth to half of the training part (log-uniform), so the tail reaches the holdout; the
-//!   size 5-10 times `sqrt(2)` times the Allan deviation at tau, either sign.
+//! - warm_up: 10 Hz; tau a fifth to 0.6 of the training part (log-uniform), so the tail reaches the holdout; the
+//!   size 15-30 times `sqrt(2)` times the Allan deviation at tau, either sign (flicker wanders as far over a
+//!   stretch of tau: a warm-up several times smaller is as likely noise, the estimator's standard error is about
+//!   twice the Allan deviation at tau).
 //!
 //! The default run and the sweeps cover the first seven effects ([`WITHHELD`]); the last three are drawn by name
 //! (`GAP_EFFECTS=resonance,bistable,warm_up` with `chosen`).
@@ -220,9 +222,9 @@ fn draw(effect: Option<Effect>, seed: u64) -> Case {
         Some(Effect::WarmUp) => {
             fs = 10.0;
             let train_s = N_SAMPLES as f64 / 2.0 / fs;
-            let tau = log_uniform(&mut rng, 0.1, 0.5) * train_s;
+            let tau = log_uniform(&mut rng, 0.2, 0.6) * train_s;
             let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
-            let size = sign * uniform(&mut rng, 5.0, 10.0) * std::f64::consts::SQRT_2 * base_adev(&model, tau);
+            let size = sign * uniform(&mut rng, 15.0, 30.0) * std::f64::consts::SQRT_2 * base_adev(&model, tau);
             model.warm_up = Some(WarmUpSim { size_dps: size, tau_s: tau });
             signature_s = [0.1 * tau, f64::INFINITY];
             what = format!("size {size:.3e} tau {tau:.3e}");
