@@ -15,8 +15,8 @@ use super::progress::Progress;
 
 /// Diagnose the sim-to-real gap: fit the IEEE 952 terms on the training part, simulate an ensemble of the fitted
 /// model, find where real and simulation part (ADEV, PSD, distribution, temperature), try each candidate effect
-/// (temperature, sinusoid, bandwidth, gauss_markov, quantization, bias_steps, outliers), and check the best on
-/// held-out data with every parameter frozen.
+/// (temperature, sinusoid, bandwidth, gauss_markov, quantization, bias_steps, outliers, resonance, bistable,
+/// warm_up), and check the best on held-out data with every parameter frozen.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The recording: CSV with a header (.gz is read as such); - is stdin.

@@ -213,7 +213,7 @@ impl WarmUp {
 
     /// The added bias at this sample, in deg/s.
     #[inline]
-    pub fn next(&mut self) -> f64 {
+    pub fn next_dps(&mut self) -> f64 {
         let v = self.value;
         self.value *= self.decay;
         if self.value.abs() < 1e-200 {
@@ -280,10 +280,10 @@ mod tests {
         let mut w = WarmUp::new(&WarmUpSim { size_dps: -0.3, tau_s: 2.0 }, 0.01);
         for n in 0..100_000u32 {
             let want = -0.3 * (-f64::from(n) * 0.01 / 2.0).exp();
-            let got = w.next();
+            let got = w.next_dps();
             assert!((got - want).abs() <= 1e-12 * want.abs() + 1e-200, "sample {n}: {got} vs {want}");
         }
-        assert_eq!(w.next(), 0.0);
+        assert_eq!(w.next_dps(), 0.0);
     }
 
     #[test]

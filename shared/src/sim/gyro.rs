@@ -264,7 +264,7 @@ impl VirtualGyro {
                 r += t.next(rng);
             }
             if let Some(w) = &mut self.warm_up {
-                r += w.next();
+                r += w.next_dps();
             }
         }
         if let Some(lp) = &mut self.lowpass {

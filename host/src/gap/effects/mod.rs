@@ -2,8 +2,9 @@
 //!
 //! Each [`Effect`] is a term the IEEE 952 base model (Q, N, B, K, R) lacks. [`estimate`] fits its parameters on
 //! the training data and returns the base model with the effect added ([`EffectFit::gyro`]), re-fitting the base
-//! terms the effect overlaps (N under a bandwidth or with quantisation or outliers, K under bias steps, all of
-//! them jointly with a Gauss-Markov process), or `None` when the data carry no trace of it.
+//! terms the effect overlaps (N under a bandwidth, a resonance or with quantisation or outliers, K under bias
+//! steps, a bistable bias or a warm-up, all of them jointly with a Gauss-Markov process), or `None` when the data
+//! carry no trace of it.
 //!
 //! | effect | method | parameters |
 //! |--------|--------|------------|
@@ -14,12 +15,15 @@
 //! | quantization | lattice step of the sample values (distinct-value gaps, verified on 99% of samples) | `step_dps` |
 //! | bias_steps | MOSUM scan of windowed mean differences at the bias-instability tau, robust (MAD) threshold; truncated-normal size fit | `per_hour`, `sigma_dps` |
 //! | outliers | residual from a 5-point running median, robust (MAD) sigma, isolated spikes beyond 6 sigma | `per_sample`, `size_dps` |
+//! | resonance | Welch spectrum (Hann, a 32nd of the record a segment) against a median background; the AR(2) spectrum of shared::sim's resonance plus a background quadratic in ln f, fitted in ln P by Levenberg-Marquardt; kept when it lowers the chi-square by 100, peaks at half the background or more and is at least 4 bins wide (a line is a sinusoid); base terms re-fitted on the OADEV less its exact Allan variance | `sigma_dps`, `freq_hz`, `q` |
+//! | bistable | the bias-steps MOSUM scan at windows on an octave grid; jumps in time order must alternate in sign beyond chance (binomial tail, 1e-4 over the windows) and have one size (robust spread under 35%); dwell means from the states between jumps, corrected for unseen short excursions | `step_dps`, `dwell_low_s`, `dwell_high_s` |
+//! | warm_up | generalised least squares of block means (octave block lengths, 256 blocks from the start) on the block-averaged `exp(-t / tau)`, covariance from the base terms' semivariogram, a trend beside it where the base has a ramp; tau on a grid of 8-16 blocks; kept beyond 5 standard errors | `size_dps`, `tau_s` |
 //!
 //! One module per estimator; `common` holds the small helpers they share and `curve` the Allan-curve forms and
-//! joint fit of the bandwidth and Gauss-Markov estimators.
+//! joint fit of the bandwidth and Gauss-Markov estimators (and the resonance's exact Allan variance).
 //!
-//! All of them run in well under a second on a million samples (one FFT, a few O(N) passes, small fits on the
-//! octave OADEV curve).
+//! All of them run in well under a second on a million samples (one FFT or a few, a few O(N) passes, small fits
+//! on the octave OADEV curve or a window of the spectrum, a 255-point Cholesky factor per block length).
 
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::rng::SimRng;

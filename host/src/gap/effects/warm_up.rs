@@ -22,8 +22,8 @@ const MIN_BLOCK: usize = 4;
 const TAU_BLOCKS: [f64; 4] = [8.0, 9.513_656_920_021_768, 11.313_708_498_984_761, 13.454_342_644_059_432];
 /// The warm-up counts beyond this many standard errors of its size: on 40 records each of white noise, flicker
 /// and random walk, with and without a ramp and a tenfold random walk, the largest of the scan's some fifty
-/// correlated t-statistics stayed at or below 3.2 and 4.0.
-const T_STAT: f64 = 5.0;
+/// correlated t-statistics stayed at or below 3.2 and 4.0 (the test `warm_up_scan_holds_its_threshold_on_noise`).
+pub(super) const T_STAT: f64 = 5.0;
 /// The first pass, against the base fit's noise (which took part of a warm-up for random walk or ramp, so its
 /// t-statistics read low), keeps a candidate beyond this many.
 const T_STAT_FIRST: f64 = 3.0;
@@ -182,8 +182,10 @@ fn scan(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64, f64
     best
 }
 
+/// The scan's largest |t| on `x` under the noise of squares `sq`, with a trend or without (for the threshold's
+/// test).
 #[cfg(test)]
-pub(super) fn null_t(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> f64 {
+pub(super) fn largest_t(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> f64 {
     scan(x, fs, sq, trend).map_or(0.0, |(s, e, _)| (s / e).abs())
 }
 
