@@ -125,7 +125,7 @@ fn cats_gyro_y_is_temperature_and_the_fix_holds_on_run_2() {
         assert!(j.get(k).is_some(), "missing {k}");
     }
     assert_eq!(j["effect"], "temperature");
-    assert_eq!(j["candidates"].as_array().unwrap().len(), 7);
+    assert_eq!(j["candidates"].as_array().unwrap().len(), Effect::ALL.len());
     for k in ["gap_before", "gap_after", "shrink", "shrink_if_right"] {
         assert!(j["holdout"][k].is_number(), "holdout.{k}");
     }

@@ -32,11 +32,21 @@
 //! - outliers: 10 to 300 expected in each half of the record (4e-5 to 1.1e-3 per sample; a rate is estimated from
 //!   the training half's spikes, and two or three events are not one), 8-30 white sigmas (below ~6 sigma a spike
 //!   is not an outlier in a million Gaussian samples, and it adds under 1% to the variance).
-//! - compound cases: gauss_markov with outliers (each drawn as alone, on the Gauss-Markov record's rate);
-//!   temperature with a disturbance (every seed).
+//! - compound cases: bandwidth with resonance, gauss_markov with outliers, temperature with bistable (the second
+//!   drawn as alone and added to the first's record, at the first's rate); temperature with a disturbance (every
+//!   seed).
 //! - disturbances: 1 s to 5 min long (log-uniform), at a uniform time; a rectangular bump or a half-sine swell of
 //!   10-60 white sigmas per sample (at least 15 times the base Allan deviation at its length, so that a long one
 //!   stands above the red noise), or a burst of 5-20 spikes of 20-80 sigmas within at most a minute.
+//! - resonance: 200 Hz; centre log-uniform from 4 Hz to 80 Hz (0.4 fs), Q log-uniform 3-30, the bump's peak 3-10
+//!   times the white noise's spectrum.
+//! - bistable: 10 Hz for 14.5 h like the bias steps; each mean dwell 30 s to 10 min (log-uniform), the step 8-16
+//!   times the sd of a mean difference at a tenth of the shorter dwell (`sqrt(2)` times the Allan deviation
+//!   there), where the jumps can be seen one by one.
+//! - warm_up: 10 Hz; tau a fifth to 0.6 of the training part (log-uniform), so the tail reaches the holdout; the
+//!   size 15-30 times `sqrt(2)` times the Allan deviation at tau, either sign (flicker wanders as far over a
+//!   stretch of tau: a warm-up several times smaller is as likely noise, the estimator's standard error is about
+//!   twice the Allan deviation at tau).
 //!
 //! `NOISE_SEED=k` redraws every case's gyro noise (the effect's parameters and the temperature stay), to see
 //! how an estimator scatters over the realisations of one case. `GAP_WITHHELD_VERBOSE=1` prints every
@@ -50,7 +60,8 @@ use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::temperature::Thermal;
 use octavar_shared::sim::{
-    BiasSteps, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling, TemperatureProfile, VirtualGyro, Wander,
+    BiasSteps, BistableSim, GaussMarkovSim, GyroSim, Outliers, ResonanceSim, Sinusoid, TempCoupling,
+    TemperatureProfile, VirtualGyro, Wander, WarmUpSim,
 };
 
 const N_SAMPLES: usize = 1 << 19;
@@ -130,7 +141,12 @@ impl Kind {
 /// Every kind of case: each effect alone, the compound cases, the controls.
 fn every_kind() -> Vec<Kind> {
     let mut k: Vec<Kind> = Effect::ALL.iter().map(|&e| Kind::Single(e)).collect();
-    k.extend([Kind::Disturbed(Effect::Temperature), Kind::Pair(Effect::GaussMarkov, Effect::Outliers)]);
+    k.extend([
+        Kind::Disturbed(Effect::Temperature),
+        Kind::Pair(Effect::Bandwidth, Effect::Resonance),
+        Kind::Pair(Effect::GaussMarkov, Effect::Outliers),
+        Kind::Pair(Effect::Temperature, Effect::Bistable),
+    ]);
     k.extend([Kind::Control, Kind::DisturbanceOnly]);
     k
 }
@@ -271,6 +287,38 @@ fn draw(effect: Option<Effect>, seed: u64) -> Case {
             signature_s = [10.0, f64::INFINITY];
             what = format!("{rate:.2}/h sd {sd:.3e}");
         }
+        Some(Effect::Resonance) => {
+            fs = 200.0;
+            let f0 = log_uniform(&mut rng, 4.0, 80.0);
+            let q = log_uniform(&mut rng, 3.0, 30.0);
+            // Peak of the one-sided spectrum about 2 Q sigma^2 / (pi f0), against the white noise's 2 N^2.
+            let ratio = uniform(&mut rng, 3.0, 10.0);
+            let sigma = (ratio * n * n * std::f64::consts::PI * f0 / q).sqrt();
+            model.resonance = Some(ResonanceSim { sigma_dps: sigma, freq_hz: f0, q });
+            signature_s = [0.2 / f0, 5.0 / f0];
+            what = format!("sigma {sigma:.3e} f0 {f0:.3e} Q {q:.2}");
+        }
+        Some(Effect::Bistable) => {
+            fs = 10.0;
+            let dwell_low = log_uniform(&mut rng, 30.0, 600.0);
+            let dwell_high = log_uniform(&mut rng, 30.0, 600.0);
+            let tau = 0.1 * dwell_low.min(dwell_high);
+            let step = uniform(&mut rng, 8.0, 16.0) * std::f64::consts::SQRT_2 * base_adev(&model, tau);
+            model.bistable = Some(BistableSim { step_dps: step, dwell_low_s: dwell_low, dwell_high_s: dwell_high });
+            let t = 1.0 / (1.0 / dwell_low + 1.0 / dwell_high);
+            signature_s = [0.1 * t, 100.0 * t];
+            what = format!("step {step:.3e} dwell {dwell_low:.1}/{dwell_high:.1} s");
+        }
+        Some(Effect::WarmUp) => {
+            fs = 10.0;
+            let train_s = N_SAMPLES as f64 / 2.0 / fs;
+            let tau = log_uniform(&mut rng, 0.2, 0.6) * train_s;
+            let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+            let size = sign * uniform(&mut rng, 15.0, 30.0) * std::f64::consts::SQRT_2 * base_adev(&model, tau);
+            model.warm_up = Some(WarmUpSim { size_dps: size, tau_s: tau });
+            signature_s = [0.1 * tau, f64::INFINITY];
+            what = format!("size {size:.3e} tau {tau:.3e}");
+        }
         Some(Effect::Outliers) => {
             // 10 to 300 spikes expected in each half: a process of outliers is estimated from the training
             // part's spikes and checked on the holdout's, and two or three events are not a rate.
@@ -298,6 +346,9 @@ fn draw_kind(kind: Kind, seed: u64) -> Case {
             c.model.gauss_markov = c.model.gauss_markov.or(m.gauss_markov);
             c.model.bias_steps = c.model.bias_steps.or(m.bias_steps);
             c.model.bandwidth_hz = c.model.bandwidth_hz.or(m.bandwidth_hz);
+            c.model.resonance = c.model.resonance.or(m.resonance);
+            c.model.bistable = c.model.bistable.or(m.bistable);
+            c.model.warm_up = c.model.warm_up.or(m.warm_up);
             if c.model.temperature.is_none() && m.temperature.is_some() {
                 c.model.temperature = m.temperature;
                 c.temp = other.temp;

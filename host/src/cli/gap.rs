@@ -17,8 +17,8 @@ use super::progress::Progress;
 
 /// Diagnose the sim-to-real gap: fit the IEEE 952 terms on the training part, simulate an ensemble of the fitted
 /// model, find where real and simulation part (ADEV, PSD, distribution, temperature), try each candidate effect
-/// (temperature, sinusoid, bandwidth, gauss_markov, quantization, bias_steps, outliers), add the best and rank the
-/// rest again while a significant gap remains, and check the chain on held-out data with every parameter frozen.
+/// (temperature, sinusoid, bandwidth, gauss_markov, quantization, bias_steps, outliers, resonance, bistable,
+/// warm_up), add the best and rank the rest again while a significant gap remains, and check the chain on held-out data with every parameter frozen.
 /// Transient disturbances are found and masked first; a gap no candidate explains is described.
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -4,14 +4,14 @@
 //! A real bench record often carries more than one effect (a temperature coupling and a resonance, a Gauss-Markov
 //! hump and outliers). Each step of the chain starts from the model so far ([`Model`]): its ensemble is the
 //! comparison the step ranks against, and its estimators see the training samples less the model's deterministic
-//! part ([`deterministic_part`]: the temperature response, the sinusoids), with the model itself as their base, so
+//! part ([`deterministic_part`]: the temperature response, the sinusoids, the warm-up), with the model itself as their base, so
 //! that the effect they add is added to every effect found before. The IEEE base terms are re-fitted on those
 //! samples for the estimators that need a base fit. Each step reports where the gap lay on the model before it,
 //! the gap there before and after on both parts, and its ranking; the held-out check of the whole chain compares
 //! the base model with the last one, every parameter frozen from training.
 
 use octavar_shared::sensor::Channel;
-use octavar_shared::sim::effects::Sinusoids;
+use octavar_shared::sim::effects::{Sinusoids, WarmUp};
 use octavar_shared::sim::noise::LowPass;
 use octavar_shared::sim::temperature::ThermalLag;
 use octavar_shared::sim::GyroSim;
@@ -65,21 +65,22 @@ pub struct Step {
 }
 
 /// The deterministic part of `gyro`'s rate over the `temp_c.len()` (or `n`) first samples of the record at
-/// `fs_hz`: its temperature response through the thermal lag, its sinusoids, through its bandwidth as the
-/// simulator applies it. `None` when it has none.
+/// `fs_hz`: its temperature response through the thermal lag, its sinusoids and its warm-up, through its
+/// bandwidth as the simulator applies it. `None` when it has none.
 pub fn deterministic_part(gyro: &GyroSim, fs_hz: f64, temp_c: Option<&[f64]>, n: usize) -> Option<Vec<f64>> {
     let coupling = gyro.temperature.filter(|_| temp_c.is_some());
-    if coupling.is_none() && gyro.sinusoids.is_empty() {
+    if coupling.is_none() && gyro.sinusoids.is_empty() && gyro.warm_up.is_none() {
         return None;
     }
     let tau0 = 1.0 / fs_hz;
     let mut sines = Sinusoids::new(&gyro.sinusoids, tau0);
+    let mut warm_up = gyro.warm_up.map(|w| WarmUp::new(&w, tau0));
     let mut lag = coupling.map(|c| ThermalLag::new(&c, tau0));
     let mut low_pass = gyro.bandwidth_hz.map(|f| LowPass::new(f, fs_hz));
     Some(
         (0..n)
             .map(|i| {
-                let mut v = sines.next(i as u64);
+                let mut v = sines.next(i as u64) + warm_up.as_mut().map_or(0.0, WarmUp::next_dps);
                 if let (Some(l), Some(t)) = (lag.as_mut(), temp_c) {
                     v += l.next(t[i]);
                 }

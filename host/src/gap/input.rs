@@ -116,7 +116,7 @@ pub struct GapOptions {
     pub channel: Option<Channel>,
     /// The base fit's options.
     pub fit: FitOptions,
-    /// Candidates to try (all seven by default).
+    /// Candidates to try (every effect of [`Effect::ALL`] by default).
     pub effects: Vec<Effect>,
     /// A base fit made elsewhere on the training part (for example on the device's full-rate snapshot when the
     /// record diagnosed is a decimated one, whose short taus cannot show N); `None`: fit the training record.

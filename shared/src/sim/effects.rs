@@ -1,10 +1,12 @@
-//! The effects a real bench adds to the noise terms: sinusoids, bias steps and outliers.
+//! The effects a real bench adds to the noise terms: sinusoids, bias steps, outliers, a bistable bias and the
+//! warm-up.
 //!
 //! Sinusoids turn a phasor by a fixed rotation each sample (four multiplies, no `sin` call), renormalised every
-//! 4096 samples. Bias steps and outliers are Bernoulli events: the gap to the next event is drawn once per event
-//! (a geometric deviate), so a sample without an event costs one decrement and compare.
+//! 4096 samples. Bias steps, outliers and the flips of a bistable bias are Bernoulli events: the gap to the next
+//! event is drawn once per event (a geometric deviate), so a sample without an event costs one decrement and
+//! compare. The warm-up decays by one multiply per sample.
 
-use super::model::{BiasSteps, Outliers, Sinusoid, MAX_SINUSOIDS};
+use super::model::{BiasSteps, BistableSim, Outliers, Sinusoid, WarmUpSim, MAX_SINUSOIDS};
 use super::rng::SimRng;
 
 /// One sinusoid as a rotating phasor: value `amplitude * sin(phase_n)`.
@@ -146,6 +148,81 @@ impl Spikes {
     }
 }
 
+/// A bistable bias (random telegraph): the two-state Markov chain that the continuous-time process with leaving
+/// rates `l_low = 1 / dwell_low` and `l_high = 1 / dwell_high` is at the sampling instants. From a level, the next
+/// sample is in the other with probability `p = l / (l_low + l_high) (1 - exp(-(l_low + l_high) tau0))` (`l`
+/// that level's leaving rate), so the sampled autocovariance is exactly `var a^|k|`, `a = exp(-(l_low + l_high)
+/// tau0)`: an AR(1)'s. The level at the start is drawn from the stationary law (high with probability
+/// `l_low / (l_low + l_high)`), the time to each flip as a geometric gap.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Telegraph {
+    level: f64,
+    other: f64,
+    p_leave: f64,
+    p_other: f64,
+    left: u64,
+    flips: u64,
+}
+
+impl Telegraph {
+    /// The process of `m`, sampled every `tau0_s`.
+    pub fn new(m: &BistableSim, tau0_s: f64, rng: &mut SimRng) -> Self {
+        let (l_low, l_high) = (1.0 / m.dwell_low_s, 1.0 / m.dwell_high_s);
+        let total = l_low + l_high;
+        let p_high = l_low / total;
+        let switch = -libm::expm1(-total * tau0_s);
+        let (low, high) = (-m.step_dps * p_high, m.step_dps * (1.0 - p_high));
+        let (p_up, p_down) = ((l_low / total * switch).min(1.0), (l_high / total * switch).min(1.0));
+        let (level, other, p_leave, p_other) =
+            if rng.uniform() < p_high { (high, low, p_down, p_up) } else { (low, high, p_up, p_down) };
+        Telegraph { level, other, p_leave, p_other, left: rng.gap(p_leave), flips: 0 }
+    }
+
+    /// The level at this sample, in deg/s.
+    #[inline]
+    pub fn next(&mut self, rng: &mut SimRng) -> f64 {
+        self.left -= 1;
+        if self.left == 0 {
+            core::mem::swap(&mut self.level, &mut self.other);
+            core::mem::swap(&mut self.p_leave, &mut self.p_other);
+            self.flips += 1;
+            self.left = rng.gap(self.p_leave);
+        }
+        self.level
+    }
+
+    /// Flips so far.
+    pub fn flips(&self) -> u64 {
+        self.flips
+    }
+}
+
+/// The warm-up: `size exp(-n tau0 / tau)` at sample n, by one multiply per sample; exactly zero once it falls
+/// below 1e-200 of a deg/s (far below any rate, and before the multiply reaches subnormal numbers).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WarmUp {
+    value: f64,
+    decay: f64,
+}
+
+impl WarmUp {
+    /// The warm-up of `m`, sampled every `tau0_s`.
+    pub fn new(m: &WarmUpSim, tau0_s: f64) -> Self {
+        WarmUp { value: m.size_dps, decay: libm::exp(-tau0_s / m.tau_s) }
+    }
+
+    /// The added bias at this sample, in deg/s.
+    #[inline]
+    pub fn next_dps(&mut self) -> f64 {
+        let v = self.value;
+        self.value *= self.decay;
+        if self.value.abs() < 1e-200 {
+            self.value = 0.0;
+        }
+        v
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -165,6 +242,48 @@ mod tests {
         }
         // Phase error grows like n * eps; 2e6 samples leave it near 1e-9.
         assert!(worst < 1e-7, "{worst}");
+    }
+
+    /// A bistable bias takes only its two zero-mean levels, `-step p_high` and `step p_low`, and its first
+    /// level follows the stationary law.
+    #[test]
+    fn telegraph_has_two_zero_mean_levels() {
+        let m = BistableSim { step_dps: 0.4, dwell_low_s: 3.0, dwell_high_s: 1.0 };
+        let (low, high) = (-0.4 * 0.25, 0.4 * 0.75);
+        let mut starts_high = 0;
+        for seed in 0..2000 {
+            let mut rng = SimRng::new(seed);
+            let mut t = Telegraph::new(&m, 0.1, &mut rng);
+            let first = t.next(&mut rng);
+            assert!(first == low || first == high, "{first}");
+            starts_high += usize::from(first == high);
+        }
+        // Binomial(2000, 0.25): sd 19.4; 5 sigma.
+        assert!((starts_high as f64 - 500.0).abs() < 97.0, "{starts_high}");
+        let mut rng = SimRng::new(1);
+        let mut t = Telegraph::new(&m, 0.1, &mut rng);
+        let (mut sum, mut changes, mut last) = (0.0, 0u64, t.next(&mut rng));
+        let flips_before = t.flips();
+        for _ in 0..100_000 {
+            let v = t.next(&mut rng);
+            assert!(v == low || v == high);
+            changes += u64::from(v != last);
+            sum += v;
+            last = v;
+        }
+        assert_eq!(changes, t.flips() - flips_before);
+        assert!(sum.abs() / 1e5 < 0.02, "mean {}", sum / 1e5);
+    }
+
+    #[test]
+    fn warm_up_is_the_exponential() {
+        let mut w = WarmUp::new(&WarmUpSim { size_dps: -0.3, tau_s: 2.0 }, 0.01);
+        for n in 0..100_000u32 {
+            let want = -0.3 * (-f64::from(n) * 0.01 / 2.0).exp();
+            let got = w.next_dps();
+            assert!((got - want).abs() <= 1e-12 * want.abs() + 1e-200, "sample {n}: {got} vs {want}");
+        }
+        assert_eq!(w.next_dps(), 0.0);
     }
 
     #[test]

@@ -1,15 +1,20 @@
 //! One virtual gyro channel: the model's terms summed sample by sample, then the ADC.
 //!
 //! Order within a sample: bias + white (N) + differenced white angle (Q) + flicker + random walk + ramp +
-//! Gauss-Markov + sinusoids + temperature coupling + bias steps; that sum goes through the sensor's first-order
-//! bandwidth; outliers are added after the filter; the result is the analog rate at the ADC
-//! ([`Sample::rate_dps`]), which the [`Quantizer`] turns into a code.
+//! Gauss-Markov + sinusoids + temperature coupling + bias steps + resonance + bistable bias + warm-up; that sum
+//! goes through the sensor's first-order bandwidth (every one of them is a rate or bias the sensor sees); outliers
+//! are added after the filter; the result is the analog rate at the ADC ([`Sample::rate_dps`]), which the
+//! [`Quantizer`] turns into a code.
+//!
+//! A term draws from the random stream only when the model has it, and the terms added last (resonance,
+//! bistable bias) draw after all the others at construction, so a model without them gives the same samples bit
+//! for bit as before they existed.
 
 use super::adc::Quantizer;
-use super::effects::{Sinusoids, Spikes, Steps};
+use super::effects::{Sinusoids, Spikes, Steps, Telegraph, WarmUp};
 use super::flicker::FlickerBank;
 use super::model::GyroSim;
-use super::noise::{GaussMarkov, LowPass, RandomWalk};
+use super::noise::{GaussMarkov, LowPass, RandomWalk, Resonance};
 use super::rng::SimRng;
 use super::temperature::ThermalLag;
 use crate::sensor::Channel;
@@ -70,11 +75,14 @@ pub struct VirtualGyro {
     temp: Option<ThermalLag>,
     steps: Option<Steps>,
     spikes: Option<Spikes>,
+    resonance: Option<Resonance>,
+    telegraph: Option<Telegraph>,
+    warm_up: Option<WarmUp>,
     lowpass: Option<LowPass>,
     adc: Quantizer,
     clipped: u64,
     /// None of the terms outside the IEEE base model and its bench (Q, ramp, Gauss-Markov, sinusoids, steps,
-    /// outliers) is present: [`VirtualGyro::next_rate`] skips their checks.
+    /// outliers, resonance, bistable bias, warm-up) is present: [`VirtualGyro::next_rate`] skips their checks.
     lean: bool,
 }
 
@@ -129,6 +137,20 @@ impl GyroSim {
             check(o.per_sample.is_finite() && (0.0..=1.0).contains(&o.per_sample), "outliers.per_sample")?;
             check(o.size_dps.is_finite() && o.size_sigma.is_finite(), "outliers.size_dps")?;
         }
+        if let Some(r) = &self.resonance {
+            nonneg(r.sigma_dps, "resonance.sigma_dps")?;
+            positive(r.freq_hz, "resonance.freq_hz")?;
+            check(r.q.is_finite() && r.q > 0.5, "resonance.q")?;
+        }
+        if let Some(b) = &self.bistable {
+            nonneg(b.step_dps, "bistable.step_dps")?;
+            positive(b.dwell_low_s, "bistable.dwell_low_s")?;
+            positive(b.dwell_high_s, "bistable.dwell_high_s")?;
+        }
+        if let Some(w) = &self.warm_up {
+            check(w.size_dps.is_finite(), "warm_up.size_dps")?;
+            positive(w.tau_s, "warm_up.tau_s")?;
+        }
         Ok(())
     }
 }
@@ -137,12 +159,16 @@ impl VirtualGyro {
     /// A virtual gyro for `model` on `channel`, sampled at `fs_hz`, random stream `seed`.
     ///
     /// # Errors
-    /// [`SimError::InvalidSampleRate`] or [`SimError::InvalidParameter`].
+    /// [`SimError::InvalidSampleRate`] or [`SimError::InvalidParameter`] (also for a resonance at or above half
+    /// the sample rate).
     pub fn new(model: &GyroSim, channel: Channel, fs_hz: f64, seed: u64) -> Result<Self, SimError> {
         if !(fs_hz.is_finite() && fs_hz > 0.0) {
             return Err(SimError::InvalidSampleRate);
         }
         model.validate()?;
+        if model.resonance.is_some_and(|r| r.freq_hz >= 0.5 * fs_hz) {
+            return Err(SimError::InvalidParameter("resonance.freq_hz"));
+        }
         let tau0 = 1.0 / fs_hz;
         let mut rng = SimRng::new(seed);
         let n_sigma = model.n_deg_per_rt_s * libm::sqrt(fs_hz);
@@ -156,6 +182,12 @@ impl VirtualGyro {
         let spikes = model.outliers.filter(|o| o.per_sample > 0.0).map(|o| Spikes::new(&o, n_sigma, &mut rng));
         // The angle drawn "before" sample 0, so the first difference is stationary too (no draw without Q).
         let last_angle = if model.q_deg > 0.0 { rng.normal() } else { 0.0 };
+        let resonance = model
+            .resonance
+            .filter(|r| r.sigma_dps > 0.0)
+            .map(|r| Resonance::new(r.sigma_dps, r.freq_hz, r.q, tau0, &mut rng));
+        let telegraph = model.bistable.filter(|b| b.step_dps > 0.0).map(|b| Telegraph::new(&b, tau0, &mut rng));
+        let warm_up = model.warm_up.filter(|w| w.size_dps != 0.0).map(|w| WarmUp::new(&w, tau0));
         Ok(VirtualGyro {
             n: 0,
             bias: model.bias_dps,
@@ -170,6 +202,9 @@ impl VirtualGyro {
             temp: model.temperature.map(|t| ThermalLag::new(&t, tau0)),
             steps,
             spikes,
+            resonance,
+            telegraph,
+            warm_up,
             lowpass: model.bandwidth_hz.map(|f| LowPass::new(f, fs_hz)),
             adc: Quantizer::new(&channel),
             clipped: 0,
@@ -186,7 +221,7 @@ impl VirtualGyro {
         let n = self.n;
         self.n += 1;
         let rng = &mut self.rng;
-        // A lean gyro skips the checks of the terms it lacks with one flag, four times per sample instead of six
+        // A lean gyro skips the checks of the terms it lacks with one flag, four times per sample instead of nine
         // checks of their own: the base models and the demo's bench take this path millions of times a second.
         let rare = !self.lean;
         let mut r = self.bias;
@@ -222,6 +257,15 @@ impl VirtualGyro {
             if let Some(s) = &mut self.steps {
                 r += s.next(rng);
             }
+            if let Some(x) = &mut self.resonance {
+                r += x.next(rng);
+            }
+            if let Some(t) = &mut self.telegraph {
+                r += t.next(rng);
+            }
+            if let Some(w) = &mut self.warm_up {
+                r += w.next_dps();
+            }
         }
         if let Some(lp) = &mut self.lowpass {
             r = lp.next(r);
@@ -241,7 +285,10 @@ impl VirtualGyro {
             && self.gm.is_none()
             && self.sines.is_empty()
             && self.steps.is_none()
-            && self.spikes.is_none();
+            && self.spikes.is_none()
+            && self.resonance.is_none()
+            && self.telegraph.is_none()
+            && self.warm_up.is_none();
         self
     }
 
@@ -276,6 +323,11 @@ impl VirtualGyro {
         self.steps.as_ref().map_or(0, Steps::count)
     }
 
+    /// Flips of the bistable bias so far.
+    pub fn flip_count(&self) -> u64 {
+        self.telegraph.as_ref().map_or(0, Telegraph::flips)
+    }
+
     /// Outliers injected so far.
     pub fn outlier_count(&self) -> u64 {
         self.spikes.as_ref().map_or(0, Spikes::count)
@@ -296,7 +348,7 @@ impl VirtualGyro {
 mod tests {
     use super::*;
     use crate::sensor::{ADXRS300, IDG1215_X};
-    use crate::sim::TempCoupling;
+    use crate::sim::{BistableSim, ResonanceSim, TempCoupling, WarmUpSim};
 
     #[test]
     fn rejects_bad_parameters() {
@@ -309,6 +361,51 @@ mod tests {
         for q in [-1e-4, f64::NAN, f64::INFINITY] {
             let m = GyroSim { q_deg: q, ..Default::default() };
             assert_eq!(VirtualGyro::new(&m, ch, 100.0, 1).unwrap_err(), SimError::InvalidParameter("q_deg"));
+        }
+        let bad = |m: GyroSim| VirtualGyro::new(&m, ch, 100.0, 1).unwrap_err();
+        let res =
+            |freq_hz, q| GyroSim { resonance: Some(ResonanceSim { sigma_dps: 1.0, freq_hz, q }), ..Default::default() };
+        assert_eq!(bad(res(10.0, 0.5)), SimError::InvalidParameter("resonance.q"));
+        assert_eq!(bad(res(50.0, 5.0)), SimError::InvalidParameter("resonance.freq_hz"));
+        assert_eq!(bad(res(0.0, 5.0)), SimError::InvalidParameter("resonance.freq_hz"));
+        assert!(VirtualGyro::new(&res(49.9, 5.0), ch, 100.0, 1).is_ok());
+        let bi = |dwell_low_s| GyroSim {
+            bistable: Some(BistableSim { step_dps: 1.0, dwell_low_s, dwell_high_s: 1.0 }),
+            ..Default::default()
+        };
+        assert_eq!(bad(bi(0.0)), SimError::InvalidParameter("bistable.dwell_low_s"));
+        let warm = GyroSim { warm_up: Some(WarmUpSim { size_dps: 1.0, tau_s: -1.0 }), ..Default::default() };
+        assert_eq!(bad(warm), SimError::InvalidParameter("warm_up.tau_s"));
+    }
+
+    /// Each of the resonance, the bistable bias and the warm-up sends a model down the full path, and a model
+    /// that names one with nothing to add (zero sd, step or size) draws nothing for it: its samples are those of
+    /// the model without it, bit for bit.
+    #[test]
+    fn the_new_terms_take_the_full_path_and_absent_ones_draw_nothing() {
+        let ch = Channel::bench(ADXRS300);
+        let base = GyroSim { n_deg_per_rt_s: 0.046, b_dps: 0.026, ..Default::default() };
+        let with = [
+            GyroSim { resonance: Some(ResonanceSim { sigma_dps: 0.1, freq_hz: 20.0, q: 5.0 }), ..base.clone() },
+            GyroSim {
+                bistable: Some(BistableSim { step_dps: 0.1, dwell_low_s: 1.0, dwell_high_s: 1.0 }),
+                ..base.clone()
+            },
+            GyroSim { warm_up: Some(WarmUpSim { size_dps: 0.1, tau_s: 1.0 }), ..base.clone() },
+        ];
+        for m in &with {
+            assert!(!VirtualGyro::new(m, ch, 200.0, 1).unwrap().lean);
+        }
+        let zero = GyroSim {
+            resonance: Some(ResonanceSim { sigma_dps: 0.0, freq_hz: 20.0, q: 5.0 }),
+            bistable: Some(BistableSim { step_dps: 0.0, dwell_low_s: 1.0, dwell_high_s: 1.0 }),
+            warm_up: Some(WarmUpSim { size_dps: 0.0, tau_s: 1.0 }),
+            ..base.clone()
+        };
+        let mut a = VirtualGyro::new(&base, ch, 200.0, 3).unwrap();
+        let mut b = VirtualGyro::new(&zero, ch, 200.0, 3).unwrap();
+        for _ in 0..10_000 {
+            assert_eq!(a.next(25.0), b.next(25.0));
         }
     }
 

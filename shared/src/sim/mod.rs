@@ -15,6 +15,9 @@
 //! | sinusoid A, f0 | `sinusoids` | `A^2 sin^4(pi f0 tau) / (pi f0 tau)^2` |
 //! | temperature coupling | `temperature` | through the thermal lag ([`temperature`]) |
 //! | bias steps, outliers | `bias_steps`, `outliers` | random-walk-like, white-like ([`effects`]) |
+//! | resonance (second-order Gauss-Markov) | `resonance` | exact AR(2) form ([`noise::Resonance`]) |
+//! | bistable bias (random telegraph) | `bistable` | Gauss-Markov form, T = 1/(l1 + l2) ([`effects::Telegraph`]) |
+//! | warm-up | `warm_up` | deterministic, `size exp(-t / tau)` |
 //!
 //! ADC quantisation and clipping come from the channel's [`crate::sensor::Channel`]. A [`Bench`] drives several
 //! channels and one shared temperature profile ([`BenchSim`]).
@@ -22,15 +25,15 @@
 //! # Determinism and cost
 //! One model and one seed give the same samples bit for bit (xoshiro256++, a ziggurat Gaussian, and only `+ - *`
 //! in the per-sample path, which IEEE 754 rounds the same everywhere). Memory is fixed: a [`VirtualGyro`] is
-//! under 1 KiB whatever the run length. Per sample and channel, with every term on: four Gaussian draws (white,
-//! random walk, Gauss-Markov, a bias step's size only on a step; a fifth for white angle noise Q), the flicker
-//! bank's six multiply-adds on about 3.3 random words, some thirty multiply-adds in all, and one decrement for
-//! each of bias steps and outliers; no division and no transcendental call except on rare events (a bias step,
-//! an outlier, a ziggurat tail). On this x86_64 host one core measured about 18 ns of CPU per sample for
-//! N + B + K + ADC (55 million samples/s) and 29 ns with every term and effect on (34 million samples/s);
-//! criterion bench `host/benches/sim.rs` (the flicker bank from one sample costs about 10% over the bank from
-//! four samples it replaced: 16.3 and 25.5 ns on the same machine). A [`VirtualGyro`] is 968 bytes, a [`Bench`]
-//! of up to eight channels 8.8 KiB. On the Cortex-M4 the `f64`
+//! about 1.1 KiB whatever the run length. Per sample and channel, with every term on: five Gaussian draws (white,
+//! random walk, Gauss-Markov, resonance, a bias step's size only on a step; a sixth for white angle noise Q), the
+//! flicker bank's six multiply-adds on about 3.3 random words, some forty multiply-adds in all, and one decrement
+//! for each of bias steps, bistable flips and outliers; no division and no transcendental call except on rare
+//! events (a bias step, a flip, an outlier, a ziggurat tail). On this x86_64 host one core measured about 18 ns of
+//! CPU per sample for N + B + K + ADC (55 million samples/s) and 29 ns with every term and effect on but the
+//! resonance, bistable bias and warm-up (34 million samples/s); criterion bench `host/benches/sim.rs` (the flicker
+//! bank from one sample costs about 10% over the bank from four samples it replaced: 16.3 and 25.5 ns on the same
+//! machine). A [`VirtualGyro`] is 1104 bytes, a [`Bench`] of up to eight channels 9.9 KiB. On the Cortex-M4 the `f64`
 //! arithmetic is software, so a channel costs a few thousand cycles per sample: enough for a self-test at a few
 //! kS/s, not for five channels at 2 kS/s while the firmware does its real work.
 //!
@@ -59,6 +62,6 @@ pub mod temperature;
 pub use bench::{Bench, BenchSample};
 pub use gyro::{Sample, SimError, VirtualGyro};
 pub use model::{
-    BenchSim, BiasSteps, ChannelSim, GaussMarkovSim, GyroSim, Outliers, Sinusoid, TempCoupling, TemperatureProfile,
-    Wander, MAX_CHANNELS, MAX_SINUSOIDS,
+    BenchSim, BiasSteps, BistableSim, ChannelSim, GaussMarkovSim, GyroSim, Outliers, ResonanceSim, Sinusoid,
+    TempCoupling, TemperatureProfile, Wander, WarmUpSim, MAX_CHANNELS, MAX_SINUSOIDS,
 };

@@ -22,6 +22,9 @@
 //! b_dps = 0.026
 //! bandwidth_hz = 40.0
 //! temperature = { dps_per_c = 0.01, lag_s = 600.0 }
+//! resonance = { sigma_dps = 0.02, freq_hz = 20.0, q = 10.0 }
+//! bistable = { step_dps = 0.01, dwell_low_s = 30.0, dwell_high_s = 10.0 }
+//! warm_up = { size_dps = 0.05, tau_s = 600.0 }
 //! [[channels.gyro.sinusoids]]
 //! amplitude_dps = 0.05
 //! period_s = 0.02
@@ -65,6 +68,12 @@ pub struct GyroSim {
     pub bias_steps: Option<BiasSteps>,
     /// Outliers (spikes after the sensor's filter, before the ADC).
     pub outliers: Option<Outliers>,
+    /// Narrowband random vibration: a second-order Gauss-Markov process (a resonance).
+    pub resonance: Option<ResonanceSim>,
+    /// A bias that flips between two levels at random (random telegraph, popcorn noise).
+    pub bistable: Option<BistableSim>,
+    /// The bias settling exponentially after power-on.
+    pub warm_up: Option<WarmUpSim>,
 }
 
 /// Gauss-Markov rate noise: stationary sd and correlation time.
@@ -117,6 +126,48 @@ pub struct BiasSteps {
     pub per_hour: f64,
     /// Standard deviation of one step, deg/s.
     pub sigma_dps: f64,
+}
+
+/// Narrowband random vibration: a damped oscillator driven by white noise (a second-order Gauss-Markov
+/// process), sampled exactly as the AR(2) process whose poles are `exp((-zeta w0 +- i w0 sqrt(1 - zeta^2)) tau0)`,
+/// `w0 = 2 pi freq_hz`, `zeta = 1 / (2 q)`, started stationary. Its spectrum is a bump of half-power width about
+/// `freq_hz / q` at `freq_hz`: a mount's resonance, or the sensor's own aliased through its decimation filter.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResonanceSim {
+    /// Stationary standard deviation, deg/s.
+    pub sigma_dps: f64,
+    /// Centre (undamped natural) frequency, Hz; below half the sample rate.
+    pub freq_hz: f64,
+    /// Quality factor, above 0.5 (an underdamped oscillator).
+    pub q: f64,
+}
+
+/// A bias that flips between two levels at random (random telegraph noise, popcorn noise): a two-state Markov
+/// process whose dwell times in each level are exponential with the given means. The levels are `step_dps` apart
+/// and placed so that the process has zero mean (`-step p_high` and `step p_low`, `p_high` the share of time in
+/// the high level, `dwell_high / (dwell_low + dwell_high)`), so the model's bias stays `bias_dps`. Its
+/// autocovariance is `var exp(-(l1 + l2) |t|)`, `var = step^2 l1 l2 / (l1 + l2)^2`, `l = 1 / dwell`: the Allan
+/// variance of a Gauss-Markov process of that variance and correlation time `1 / (l1 + l2)`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BistableSim {
+    /// Distance between the two levels, deg/s.
+    pub step_dps: f64,
+    /// Mean dwell time in the low level, s.
+    pub dwell_low_s: f64,
+    /// Mean dwell time in the high level, s.
+    pub dwell_high_s: f64,
+}
+
+/// The bias settling after power-on: `size_dps * exp(-t / tau_s)`, t from the record's first sample.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WarmUpSim {
+    /// Added bias at the first sample, deg/s (either sign).
+    pub size_dps: f64,
+    /// Time constant, s.
+    pub tau_s: f64,
 }
 
 /// Outliers: spikes of size `size_dps + size_sigma * N sqrt(fs)` with a random sign.

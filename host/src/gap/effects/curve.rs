@@ -35,6 +35,28 @@ pub(super) fn gm_avar(t_s: f64, tau: f64, tau0: f64) -> f64 {
     2.0 * shape / x
 }
 
+/// Allan variance at `m` samples of the unit-variance resonance of shared::sim (the AR(2) with poles
+/// `z = r e^{i theta}` of [`octavar_shared::sim::noise::Resonance`]), from its autocovariance
+/// `Re((1 - i c) z^k)`, `c = (1 - r^2) / (1 + r^2) cot theta`: `(4 G(m) - G(2m)) / (2 m^2)`, with the variance of a
+/// sum of n samples `G(n) = n + 2 Re((1 - i c) S(n))`, `S(n) = sum_{k=1}^{n-1} (n - k) z^k
+/// = (z^{n+1} - n z^2 + (n - 1) z) / (1 - z)^2`.
+pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, fs: f64) -> f64 {
+    use rustfft::num_complex::Complex;
+    let zeta = 0.5 / q;
+    let w0 = 2.0 * std::f64::consts::PI * freq_hz / fs;
+    let r = (-zeta * w0).exp();
+    let theta = w0 * (1.0 - zeta * zeta).sqrt();
+    let c = (1.0 - r * r) / (1.0 + r * r) / theta.tan();
+    let z = Complex::from_polar(r, theta);
+    let one = Complex::new(1.0, 0.0);
+    let g = |n: f64| {
+        let s = (z.powf(n + 1.0) - z * z * n + z * (n - 1.0)) / ((one - z) * (one - z));
+        n + 2.0 * (Complex::new(1.0, -c) * s).re
+    };
+    let m = m.round().max(1.0);
+    (4.0 * g(m) - g(2.0 * m)) / (2.0 * m * m)
+}
+
 /// Allan variance of white rate noise of unit N (per-sample variance fs) through the sampled first-order
 /// low-pass `y = a y + (1 - a) x`, `a = exp(-2 pi f3dB / fs)`, as shared::sim applies it: an AR(1) of variance
 /// `fs (1 - a)/(1 + a)`. Tends to `fit::lowpass_white_factor(tau/T) / tau` when T >> tau0.

@@ -2,8 +2,9 @@
 //!
 //! Each [`Effect`] is a term the IEEE 952 base model (Q, N, B, K, R) lacks. [`estimate`] fits its parameters on
 //! the training data and returns the base model with the effect added ([`EffectFit::gyro`]), re-fitting the base
-//! terms the effect overlaps (N under a bandwidth or with quantisation or outliers, K under bias steps, all of
-//! them jointly with a Gauss-Markov process), or `None` when the data carry no trace of it.
+//! terms the effect overlaps (N under a bandwidth, a resonance or with quantisation or outliers, K under bias
+//! steps, a bistable bias or a warm-up, all of them jointly with a Gauss-Markov process), or `None` when the data
+//! carry no trace of it.
 //!
 //! | effect | method | parameters |
 //! |--------|--------|------------|
@@ -14,12 +15,15 @@
 //! | quantization | lattice step of the sample values (distinct-value gaps, verified on 99% of samples) | `step_dps` |
 //! | bias_steps | MOSUM scan of windowed mean differences at the bias-instability tau, robust (MAD) threshold; truncated-normal size fit | `per_hour`, `sigma_dps` |
 //! | outliers | residual from a 5-point running median, robust (MAD) sigma, isolated spikes beyond 6 sigma | `per_sample`, `size_dps` |
+//! | resonance | Welch spectrum (Hann, a 32nd of the record a segment) against a median background; the AR(2) spectrum of shared::sim's resonance plus a background quadratic in ln f, fitted in ln P by Levenberg-Marquardt; kept when it lowers the chi-square by 100, peaks at half the background or more and is at least 4 bins wide (a line is a sinusoid); base terms re-fitted on the OADEV less its exact Allan variance | `sigma_dps`, `freq_hz`, `q` |
+//! | bistable | the bias-steps MOSUM scan at windows on an octave grid; jumps in time order must alternate in sign beyond chance (binomial tail, 1e-4 over the windows) and have one size (robust spread under 35%); dwell means from the states between jumps, corrected for unseen short excursions | `step_dps`, `dwell_low_s`, `dwell_high_s` |
+//! | warm_up | generalised least squares of block means (octave block lengths, 256 blocks from the start) on the block-averaged `exp(-t / tau)`, covariance from the base terms' semivariogram, a trend beside it where the base has a ramp; tau on a grid of 8-16 blocks; kept beyond 5 standard errors | `size_dps`, `tau_s` |
 //!
 //! One module per estimator; `common` holds the small helpers they share and `curve` the Allan-curve forms and
-//! joint fit of the bandwidth and Gauss-Markov estimators.
+//! joint fit of the bandwidth and Gauss-Markov estimators (and the resonance's exact Allan variance).
 //!
-//! All of them run in well under a second on a million samples (one FFT, a few O(N) passes, small fits on the
-//! octave OADEV curve).
+//! All of them run in well under a second on a million samples (one FFT or a few, a few O(N) passes, small fits
+//! on the octave OADEV curve or a window of the spectrum, a 255-point Cholesky factor per block length).
 
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::rng::SimRng;
@@ -31,15 +35,18 @@ use crate::fit::NoiseFit;
 
 mod bandwidth;
 mod bias_steps;
+mod bistable;
 mod common;
 mod curve;
 mod gauss_markov;
 mod outliers;
 mod quantization;
+mod resonance;
 mod sinusoid;
 mod temperature;
 #[cfg(test)]
 mod tests;
+mod warm_up;
 
 /// A candidate effect: something the IEEE 952 base model does not have.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -59,11 +66,17 @@ pub enum Effect {
     BiasSteps,
     /// Isolated spikes.
     Outliers,
+    /// Narrowband random vibration: a second-order Gauss-Markov process (a spectral bump wider than a line).
+    Resonance,
+    /// A bias that flips between two levels at random (random telegraph, popcorn noise).
+    Bistable,
+    /// The bias settling exponentially after power-on.
+    WarmUp,
 }
 
 impl Effect {
     /// Every effect, in the vocabulary's order.
-    pub const ALL: [Effect; 7] = [
+    pub const ALL: [Effect; 10] = [
         Effect::Temperature,
         Effect::Sinusoid,
         Effect::Bandwidth,
@@ -71,6 +84,9 @@ impl Effect {
         Effect::Quantization,
         Effect::BiasSteps,
         Effect::Outliers,
+        Effect::Resonance,
+        Effect::Bistable,
+        Effect::WarmUp,
     ];
 
     /// The name in the vocabulary (CLI, JSON).
@@ -83,6 +99,9 @@ impl Effect {
             Effect::Quantization => "quantization",
             Effect::BiasSteps => "bias_steps",
             Effect::Outliers => "outliers",
+            Effect::Resonance => "resonance",
+            Effect::Bistable => "bistable",
+            Effect::WarmUp => "warm_up",
         }
     }
 
@@ -221,5 +240,8 @@ pub fn estimate(effect: Effect, data: &TrainingData) -> Option<EffectFit> {
         Effect::Quantization => quantization::quantization(data),
         Effect::BiasSteps => bias_steps::bias_steps(data),
         Effect::Outliers => outliers::outliers(data),
+        Effect::Resonance => resonance::resonance(data),
+        Effect::Bistable => bistable::bistable(data),
+        Effect::WarmUp => warm_up::warm_up(data),
     }
 }

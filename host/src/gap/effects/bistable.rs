@@ -1,0 +1,243 @@
+//! The bistable candidate: a bias that flips between two levels at random (random telegraph noise, popcorn noise),
+//! found as jumps of one size that alternate in sign.
+//!
+//! Its Allan variance is exactly a Gauss-Markov process's (correlation time `1 / (l1 + l2)`), so the Allan curve
+//! cannot tell the two apart; nor can the jump scan of the bias-steps candidate alone, which sees a jump either
+//! way. What only a bistable bias has: every jump is the same size, and an up-jump is always followed by a down-jump
+//! (the bias returns to the level it left), where random bias steps (a random walk of Gaussian jumps) go up or down
+//! at random and by any amount.
+
+use octavar_shared::sim::{BistableSim, GyroSim};
+use serde_json::json;
+
+use super::bias_steps::mosum_scan;
+use super::common::*;
+use super::{Effect, EffectFit, TrainingData};
+
+/// Fewest jumps detected at the chosen window: with missed jumps and a false one or two, a few cycles are needed
+/// before the alternation means anything.
+const MIN_JUMPS: usize = 12;
+/// Family-wise error of the alternation test over the windows tried: the chance that the signs of a random walk's
+/// detected jumps (independent, each way with probability 1/2) alternate as often as seen.
+const ALTERNATION_ALPHA: f64 = 1e-4;
+/// Largest spread of the jumps' refined sizes (robust coefficient of variation): a bistable bias has one size;
+/// random steps big enough to be seen spread by at least this much.
+const MAX_SIZE_SPREAD: f64 = 0.35;
+
+/// What the scan at one window found.
+#[derive(Clone, Debug)]
+struct Flips {
+    /// Window, samples.
+    window: usize,
+    /// Jumps in time order: sample index and signed size (the window's mean difference), deg/s.
+    jumps: Vec<(usize, f64)>,
+    /// Consecutive pairs of opposite sign.
+    alternating: usize,
+    /// The binomial tail of that many alternations or more among the pairs, at 1/2 each.
+    p_value: f64,
+    /// The scan's threshold on the mean difference, deg/s.
+    threshold: f64,
+}
+
+/// `P(X >= k)` for X binomial with `n` trials of probability 1/2.
+fn binomial_half_tail(n: usize, k: usize) -> f64 {
+    if k == 0 {
+        return 1.0;
+    }
+    // Sum in the log domain: ln C(n, j) - n ln 2.
+    let ln_choose = |j: usize| -> f64 { (1..=j).map(|i| ((n - j + i) as f64).ln() - (i as f64).ln()).sum::<f64>() };
+    (k..=n).map(|j| (ln_choose(j) - n as f64 * std::f64::consts::LN_2).exp()).sum::<f64>().min(1.0)
+}
+
+/// The scan at window `l`, its jumps put in time order and their alternation counted.
+fn flips_at(x: &[f64], l: usize) -> Option<Flips> {
+    let scan = mosum_scan(x, l)?;
+    let mut jumps = scan.steps;
+    jumps.sort_by_key(|j| j.0);
+    let pairs = jumps.len().saturating_sub(1);
+    let alternating = jumps.windows(2).filter(|w| w[0].1 * w[1].1 < 0.0).count();
+    Some(Flips {
+        window: l,
+        p_value: binomial_half_tail(pairs, alternating),
+        jumps,
+        alternating,
+        threshold: scan.threshold,
+    })
+}
+
+/// The jumps with the ones the scan missed between two of the same sign put back: the scan keeps one jump of
+/// any two closer than two windows, so a short excursion shows one of its two jumps. Between consecutive jumps of
+/// one sign the missing opposite one is where the mean difference over windows bounded by the two (at most the
+/// scan's) is most opposite; its size is the opposite of the first's.
+fn repaired(x: &[f64], f: &Flips) -> Vec<(usize, f64)> {
+    let mut pre = Vec::with_capacity(x.len() + 1);
+    let mut acc = 0.0;
+    pre.push(0.0);
+    for v in x {
+        acc += v;
+        pre.push(acc);
+    }
+    let avg = |a: usize, b: usize| (pre[b] - pre[a]) / (b - a) as f64;
+    let l = f.window;
+    let mut out = Vec::with_capacity(f.jumps.len() * 2);
+    for (i, &j) in f.jumps.iter().enumerate() {
+        out.push(j);
+        let Some(&next) = f.jumps.get(i + 1) else { continue };
+        if j.1 * next.1 > 0.0 && next.0 > j.0 + 2 {
+            let best = (j.0 + 1..next.0)
+                .map(|t| {
+                    let d = avg(t, (t + l).min(next.0)) - avg(t.saturating_sub(l).max(j.0), t);
+                    (t, -d * j.1.signum())
+                })
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((t, _)) = best {
+                out.push((t, -j.1));
+            }
+        }
+    }
+    out
+}
+
+/// The sizes of `jumps` measured again over the longest stretches their neighbours allow (up to 16 windows `l`
+/// each side, half a window kept clear of each jump), signed.
+fn refined_sizes(x: &[f64], jumps: &[(usize, f64)], l: usize) -> Vec<f64> {
+    let cap = 16 * l;
+    let margin = l / 2;
+    (0..jumps.len())
+        .map(|i| {
+            let t = jumps[i].0;
+            let prev = if i > 0 { jumps[i - 1].0 + margin } else { 0 };
+            let next = jumps.get(i + 1).map_or(x.len(), |j| j.0.saturating_sub(margin));
+            let a1 = t.saturating_sub(margin).max(1);
+            let a0 = t.saturating_sub(cap).max(prev).min(a1 - 1);
+            let b0 = (t + margin).min(x.len() - 1);
+            let b1 = (t + cap).min(next).clamp(b0 + 1, x.len());
+            mean(&x[b0..b1]) - mean(&x[a0..a1])
+        })
+        .collect()
+}
+
+/// A bias flipping between two levels (random telegraph noise).
+///
+/// Method: the bias-steps candidate's moving-sum scan (means of a window L after and before each instant, robust
+/// threshold) at windows L on an octave grid from 8 samples to a 64th of the record; at each, the jumps found are
+/// put in time order and the consecutive pairs of opposite sign counted. Under a random walk of steps (or noise)
+/// each pair alternates with probability 1/2; the window whose count is least likely so is kept, and the process
+/// counts when that binomial tail, times the windows tried, is below [`ALTERNATION_ALPHA`], there are at least
+/// [`MIN_JUMPS`] jumps, and their sizes, measured again over the longest stretches the neighbouring jumps allow,
+/// spread by at most [`MAX_SIZE_SPREAD`] (robust coefficient of variation). The step is their mean size. The state
+/// between two jumps is the sign of the jump into it; a dwell's mean in each state is that state's time over its
+/// completed dwells (the first and last, cut by the record's ends, add time but no count), corrected for the
+/// excursions too short to be seen (about a window: each one merges two dwells of the other state into one,
+/// `d_obs = d / (e^{-c/d_low} + e^{-c/d_high} - 1)`, solved by iteration). The base terms are re-fitted on the record
+/// less the reconstructed two-level bias (the base fit took its Gauss-Markov-like Allan variance for flicker or
+/// random walk).
+pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
+    let x = d.rate_dps;
+    let n = x.len();
+    let fs = d.fs_hz;
+    let mut windows = Vec::new();
+    let mut l = 8usize;
+    while l <= n / 64 {
+        windows.push(l);
+        l *= 2;
+    }
+    if windows.is_empty() {
+        return None;
+    }
+    let tried = windows.len() as f64;
+    let best = windows
+        .iter()
+        .filter_map(|&l| flips_at(x, l))
+        .filter(|f| f.jumps.len() >= MIN_JUMPS)
+        .min_by(|a, b| a.p_value.total_cmp(&b.p_value).then(b.jumps.len().cmp(&a.jumps.len())))?;
+    if !(best.p_value * tried < ALTERNATION_ALPHA) {
+        return None;
+    }
+    let jumps = repaired(x, &best);
+    let detected: Vec<bool> = {
+        let mut it = best.jumps.iter().peekable();
+        jumps
+            .iter()
+            .map(|j| {
+                let is = it.peek().is_some_and(|d| d.0 == j.0 && d.1 == j.1);
+                if is {
+                    it.next();
+                }
+                is
+            })
+            .collect()
+    };
+    let abs: Vec<f64> =
+        refined_sizes(x, &jumps, best.window).iter().zip(&detected).filter(|(_, &d)| d).map(|(s, _)| s.abs()).collect();
+    let step = median(&abs);
+    let spread = 1.4826 * median(&abs.iter().map(|a| (a - step).abs()).collect::<Vec<_>>()) / step;
+    if !(step > 0.0 && spread <= MAX_SIZE_SPREAD) {
+        return None;
+    }
+    let step = mean(&abs);
+    let step_se =
+        (abs.iter().map(|a| (a - step).powi(2)).sum::<f64>() / (abs.len() - 1) as f64 / abs.len() as f64).sqrt();
+    // States between jumps, from the sign of the jump into each stretch; the stretch before the first jump is the
+    // other state.
+    let (mut time_high, mut time_low, mut count_high, mut count_low) = (0.0, 0.0, 0usize, 0usize);
+    let first_high = jumps[0].1 < 0.0;
+    let mut edges: Vec<(usize, usize, bool)> = vec![(0, jumps[0].0, first_high)];
+    for (i, j) in jumps.iter().enumerate() {
+        let end = jumps.get(i + 1).map_or(n, |k| k.0);
+        edges.push((j.0, end, j.1 > 0.0));
+    }
+    let last = edges.len() - 1;
+    for (i, &(a, b, high)) in edges.iter().enumerate() {
+        let dt = (b - a) as f64 / fs;
+        let complete = i > 0 && i < last;
+        if high {
+            time_high += dt;
+            count_high += usize::from(complete);
+        } else {
+            time_low += dt;
+            count_low += usize::from(complete);
+        }
+    }
+    if count_high == 0 || count_low == 0 {
+        return None;
+    }
+    let (obs_high, obs_low) = (time_high / count_high as f64, time_low / count_low as f64);
+    // An excursion shows in the scan when its mean difference, `step min(1, w / L)` for a width w, passes the
+    // threshold: shorter ones go unseen, and each merges two dwells of the other state.
+    let c = best.window as f64 * (best.threshold / step).min(1.0) / fs;
+    let (mut dwell_high, mut dwell_low) = (obs_high, obs_low);
+    for _ in 0..50 {
+        let seen = ((-c / dwell_low).exp() + (-c / dwell_high).exp() - 1.0).max(0.2);
+        dwell_high = obs_high * seen;
+        dwell_low = obs_low * seen;
+    }
+    // The record less the two zero-mean levels, for the base terms' re-fit.
+    let p_high = time_high / (time_high + time_low);
+    let (high, low) = (step * (1.0 - p_high), -step * p_high);
+    let mut cleaned = x.to_vec();
+    for &(a, b, is_high) in &edges {
+        let v = if is_high { high } else { low };
+        for c in &mut cleaned[a..b] {
+            *c -= v;
+        }
+    }
+    let refit = refit_base(d.base, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let gyro = GyroSim {
+        bistable: Some(BistableSim { step_dps: step, dwell_low_s: dwell_low, dwell_high_s: dwell_high }),
+        ..refit
+    };
+    Some(EffectFit {
+        effect: Effect::Bistable,
+        params: json!({"step_dps": step, "dwell_low_s": dwell_low, "dwell_high_s": dwell_high,
+                       "step_se_dps": step_se, "dwell_low_se_s": dwell_low / (count_low as f64).sqrt(),
+                       "dwell_high_se_s": dwell_high / (count_high as f64).sqrt(),
+                       "jumps": best.jumps.len(), "alternating": best.alternating,
+                       "window_s": best.window as f64 / fs, "shortest_seen_s": c,
+                       "p_value": best.p_value, "size_spread": spread}),
+        n_params: 3,
+        gyro,
+        channel: None,
+        spread: None,
+    })
+}
