@@ -13,10 +13,13 @@ use super::{Effect, EffectFit, TrainingData};
 /// is far below the sample rate), B, K and R, by weighted non-negative least squares (IRLS, every subset of
 /// terms), the corner f3dB on a log grid from fs/2000 to fs/2 refined by golden search. It counts when the
 /// log-domain chi-square falls by at least [`CURVE_DELTA_CHI2`] from the unfiltered fit. N, B, K, R and Q are
-/// re-fitted with the bandwidth in place (the base fit reads N low from the bent short taus).
+/// re-fitted with the bandwidth in place (the base fit reads N low from the bent short taus). On a model that
+/// already carries a resonance, a Gauss-Markov process or a bistable bias (a later step of the chain), their
+/// closed-form Allan variance is taken off the curve first.
 pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     let fs = d.fs_hz;
-    let pts = oadev_points(d.rate_dps, fs);
+    // The Allan variance of a resonance or a Gauss-Markov process the model already has is not the filter's.
+    let pts = less_known(&oadev_points(d.rate_dps, fs), d.base, fs);
     if pts.len() < 5 {
         return None;
     }

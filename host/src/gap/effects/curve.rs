@@ -57,6 +57,32 @@ pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, fs: f64) -> f64 {
     (4.0 * g(m) - g(2.0 * m)) / (2.0 * m * m)
 }
 
+/// The Allan variance at `tau` of the stochastic effects `model` already carries beyond the base terms (a
+/// resonance, a Gauss-Markov process, a bistable bias, each with its closed form), which an estimator fitting
+/// the base terms and one more effect on the Allan curve must not take for its own.
+pub(super) fn known_avar(model: &GyroSim, tau: f64, fs: f64) -> f64 {
+    let tau0 = 1.0 / fs;
+    let mut v = 0.0;
+    if let Some(r) = &model.resonance {
+        v += r.sigma_dps * r.sigma_dps * resonance_avar(r.freq_hz, r.q, tau / tau0, fs);
+    }
+    if let Some(g) = &model.gauss_markov {
+        v += g.sigma_dps * g.sigma_dps * gm_avar(g.tau_s, tau, tau0);
+    }
+    if let Some(b) = &model.bistable {
+        let (l1, l2) = (1.0 / b.dwell_low_s, 1.0 / b.dwell_high_s);
+        let var = b.step_dps * b.step_dps * l1 * l2 / ((l1 + l2) * (l1 + l2));
+        v += var * gm_avar(1.0 / (l1 + l2), tau, tau0);
+    }
+    v
+}
+
+/// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`]), each point kept at no
+/// less than a tenth of its own value (the rest is what the fit has to explain).
+pub(super) fn less_known(pts: &[FitPoint], model: &GyroSim, fs: f64) -> Vec<FitPoint> {
+    pts.iter().map(|p| FitPoint { avar: (p.avar - known_avar(model, p.tau_s, fs)).max(0.1 * p.avar), ..*p }).collect()
+}
+
 /// Allan variance of white rate noise of unit N (per-sample variance fs) through the sampled first-order
 /// low-pass `y = a y + (1 - a) x`, `a = exp(-2 pi f3dB / fs)`, as shared::sim applies it: an AR(1) of variance
 /// `fs (1 - a)/(1 + a)`. Tends to `fit::lowpass_white_factor(tau/T) / tau` when T >> tau0.
