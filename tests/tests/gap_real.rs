@@ -4,10 +4,10 @@
 //! (`period=2`) is held out; 1 Hz, gyro in mrad/s, `temp_C`. gyro_y follows the temperature (about +0.45 mrad/s per
 //! degC): the diagnosis must name `temperature`, and the gap it locates must shrink on run 2 with every parameter
 //! frozen from run 1. gyro_x hardly follows the temperature: it must not come out as `temperature`. gyro_z is
-//! reported (it follows weakly, and run 2 has the tag turned, gravity on x). The ADIS16405 session (1,000,000
-//! samples at 100 Hz, half held out) is reported too; at 2-6 s a channel in release it is `#[ignore]`d:
-//! `cargo test -p octavar-tests --release gap_real -- --ignored --nocapture`. Its time against the floor (30 s a
-//! million samples) is measured by the benchmark `cargo bench -p octavar --bench gap`, not here.
+//! reported (it follows weakly, and run 2 has the tag turned, gravity on x). Run 2 also trains with run 1 held
+//! out: its 70 s disturbance must be found, reported and masked. The ADIS16405 session (1,000,000 samples at 100
+//! Hz, half held out) runs where CI is set: x and y `bandwidth`, z `resonance` near 20 Hz. Its time against the
+//! floor (30 s a million samples) is measured by the benchmark `cargo bench -p octavar --bench gap`, not here.
 
 use std::path::Path;
 use std::time::Instant;
@@ -151,9 +151,15 @@ fn cats_gyro_x_and_z_are_reported() {
     );
 }
 
+/// The ADIS16405 session, half held out, each gyro axis (CI only: 1,000,000 samples x 3 axes, 10-30 s in release):
+/// x and y show the part's internal filter (`bandwidth`, about 30 Hz); z a spectral bump at 19-21 Hz with ten times
+/// the power around it, a resonance, wider than a line.
 #[test]
-#[ignore = "1,000,000 samples x 3 channels, about 10 s in release: run with --ignored"]
-fn adis16405_session_is_reported() {
+fn adis16405_session_is_diagnosed() {
+    if std::env::var_os("CI").is_none() {
+        println!("skipped: the ADIS16405 diagnosis runs where CI is set (1,000,000 samples x 3 axes)");
+        return;
+    }
     let Some(dir) = data_dir() else { return };
     let path = dir.join("imu/adis16405_session1.csv.gz");
     for axis in ["x", "y", "z"] {
@@ -164,9 +170,16 @@ fn adis16405_session_is_reported() {
         let r = diagnose(&input, &GapOptions::default(), &|_, _, _| {}).unwrap();
         let secs = t0.elapsed().as_secs_f64();
         println!("== ADIS16405 gyro_{axis} ({secs:.1} s)\n{}", r.text());
-        // The part's internal filter bends x and y below 0.3 s; z has a PSD gap no candidate explains.
-        if axis != "z" {
+        if axis == "z" {
+            assert_eq!(r.effect, Some(Effect::Resonance), "{}", r.text());
+            let f = r.chain[0].fit.gyro.resonance.expect("a resonance in the model");
+            assert!((18.0..23.0).contains(&f.freq_hz), "{f:?}");
+            // Wider than a line: a quality factor of tens, not thousands.
+            assert!(f.q < 100.0, "{f:?}");
+        } else {
             assert_eq!(r.effect, Some(Effect::Bandwidth), "{}", r.text());
+            let h = r.holdout_total.unwrap();
+            assert!(h.gap_after < 2.5, "{h:?}");
         }
     }
 }
