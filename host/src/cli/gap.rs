@@ -146,7 +146,8 @@ impl Args {
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         if let Some(path) = &self.plot {
-            let title = format!("Sim-to-real gap: {} {} ({})", rec.source, self.column, effects_text(&report));
+            let name = Path::new(&rec.source).file_name().map_or(rec.source.clone(), |n| n.to_string_lossy().into());
+            let title = format!("Sim-to-real gap: {name} {} ({})", self.column, effects_text(&report));
             let figure = plot::GapFigure::new(&report, &input);
             plot::gap_plot(&figure, &plot::PlotOptions::gap_figure(title), path)
                 .with_context(|| format!("drawing {}", path.display()))?;

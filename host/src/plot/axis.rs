@@ -205,25 +205,26 @@ pub(super) struct LinAxis {
 
 impl LinAxis {
     /// An axis over `min..max` with a little air on both sides (none beyond a limit that is exactly a tick, as
-    /// 0 or 1 of a coherence); a single value gets a span around it.
+    /// 0 or 1 of a coherence), its limits on its ticks; a single value gets a span around it.
     pub fn new((min, max): (f64, f64)) -> Self {
-        let (min, max) = if max > min {
-            (min, max)
-        } else {
-            let d = if min != 0.0 { min.abs() * 0.1 } else { 1.0 };
-            (min - d, max + d)
-        };
-        let step = {
-            let raw = (max - min) / 5.0;
-            let d = 10f64.powf(raw.log10().floor());
-            STEPS.iter().chain(&[10.0]).map(|s| s * d).find(|&s| s >= raw * (1.0 - 1e-9)).unwrap_or(10.0 * d)
-        };
+        let (min, max) = span(min, max);
+        let step = step_125((max - min) / 5.0);
         let air = 0.02 * (max - min);
         let on_tick = |v: f64| ((v / step).round() * step - v).abs() < 1e-9 * step;
         let lo = if on_tick(min) { min } else { ((min - air) / step).floor() * step };
         let hi = if on_tick(max) { max } else { ((max + air) / step).ceil() * step };
-        let first = (lo / step).round() as i64;
-        let last = (hi / step).round() as i64;
+        LinAxis::with_limits(lo, hi, step)
+    }
+
+    /// An axis from exactly `min` to `max` (a record's start and end), ticked inside.
+    pub fn exact((min, max): (f64, f64)) -> Self {
+        let (min, max) = span(min, max);
+        LinAxis::with_limits(min, max, step_125((max - min) / 6.0))
+    }
+
+    fn with_limits(lo: f64, hi: f64, step: f64) -> Self {
+        let first = (lo / step - 1e-9).ceil() as i64;
+        let last = (hi / step + 1e-9).floor() as i64;
         let major = (first..=last).map(|i| i as f64 * step).collect();
         LinAxis { lo, hi, step, major }
     }
@@ -244,6 +245,22 @@ impl LinAxis {
         let decimals = (-self.step.log10().floor()).max(0.0) as usize;
         format!("{v:.decimals$}").replace('-', "−")
     }
+}
+
+/// `min..max`, or a span around a single value.
+fn span(min: f64, max: f64) -> (f64, f64) {
+    if max > min {
+        (min, max)
+    } else {
+        let d = if min != 0.0 { min.abs() * 0.1 } else { 1.0 };
+        (min - d, max + d)
+    }
+}
+
+/// The smallest step on the 1-2-5 sequence of at least `raw`.
+fn step_125(raw: f64) -> f64 {
+    let d = 10f64.powf(raw.log10().floor());
+    STEPS.iter().chain(&[10.0]).map(|s| s * d).find(|&s| s >= raw * (1.0 - 1e-9)).unwrap_or(10.0 * d)
 }
 
 /// A [`LinAxis`] for plotters: linear, with the axis's ticks (plotters' own f64 axis with key points set would not
@@ -311,6 +328,9 @@ mod tests {
         assert_eq!(b.label(-1.0), "−1");
         let tiny = LinAxis::new((1e-6, 5e-6));
         assert_eq!(tiny.label(2e-6), "2.00×10⁻⁶");
+        let t = LinAxis::exact((0.0, 50.8));
+        assert_eq!((t.lo, t.hi, t.step), (0.0, 50.8, 10.0));
+        assert_eq!(t.major, [0.0, 10.0, 20.0, 30.0, 40.0, 50.0]);
         let flat = LinAxis::new((3.0, 3.0));
         assert!(flat.lo < 3.0 && flat.hi > 3.0);
         // A line on a linear y axis is cut at the box, negative values and all.

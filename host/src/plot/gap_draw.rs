@@ -7,7 +7,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axis::{clip_scaled, close_frame, tick_label, LinAxis, LogAxis};
-use super::gap::{BandMark, GapFigure, MarkKind, PanelPoint, Scale, TimePanel, ViewPanel};
+use super::gap::{BandMark, Column, GapFigure, MarkKind, PanelPoint, Scale, TimePanel, ViewPanel};
 use super::legend::{draw_marker, Entry, Legend, Sample};
 use super::{err, lighter, positive, title, Area, Look, PlotOptions, FAMILY, GREY, INK};
 
@@ -409,10 +409,17 @@ fn draw_time<DB: DrawingBackend>(area: &Area<DB>, t: &TimePanel, look: &Look) ->
     header
         .draw(&Text::new(text, (w as i32 / 2, look.px(8.0)), bold.pos(Pos::new(HPos::Center, VPos::Top))))
         .map_err(err)?;
-    let Some(yr) = extent(t.columns.iter().flat_map(|c| [c.min, c.max]), false) else { return Ok(()) };
+    // The rate axis fits the record outside its transients, whose excursions (often tens of times the noise) would
+    // flatten the rest: they run off the axes where they are shaded.
+    let calm = |c: &&Column| !t.transients.iter().any(|&[a, b]| c.t_s[0] < b && c.t_s[1] > a);
+    let values = |keep: &dyn Fn(&&Column) -> bool| -> Option<(f64, f64)> {
+        extent(t.columns.iter().filter(|c| keep(c)).flat_map(|c| [c.min, c.max]), false)
+    };
+    let Some(yr) = values(&calm).or_else(|| values(&|_| true)) else { return Ok(()) };
     let u = t.unit_s;
-    let xa = LinAxis::new((0.0, t.duration_s / u));
+    let xa = LinAxis::exact((0.0, t.duration_s / u));
     let ya = LinAxis::new(yr);
+    let clamp = |v: f64| v.clamp(ya.lo, ya.hi);
     let (x, y) = (xa.coord(), ya.coord());
     let y_fmt = |v: &f64| ya.label(*v);
     let mut chart = ChartBuilder::on(&plot)
@@ -453,7 +460,7 @@ fn draw_time<DB: DrawingBackend>(area: &Area<DB>, t: &TimePanel, look: &Look) ->
         pix.draw(&Rectangle::new([(x0, 0), (x1, ph - 1)], TRANSIENT.stroke_width(1))).map_err(err)?;
     }
     // The envelope: one polygon per run of columns without a gap between them.
-    let mut runs: Vec<Vec<&super::gap::Column>> = Vec::new();
+    let mut runs: Vec<Vec<&Column>> = Vec::new();
     for c in &t.columns {
         match runs.last_mut() {
             Some(run) if run.last().is_some_and(|p| p.t_s[1] >= c.t_s[0]) => run.push(c),
@@ -463,12 +470,12 @@ fn draw_time<DB: DrawingBackend>(area: &Area<DB>, t: &TimePanel, look: &Look) ->
     for run in runs {
         let mut poly: Vec<(i32, i32)> = Vec::with_capacity(4 * run.len());
         for c in &run {
-            poly.push(to(c.t_s[0] / u, c.max));
-            poly.push(to(c.t_s[1] / u, c.max));
+            poly.push(to(c.t_s[0] / u, clamp(c.max)));
+            poly.push(to(c.t_s[1] / u, clamp(c.max)));
         }
         for c in run.iter().rev() {
-            poly.push(to(c.t_s[1] / u, c.min));
-            poly.push(to(c.t_s[0] / u, c.min));
+            poly.push(to(c.t_s[1] / u, clamp(c.min)));
+            poly.push(to(c.t_s[0] / u, clamp(c.min)));
         }
         pix.draw(&Polygon::new(poly.clone(), INK.mix(0.75).filled())).map_err(err)?;
         // A thin outline keeps a run narrower than a pixel (a short run, or a flat record) visible.
