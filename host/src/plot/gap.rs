@@ -581,21 +581,47 @@ mod tests {
         assert!(red > 100, "{red} red pixels");
     }
 
-    /// A record without a temperature gets no temperature panel, and the figure is drawn at the ADEV plot's size.
+    /// A record without a temperature gets no temperature panel. Here the rate has a sinusoid of 20 s that no
+    /// candidate is allowed to explain: the gap is a line in the PSD, marked on the PSD panel at frequencies
+    /// (f = 1/tau) around 0.05 Hz. The figure is drawn at the ADEV plot's size.
     #[test]
-    fn no_temperature_no_temperature_panel() {
+    fn a_line_is_marked_at_its_frequency_and_no_temperature_gets_no_panel() {
         let (input, _) = record();
-        let input = GapInput { temp_c: None, ..input };
+        let fs = input.fs_hz;
+        let rate_dps = input
+            .rate_dps
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + 0.02 * (2.0 * std::f64::consts::PI * i as f64 / (20.0 * fs)).sin())
+            .collect();
+        let input = GapInput { rate_dps, temp_c: None, ..input };
         let opts = GapOptions { seeds: 5, effects: vec![], ..Default::default() };
         let report = diagnose(&input, &opts, &|_, _, _| {}).unwrap();
         let fig = GapFigure::new(&report, &input);
         let views: Vec<ViewKind> = fig.panels.iter().map(|p| p.view).collect();
         assert_eq!(views, [ViewKind::Adev, ViewKind::Psd, ViewKind::Distribution]);
         assert!(fig.chain_label.is_none() && fig.panels.iter().all(|p| p.chain.is_none()));
+        let left = report.unexplained.as_ref().expect("a gap no candidate may explain");
+        assert_eq!(left.view, ViewKind::Psd, "{}", report.text());
+        let psd = &fig.panels[1];
+        assert_eq!(psd.marks.len(), 1);
+        let m = &psd.marks[0];
+        assert_eq!(m.kind, MarkKind::Unexplained);
+        assert_eq!(m.x, [1.0 / left.band_s[1], 1.0 / left.band_s[0]]);
+        assert!(m.x[0] < 0.05 && 0.05 < m.x[1], "{:?}", m.x);
+        assert_eq!(fig.unexplained.as_deref(), Some(left.text.as_str()));
         let tmp = tempfile::tempdir().unwrap();
-        let path = out_dir(&tmp).join("gap-no-temperature.png");
-        gap_plot(&fig, &PlotOptions { title: "no temperature".into(), ..Default::default() }, &path).unwrap();
+        let path = out_dir(&tmp).join("gap-line.png");
+        gap_plot(&fig, &PlotOptions { title: "a line".into(), ..Default::default() }, &path).unwrap();
         assert_eq!(png_size(&std::fs::read(&path).unwrap()), (1200, 800));
+    }
+
+    #[test]
+    fn psd_bands_become_frequencies_and_the_others_stay_in_seconds() {
+        assert_eq!(band_x(ViewKind::Psd, [2.0, 50.0]), [0.02, 0.5]);
+        for v in [ViewKind::Adev, ViewKind::Distribution, ViewKind::Temperature] {
+            assert_eq!(band_x(v, [2.0, 50.0]), [2.0, 50.0]);
+        }
     }
 
     #[test]
