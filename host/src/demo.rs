@@ -300,25 +300,35 @@ pub fn diagnose_channel(
     paper: &PaperChannel,
     progress: &crate::gap::ProgressFn,
 ) -> Result<crate::gap::GapReport, crate::gap::GapError> {
-    let decimate = (GAP_BLOCK_S * BENCH_RATE_HZ) as u64;
-    let total = run.rate_dps.len() as u64 * decimate;
-    let train = run
-        .snapshots
-        .iter()
-        .min_by_key(|s| s.samples.abs_diff(total / 2))
-        .copied()
-        .unwrap_or_else(|| Snapshot::empty(STRIDE).expect("stride 8 is valid"));
+    let train = training_snapshot(run);
     let channel = Channel::bench(GyroModel::of(paper.sensor).expect("the paper's channels are gyros"));
     let points = snapshot_points(&train, BENCH_RATE_HZ, channel.dps_per_code(), 0.683);
     let base_fit = fit(&fit_points(&points), &bench_fit_options()).ok();
-    let input = crate::gap::GapInput {
+    let opts = crate::gap::GapOptions { base_fit, oversample: GAP_OVERSAMPLE, ..Default::default() };
+    crate::gap::diagnose(&gap_input(run), &opts, progress)
+}
+
+/// The record [`diagnose_channel`] diagnoses (and the gap figure draws): the channel's 1 Hz means with the bench
+/// temperature, training up to the middle snapshot.
+pub fn gap_input(run: &ChannelRun) -> crate::gap::GapInput {
+    let decimate = (GAP_BLOCK_S * BENCH_RATE_HZ) as u64;
+    crate::gap::GapInput {
         rate_dps: run.rate_dps.clone(),
         temp_c: Some(run.temp_c.clone()),
         fs_hz: 1.0 / GAP_BLOCK_S,
-        n_train: (train.samples / decimate) as usize,
-    };
-    let opts = crate::gap::GapOptions { base_fit, oversample: GAP_OVERSAMPLE, ..Default::default() };
-    crate::gap::diagnose(&input, &opts, progress)
+        n_train: (training_snapshot(run).samples / decimate) as usize,
+    }
+}
+
+/// The device's snapshot nearest the middle of the record: the training part ends there.
+fn training_snapshot(run: &ChannelRun) -> Snapshot {
+    let decimate = (GAP_BLOCK_S * BENCH_RATE_HZ) as u64;
+    let total = run.rate_dps.len() as u64 * decimate;
+    run.snapshots
+        .iter()
+        .min_by_key(|s| s.samples.abs_diff(total / 2))
+        .copied()
+        .unwrap_or_else(|| Snapshot::empty(STRIDE).expect("stride 8 is valid"))
 }
 
 /// [`diagnose_channel`] for every channel of a bench run (`runs` in [`TABLE1`]'s order), the channels at once:

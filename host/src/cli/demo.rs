@@ -140,7 +140,7 @@ impl Args {
             bars[i].set(done as u64);
         });
         bars.iter().for_each(Progress::finish);
-        for (report, r) in reports.into_iter().zip(&results) {
+        for ((report, r), run) in reports.into_iter().zip(&results).zip(&runs) {
             let report = report?;
             let slug: String = r
                 .paper
@@ -151,9 +151,9 @@ impl Args {
             let path = self.out.join(format!("gap_{slug}.json"));
             std::fs::write(&path, serde_json::to_string_pretty(&report.to_json())?)
                 .with_context(|| format!("writing {}", path.display()))?;
-            let title = format!("Sim-to-real gap: {} ({})", r.paper.label, report.effect_name());
-            let popts = plot::PlotOptions { title, ..Default::default() };
-            plot::gap_plot(&plot::GapPlot::from_report(&report), &popts, &self.out.join(format!("gap_{slug}.png")))?;
+            let title = format!("Sim-to-real gap: {} ({})", r.paper.label, super::gap::effects_text(&report));
+            let figure = plot::GapFigure::new(&report, &demo::gap_input(run));
+            plot::gap_plot(&figure, &plot::PlotOptions::gap_figure(title), &self.out.join(format!("gap_{slug}.png")))?;
             let path = self.out.join(format!("gap_{slug}.txt"));
             std::fs::write(&path, report.text()).with_context(|| format!("writing {}", path.display()))?;
             let loc = report.location.as_ref();

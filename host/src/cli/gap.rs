@@ -69,7 +69,9 @@ pub struct Args {
     /// Write the JSON document here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
-    /// Draw the gap plot (.png or .svg): real, the ensemble band before and after, the gap's band.
+    /// Draw the gap figure (.png or .svg): a panel per view (ADEV, PSD, distribution, temperature) with the record,
+    /// the ensemble bands of the base model and of the model with every effect found, and where the gap lay; and
+    /// the record over time with its masked transients.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
 }
@@ -144,11 +146,20 @@ impl Args {
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         if let Some(path) = &self.plot {
-            let title = format!("Sim-to-real gap: {} {} ({})", rec.source, self.column, report.effect_name());
-            let opts = plot::PlotOptions { title, ..Default::default() };
-            plot::gap_plot(&plot::GapPlot::from_report(&report), &opts, path)
+            let name = Path::new(&rec.source).file_name().map_or(rec.source.clone(), |n| n.to_string_lossy().into());
+            let title = format!("Sim-to-real gap: {name} {} ({})", self.column, effects_text(&report));
+            let figure = plot::GapFigure::new(&report, &input);
+            plot::gap_plot(&figure, &plot::PlotOptions::gap_figure(title), path)
                 .with_context(|| format!("drawing {}", path.display()))?;
         }
         Ok(ExitCode::SUCCESS)
+    }
+}
+
+/// The chain's effects joined with ` + `, or `none`.
+pub(super) fn effects_text(report: &gap::GapReport) -> String {
+    match report.effects() {
+        e if e.is_empty() => "none".to_string(),
+        e => e.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + "),
     }
 }
