@@ -51,6 +51,10 @@ pub struct Transient {
     pub mean_dps: f64,
     /// Offset or burst.
     pub shape: Shape,
+    /// The block length at which it stands out most, samples (1: a burst of large samples).
+    pub scale: usize,
+    /// How far it stands out there, in robust scales of that block length (for a burst, its largest sample's).
+    pub z: f64,
 }
 
 impl Transient {
@@ -111,6 +115,23 @@ pub struct Scan {
     pub quantum_dps: f64,
     /// The longest event accepted, samples.
     pub max_len: usize,
+    /// Each block length scanned.
+    pub scales: Vec<ScaleStat>,
+}
+
+/// One block length of the scan.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ScaleStat {
+    /// Block length, samples.
+    pub len: usize,
+    /// Robust scale of the block means about their running median, deg/s.
+    pub sigma_dps: f64,
+    /// The threshold, in those scales.
+    pub threshold: f64,
+    /// Blocks beyond it.
+    pub flagged: usize,
+    /// The largest |block mean - baseline|, in those scales.
+    pub max_z: f64,
 }
 
 impl Scan {
@@ -123,6 +144,7 @@ impl Scan {
             sigma_dps: f64::NAN,
             quantum_dps: 0.0,
             max_len: 0,
+            scales: Vec::new(),
         }
     }
 }
@@ -141,9 +163,9 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
     out.max_len = max_len;
 
     // Scale 1: each sample against the running median of its neighbours.
-    let b1 = running_median(x, WINDOW_BLOCKS);
-    let r1: Vec<f64> = x.iter().zip(&b1).map(|(a, b)| a - b).collect();
-    let s1_raw = robust_scale(&r1);
+    let half = WINDOW_BLOCKS / 2;
+    let (r1_two, r1) = residuals(x, half, 0);
+    let s1_raw = robust_scale(&r1_two);
     // Quantisation error averages out in a block when the noise spans half a step or more (Widrow); else a block
     // mean can sit up to a step from its neighbours whatever its length.
     let dithered = s1_raw >= 0.5 * q;
@@ -168,16 +190,24 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
     let mut despiked = x.to_vec();
     let mut clean = x.to_vec();
     for &i in &exceed {
+        // The side nearer to the sample: x less its residual against that side.
+        let fill = x[i] - r1[i];
         if !in_burst[i] {
-            despiked[i] = b1[i];
+            despiked[i] = fill;
             out.spikes += 1;
         }
-        clean[i] = b1[i];
+        clean[i] = fill;
     }
 
     // Coarse scales: block means against their running median.
     let mut cores: Vec<Core> =
-        bursts.iter().map(|&(a, b)| Core { start: a, end: b + 1, scale: 1, z: f64::INFINITY }).collect();
+        bursts
+            .iter()
+            .map(|&(a, b)| {
+                let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
+                Core { start: a, end: b + 1, scale: 1, z, burst: true }
+            })
+            .collect();
     let l_max = prev_pow2((max_len / 2).min(n / 32)).max(2);
     let prefix = Prefix::new(&clean);
     let mut l = 2;
@@ -185,20 +215,24 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
         let h = l / 2;
         let nb = if n >= l { (n - l) / h + 1 } else { 0 };
         let means: Vec<f64> = (0..nb).map(|j| prefix.mean(j * h, j * h + l, l / 2)).collect();
-        let base = running_median(&means, WINDOW_BLOCKS);
-        let r: Vec<f64> = means.iter().zip(&base).map(|(a, b)| a - b).collect();
-        let s = robust_scale(&r).max(floor(l));
+        let (two, r) = residuals(&means, half, 1);
+        let s = robust_scale(&two).max(floor(l));
         let kap = kappa(n_valid as f64 / l as f64);
+        let mut stat = ScaleStat { len: l, sigma_dps: s, threshold: kap, flagged: 0, max_z: 0.0 };
         if s > 0.0 {
             for (j, v) in r.iter().enumerate() {
-                if v.abs() > kap * s {
-                    cores.push(Core { start: j * h, end: j * h + l, scale: l, z: v.abs() / s });
+                let z = v.abs() / s;
+                stat.max_z = stat.max_z.max(z);
+                if z > kap {
+                    stat.flagged += 1;
+                    cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false });
                 }
             }
         }
+        out.scales.push(stat);
         l *= 2;
     }
-    cores.sort_by(|a, b| b.z.total_cmp(&a.z));
+    cores.sort_by(|a, b| b.burst.cmp(&a.burst).then(b.z.total_cmp(&a.z)));
 
     // Each core, strongest first, grown into an excursion and judged.
     let mut ctx = Ctx { x: &despiked, prefix: &prefix, n_valid, sigma: s1, steps: HashMap::new() };
@@ -210,7 +244,15 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
         }
         let Some(e) = ctx.refine(core, &covered) else { continue };
         covered[e.start..e.end].iter_mut().for_each(|c| *c = true);
-        let t = Transient { start: e.start, len: e.end - e.start, peak_dps: e.peak, mean_dps: e.mean, shape: e.shape };
+        let t = Transient {
+            start: e.start,
+            len: e.end - e.start,
+            peak_dps: e.peak,
+            mean_dps: e.mean,
+            shape: e.shape,
+            scale: core.scale,
+            z: core.z,
+        };
         let reason = if t.len > max_len {
             Some(Reason::TooLong { max_len })
         } else if let (Shape::Offset, Some(before), Some(after)) = (e.shape, e.before, e.after) {
@@ -254,6 +296,7 @@ struct Core {
     end: usize,
     scale: usize,
     z: f64,
+    burst: bool,
 }
 
 /// An excursion grown from a core.
@@ -374,6 +417,9 @@ impl Ctx<'_> {
         let k = sc.steps.iter().take_while(|s| s.1 >= thr).filter(|s| s.0 < a || s.0 > b).count();
         let lambda = k as f64 / n_valid as f64;
         let expected = k as f64 * (1.0 - (-lambda * t.len as f64).exp());
+        if std::env::var_os("TRANSIENTS_DEBUG").is_some() {
+            eprintln!("step test at {} +{}: h {h}, thr {thr:.3e} (scan {:.3e}), {} steps in all, {k} others, E {expected:.3}", t.start, t.len, sc.threshold, sc.steps.len());
+        }
         (expected >= STEP_PAIR_ALPHA).then_some(Reason::StepProcess { other_steps: k, expected_pairs: expected })
     }
 }
@@ -562,15 +608,17 @@ impl Prefix {
     }
 }
 
-/// The running median of `v` over `k` (odd) points centred on each, NaN skipped. At each end the series is
-/// continued by its point reflection about the end value (`2 v[0] - v[j]`), which keeps a ramp, a step near the
-/// end and a random walk on their course where a truncated window would bend towards the inside.
-fn running_median(v: &[f64], k: usize) -> Vec<f64> {
+/// The running medians of `v` on each side of every point: over offsets `-h..-e` (left) and `e+1..=h` (right),
+/// NaN skipped. The point itself and the `e` on each side that share samples with it (overlapping blocks) are
+/// left out, so a point is always compared with values it does not contain: where the series is locally monotone
+/// (a ramp, a drift that dominates the noise) a median that included it would return the point itself, a residual
+/// of exactly 0 whatever the noise. At each end the series is continued by its point reflection about the end
+/// value (`2 v[0] - v[j]`), which keeps a ramp, a step near the end and a random walk on their course.
+fn side_medians(v: &[f64], h: usize, e: usize) -> (Vec<f64>, Vec<f64>) {
     let n = v.len();
-    let h = k / 2;
     let (Some(first), Some(last)) = (v.iter().position(|x| x.is_finite()), v.iter().rposition(|x| x.is_finite()))
     else {
-        return vec![f64::NAN; n];
+        return (vec![f64::NAN; n], vec![f64::NAN; n]);
     };
     let (pa, pb) = (v[first], v[last]);
     let at = |j: isize| -> f64 {
@@ -592,40 +640,66 @@ fn running_median(v: &[f64], k: usize) -> Vec<f64> {
             }
         }
     };
-    let min_count = (k / 4).max(1);
-    let mut win: Vec<f64> = Vec::with_capacity(k + 1);
-    let insert = |win: &mut Vec<f64>, x: f64| {
-        if x.is_finite() {
-            let p = win.partition_point(|a| a.total_cmp(&x).is_lt());
-            win.insert(p, x);
-        }
-    };
-    let remove = |win: &mut Vec<f64>, x: f64| {
-        if x.is_finite() {
-            let p = win.partition_point(|a| a.total_cmp(&x).is_lt());
-            win.remove(p);
-        }
-    };
-    let h = h as isize;
-    for j in -h..h {
-        insert(&mut win, at(j));
-    }
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n as isize {
-        insert(&mut win, at(i + h));
-        let c = win.len();
-        out.push(if c >= min_count && v[i as usize].is_finite() {
-            if c % 2 == 1 {
-                win[c / 2]
-            } else {
-                0.5 * (win[c / 2 - 1] + win[c / 2])
+    let (h, e) = (h as isize, e as isize);
+    let min_count = ((h - e) as usize / 4).max(1);
+    let sliding = |lo: isize, hi: isize| -> Vec<f64> {
+        let mut win: Vec<f64> = Vec::with_capacity((hi - lo + 2) as usize);
+        let insert = |win: &mut Vec<f64>, x: f64| {
+            if x.is_finite() {
+                let p = win.partition_point(|a| a.total_cmp(&x).is_lt());
+                win.insert(p, x);
             }
-        } else {
-            f64::NAN
-        });
-        remove(&mut win, at(i - h));
+        };
+        let remove = |win: &mut Vec<f64>, x: f64| {
+            if x.is_finite() {
+                let p = win.partition_point(|a| a.total_cmp(&x).is_lt());
+                win.remove(p);
+            }
+        };
+        for j in lo..=hi {
+            insert(&mut win, at(j));
+        }
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n as isize {
+            let c = win.len();
+            out.push(if c >= min_count && v[i as usize].is_finite() {
+                if c % 2 == 1 {
+                    win[c / 2]
+                } else {
+                    0.5 * (win[c / 2 - 1] + win[c / 2])
+                }
+            } else {
+                f64::NAN
+            });
+            remove(&mut win, at(i + lo));
+            insert(&mut win, at(i + hi + 1));
+        }
+        out
+    };
+    (sliding(-h, -e - 1), sliding(e + 1, h))
+}
+
+/// Residuals of `v` against its two sides (see [`side_medians`]): `(two_sided, both)`. `two_sided` is `v` less
+/// the mean of the two side medians: its robust scale is the scale's noise (a step adds to it only at the few
+/// points next to it). `both` is how far `v` stands out from both sides in the same direction (the smaller of
+/// the two differences), 0 where it lies between them: a bump stands out from both sides, a step from one, a
+/// ramp from the two in opposite directions. With one side missing (a gap), the other decides.
+fn residuals(v: &[f64], h: usize, e: usize) -> (Vec<f64>, Vec<f64>) {
+    let (left, right) = side_medians(v, h, e);
+    let mut two = Vec::with_capacity(v.len());
+    let mut both = Vec::with_capacity(v.len());
+    for ((x, l), r) in v.iter().zip(&left).zip(&right) {
+        let (dl, dr) = (x - l, x - r);
+        let (t, b) = match (dl.is_finite(), dr.is_finite()) {
+            (true, true) => (x - 0.5 * (l + r), if dl * dr > 0.0 { dl.signum() * dl.abs().min(dr.abs()) } else { 0.0 }),
+            (true, false) => (dl, dl),
+            (false, true) => (dr, dr),
+            (false, false) => (f64::NAN, f64::NAN),
+        };
+        two.push(t);
+        both.push(b);
     }
-    out
+    (two, both)
 }
 
 /// A robust scale of the finite values of `r`: the larger of 1.4826 MAD and the mean absolute deviation of the
