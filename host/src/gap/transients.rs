@@ -23,6 +23,10 @@ const RETURN_FRACTION: f64 = 0.5;
 /// An offset is explained by the record's own steps when the expected number of pairs of steps as close as its
 /// duration is at least this.
 const STEP_PAIR_ALPHA: f64 = 0.05;
+/// The step count's threshold at a MOSUM window of `m` independent windows, in robust scales of the MOSUM:
+/// `max(FLOOR, sqrt(2 ln m) - 1)`, per window rather than family-wise: a process's steps as large as a marginal
+/// event are counted, and noise alone gives a few, whose pairs are not to be expected (`~4 k^2 / m`).
+const STEP_KAPPA_FLOOR: f64 = 3.5;
 /// Fewest valid samples a part needs to be scanned.
 const MIN_SAMPLES: usize = 2 * WINDOW_BLOCKS + 1;
 /// Gaussian consistency of 1.4826 MAD.
@@ -409,7 +413,7 @@ impl Ctx<'_> {
     /// The step-process test of an offset: steps at least half its size elsewhere in the part, found by a MOSUM
     /// at a quarter of its duration; explained when pairs of them as close as its duration are to be expected.
     fn step_process(&mut self, t: &Transient) -> Option<Reason> {
-        let h = prev_pow2((t.len / 4).max(1));
+        let h = t.scale.min(prev_pow2((t.len / 2).max(1)));
         let (prefix, n_valid) = (self.prefix, self.n_valid);
         let sc = self.steps.entry(h).or_insert_with(|| step_scan(prefix, n_valid, h));
         let thr = sc.threshold.max(0.5 * t.mean_dps.abs());
@@ -432,7 +436,8 @@ fn step_scan(prefix: &Prefix, n_valid: usize, h: usize) -> StepScan {
     let grid: Vec<usize> = if n >= 2 * h { (h..=n - h).step_by(stride).collect() } else { Vec::new() };
     let dv: Vec<f64> =
         grid.iter().map(|&t| prefix.mean(t, t + h, h.div_ceil(2)) - prefix.mean(t - h, t, h.div_ceil(2))).collect();
-    let threshold = kappa(n_valid as f64 / h as f64) * robust_scale(&dv);
+    let m = (n_valid as f64 / h as f64).max(2.0);
+    let threshold = ((2.0 * m.ln()).sqrt() - 1.0).max(STEP_KAPPA_FLOOR) * robust_scale(&dv);
     let mut cand: Vec<usize> = (0..grid.len()).filter(|&i| dv[i].abs() > threshold).collect();
     cand.sort_by(|&a, &b| dv[b].abs().total_cmp(&dv[a].abs()));
     let mut steps: Vec<(usize, f64)> = Vec::new();
