@@ -12,4 +12,5 @@ mod reference_adis;
 mod reference_nbs14;
 mod reference_stable32;
 mod sim_closed_form;
+mod transients;
 mod util;

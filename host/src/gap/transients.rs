@@ -17,12 +17,21 @@ const KAPPA_FLOOR: f64 = 5.5;
 /// Family-wise false-alarm probability of the burst test over a part.
 const BURST_ALPHA: f64 = 1e-3;
 /// Fewest large samples in a burst.
-const MIN_BURST_SPIKES: usize = 3;
+const MIN_BURST_SPIKES: usize = 2;
+/// A large sample at the end of a burst stands apart from it beyond this many median gaps of the burst.
+const BURST_TRIM_GAPS: usize = 8;
 /// An offset whose two sides differ by more than this fraction of its mean does not return: a level change.
 const RETURN_FRACTION: f64 = 0.5;
 /// An offset is explained by the record's own steps when the expected number of pairs of steps as close as its
 /// duration is at least this.
 const STEP_PAIR_ALPHA: f64 = 0.05;
+/// The step count's threshold at a MOSUM window of `m` independent windows, in robust scales of the MOSUM:
+/// `max(FLOOR, sqrt(2 ln m))`, about where noise alone gives one step in the part.
+const STEP_KAPPA_FLOOR: f64 = 3.5;
+/// The cap on one sample's energy, in squared per-sample scales.
+const ENERGY_CAP: f64 = 9.0;
+/// The shortest block whose energy is tested, samples: shorter bursts are found by their large samples.
+const MIN_ENERGY_BLOCK: usize = 8;
 /// Fewest valid samples a part needs to be scanned.
 const MIN_SAMPLES: usize = 2 * WINDOW_BLOCKS + 1;
 /// Gaussian consistency of 1.4826 MAD.
@@ -51,6 +60,10 @@ pub struct Transient {
     pub mean_dps: f64,
     /// Offset or burst.
     pub shape: Shape,
+    /// The block length at which it stands out most, samples (1: a burst of large samples).
+    pub scale: usize,
+    /// How far it stands out there, in robust scales of that block length (for a burst, its largest sample's).
+    pub z: f64,
 }
 
 impl Transient {
@@ -111,6 +124,27 @@ pub struct Scan {
     pub quantum_dps: f64,
     /// The longest event accepted, samples.
     pub max_len: usize,
+    /// Each block length scanned.
+    pub scales: Vec<ScaleStat>,
+}
+
+/// One block length of the scan.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ScaleStat {
+    /// Block length, samples.
+    pub len: usize,
+    /// Robust scale of the block means about their running median, deg/s.
+    pub sigma_dps: f64,
+    /// The threshold, in those scales.
+    pub threshold: f64,
+    /// Blocks beyond it.
+    pub flagged: usize,
+    /// The largest |block mean - baseline|, in those scales.
+    pub max_z: f64,
+    /// Blocks whose energy (mean squared deviation) stands out beyond the threshold.
+    pub energy_flagged: usize,
+    /// The largest energy excess, in robust scales.
+    pub energy_max_z: f64,
 }
 
 impl Scan {
@@ -123,6 +157,7 @@ impl Scan {
             sigma_dps: f64::NAN,
             quantum_dps: 0.0,
             max_len: 0,
+            scales: Vec::new(),
         }
     }
 }
@@ -141,9 +176,9 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
     out.max_len = max_len;
 
     // Scale 1: each sample against the running median of its neighbours.
-    let b1 = running_median(x, WINDOW_BLOCKS);
-    let r1: Vec<f64> = x.iter().zip(&b1).map(|(a, b)| a - b).collect();
-    let s1_raw = robust_scale(&r1);
+    let half = WINDOW_BLOCKS / 2;
+    let (r1_two, r1) = residuals(x, half, 0);
+    let s1_raw = robust_scale(&r1_two);
     // Quantisation error averages out in a block when the noise spans half a step or more (Widrow); else a block
     // mean can sit up to a step from its neighbours whatever its length.
     let dithered = s1_raw >= 0.5 * q;
@@ -168,40 +203,84 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
     let mut despiked = x.to_vec();
     let mut clean = x.to_vec();
     for &i in &exceed {
+        // The side nearer to the sample: x less its residual against that side.
+        let fill = x[i] - r1[i];
         if !in_burst[i] {
-            despiked[i] = b1[i];
+            despiked[i] = fill;
             out.spikes += 1;
         }
-        clean[i] = b1[i];
+        clean[i] = fill;
     }
 
     // Coarse scales: block means against their running median.
     let mut cores: Vec<Core> =
-        bursts.iter().map(|&(a, b)| Core { start: a, end: b + 1, scale: 1, z: f64::INFINITY }).collect();
+        bursts
+            .iter()
+            .map(|&(a, b)| {
+                let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
+                Core { start: a, end: b + 1, scale: 1, z, burst: true }
+            })
+            .collect();
     let l_max = prev_pow2((max_len / 2).min(n / 32)).max(2);
     let prefix = Prefix::new(&clean);
+    // The energy of each sample against both its sides, in per-sample scales, capped so that no single sample
+    // (a spike below the spike threshold) can make a block stand out; only where the noise dithers the lattice
+    // (else the flips between two codes come and go with the analog level).
+    let energy = dithered.then(|| {
+        let (_, both) = residuals(x, half, 0);
+        let u: Vec<f64> = both.iter().map(|v| (v / s1).powi(2).min(ENERGY_CAP)).collect();
+        Prefix::new(&u)
+    });
     let mut l = 2;
     while l <= l_max {
         let h = l / 2;
         let nb = if n >= l { (n - l) / h + 1 } else { 0 };
         let means: Vec<f64> = (0..nb).map(|j| prefix.mean(j * h, j * h + l, l / 2)).collect();
-        let base = running_median(&means, WINDOW_BLOCKS);
-        let r: Vec<f64> = means.iter().zip(&base).map(|(a, b)| a - b).collect();
-        let s = robust_scale(&r).max(floor(l));
+        let (two, r) = residuals(&means, half, 1);
+        let s = robust_scale(&two).max(floor(l));
         let kap = kappa(n_valid as f64 / l as f64);
+        let mut stat = ScaleStat {
+            len: l,
+            sigma_dps: s,
+            threshold: kap,
+            flagged: 0,
+            max_z: 0.0,
+            energy_flagged: 0,
+            energy_max_z: 0.0,
+        };
         if s > 0.0 {
             for (j, v) in r.iter().enumerate() {
-                if v.abs() > kap * s {
-                    cores.push(Core { start: j * h, end: j * h + l, scale: l, z: v.abs() / s });
+                let z = v.abs() / s;
+                stat.max_z = stat.max_z.max(z);
+                if z > kap {
+                    stat.flagged += 1;
+                    cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false });
                 }
             }
         }
+        if let Some(energy) = energy.as_ref().filter(|_| l >= MIN_ENERGY_BLOCK) {
+            // The cube root of a mean of squares is close to Gaussian (Wilson-Hilferty).
+            let g: Vec<f64> = (0..nb).map(|j| energy.mean(j * h, j * h + l, l / 2).cbrt()).collect();
+            let (two, r) = residuals(&g, half, 1);
+            let s = robust_scale(&two);
+            if s > 0.0 {
+                for (j, v) in r.iter().enumerate() {
+                    let z = v / s;
+                    stat.energy_max_z = stat.energy_max_z.max(z);
+                    if z > kap {
+                        stat.energy_flagged += 1;
+                        cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false });
+                    }
+                }
+            }
+        }
+        out.scales.push(stat);
         l *= 2;
     }
-    cores.sort_by(|a, b| b.z.total_cmp(&a.z));
+    cores.sort_by(|a, b| b.burst.cmp(&a.burst).then(b.z.total_cmp(&a.z)));
 
     // Each core, strongest first, grown into an excursion and judged.
-    let mut ctx = Ctx { x: &despiked, prefix: &prefix, n_valid, sigma: s1, steps: HashMap::new() };
+    let mut ctx = Ctx { x: &despiked, raw: x, prefix: &prefix, n_valid, sigma: s1, steps: HashMap::new() };
     let mut covered = vec![false; n];
     let mut found: Vec<(Transient, Option<Reason>)> = Vec::new();
     for core in &cores {
@@ -210,7 +289,15 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
         }
         let Some(e) = ctx.refine(core, &covered) else { continue };
         covered[e.start..e.end].iter_mut().for_each(|c| *c = true);
-        let t = Transient { start: e.start, len: e.end - e.start, peak_dps: e.peak, mean_dps: e.mean, shape: e.shape };
+        let t = Transient {
+            start: e.start,
+            len: e.end - e.start,
+            peak_dps: e.peak,
+            mean_dps: e.mean,
+            shape: e.shape,
+            scale: core.scale,
+            z: core.z,
+        };
         let reason = if t.len > max_len {
             Some(Reason::TooLong { max_len })
         } else if let (Shape::Offset, Some(before), Some(after)) = (e.shape, e.before, e.after) {
@@ -254,6 +341,7 @@ struct Core {
     end: usize,
     scale: usize,
     z: f64,
+    burst: bool,
 }
 
 /// An excursion grown from a core.
@@ -275,7 +363,10 @@ struct StepScan {
 }
 
 struct Ctx<'a> {
+    /// The record with its isolated spikes replaced.
     x: &'a [f64],
+    /// The record.
+    raw: &'a [f64],
     prefix: &'a Prefix,
     n_valid: usize,
     sigma: f64,
@@ -328,30 +419,25 @@ impl Ctx<'_> {
                 d.iter().map(|v| if v.is_finite() { m.signum() * v - k } else { 0.0 }).collect()
             }
             Shape::Burst => {
-                let h = (0.5 * (0.8 * s + ma)).clamp(s, 1.5 * s);
-                d.iter().map(|v| if v.is_finite() { v.abs() - h } else { 0.0 }).collect()
+                // The energy of each deviation in per-sample scales, capped at 16 (4 sigma) so a lone spike cannot
+                // bridge a long stretch of noise, less a reference between the noise's energy (1) and the core's.
+                let u = |v: f64| (v / s).powi(2).min(16.0);
+                let e_core = core_d.iter().map(|&v| u(v)).sum::<f64>() / core_d.len() as f64;
+                let c = (0.5 * (1.0 + e_core)).clamp(2.0, 4.0);
+                d.iter().map(|&v| if v.is_finite() { u(v) - c } else { 0.0 }).collect()
             }
         };
-        let mid = (core.start + core.end) / 2 - w0;
-        let (mut best_l, mut acc, mut lo) = (f64::NEG_INFINITY, 0.0, mid);
-        for i in (0..=mid).rev() {
-            acc += g[i];
-            if acc > best_l {
-                best_l = acc;
-                lo = i;
-            }
-        }
-        let (mut best_r, mut acc, mut hi) = (0.0, 0.0, mid);
-        for (i, gi) in g.iter().enumerate().skip(mid + 1) {
-            acc += gi;
-            if acc > best_r {
-                best_r = acc;
-                hi = i;
-            }
-        }
-        let span = &d[lo..=hi];
-        let fin: Vec<f64> = span.iter().copied().filter(|v| v.is_finite()).collect();
-        let peak = fin.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let (a, b) = (core.start - w0, core.end - w0);
+        let (lo, hi) = if core.burst {
+            // A burst's large samples belong together (the Poisson test said so): the whole span, extended outward
+            // over weaker edges.
+            (a - best_run(g[..a].iter().rev()), b - 1 + best_run(g[b..].iter()))
+        } else {
+            best_interval(&g, a, b)
+        };
+        let fin: Vec<f64> = d[lo..=hi].iter().copied().filter(|v| v.is_finite()).collect();
+        // The peak from the record itself: spikes within the excursion are part of it.
+        let peak = (w0 + lo..=w0 + hi).map(|i| (self.raw[i] - base(i)).abs()).filter(|v| v.is_finite()).fold(0.0, f64::max);
         Some(Grown {
             start: w0 + lo,
             end: w0 + hi + 1,
@@ -364,18 +450,70 @@ impl Ctx<'_> {
     }
 
     /// The step-process test of an offset: steps at least half its size elsewhere in the part, found by a MOSUM
-    /// at a quarter of its duration; explained when pairs of them as close as its duration are to be expected.
+    /// at the offset's block length and at 2, 4 and 8 times it (a process's steps, each as marginal as the offset at
+    /// its own length, stand out at a longer window when they are far enough apart); explained when, at one of
+    /// them, pairs of such steps as close as the offset's duration are to be expected.
     fn step_process(&mut self, t: &Transient) -> Option<Reason> {
-        let h = prev_pow2((t.len / 4).max(1));
-        let (prefix, n_valid) = (self.prefix, self.n_valid);
-        let sc = self.steps.entry(h).or_insert_with(|| step_scan(prefix, n_valid, h));
-        let thr = sc.threshold.max(0.5 * t.mean_dps.abs());
-        let (a, b) = (t.start.saturating_sub(2 * h), t.end() + 2 * h);
-        let k = sc.steps.iter().take_while(|s| s.1 >= thr).filter(|s| s.0 < a || s.0 > b).count();
-        let lambda = k as f64 / n_valid as f64;
-        let expected = k as f64 * (1.0 - (-lambda * t.len as f64).exp());
+        let n = self.x.len();
+        let h0 = t.scale.min(prev_pow2((t.len / 2).max(1)));
+        let mut best: Option<(usize, f64)> = None;
+        for h in [h0, 2 * h0, 4 * h0, 8 * h0] {
+            if 16 * h > n {
+                break;
+            }
+            let (prefix, n_valid) = (self.prefix, self.n_valid);
+            let sc = self.steps.entry(h).or_insert_with(|| step_scan(prefix, n_valid, h));
+            let thr = sc.threshold.max(0.5 * t.mean_dps.abs());
+            let (a, b) = (t.start.saturating_sub(2 * h), t.end() + 2 * h);
+            let k = sc.steps.iter().take_while(|s| s.1 >= thr).filter(|s| s.0 < a || s.0 > b).count();
+            let lambda = k as f64 / self.n_valid as f64;
+            let expected = k as f64 * (1.0 - (-lambda * t.len as f64).exp());
+            if best.is_none_or(|b| expected > b.1) {
+                best = Some((k, expected));
+            }
+        }
+        let (k, expected) = best?;
         (expected >= STEP_PAIR_ALPHA).then_some(Reason::StepProcess { other_steps: k, expected_pairs: expected })
     }
+}
+
+/// How many of `g`'s leading values to take for the largest sum (0 when no prefix sum is positive).
+fn best_run<'a>(g: impl Iterator<Item = &'a f64>) -> usize {
+    let (mut acc, mut best, mut len) = (0.0, 0.0, 0);
+    for (i, v) in g.enumerate() {
+        acc += v;
+        if acc > best {
+            best = acc;
+            len = i + 1;
+        }
+    }
+    len
+}
+
+/// The interval `[lo, hi]` of largest sum of `g` among those that overlap `[a, b)`: for each point p of the core,
+/// the best sum ending at p plus the best starting at p (Kadane both ways), O(len).
+fn best_interval(g: &[f64], a: usize, b: usize) -> (usize, usize) {
+    let n = g.len();
+    let mut left = vec![(0.0, 0usize); n];
+    let mut run = (f64::NEG_INFINITY, 0usize);
+    for i in 0..n {
+        run = if run.0 > 0.0 { (run.0 + g[i], run.1) } else { (g[i], i) };
+        left[i] = run;
+    }
+    let mut right = vec![(0.0, 0usize); n];
+    let mut run = (f64::NEG_INFINITY, n - 1);
+    for i in (0..n).rev() {
+        run = if run.0 > 0.0 { (run.0 + g[i], run.1) } else { (g[i], i) };
+        right[i] = run;
+    }
+    let mut best = (f64::NEG_INFINITY, a, a);
+    for p in a..b.min(n) {
+        let sum = left[p].0 + right[p].0 - g[p];
+        if sum > best.0 {
+            best = (sum, left[p].1, right[p].1);
+        }
+    }
+    (best.1, best.2)
 }
 
 /// The MOSUM scan of the cleaned series at window `h`: `D(t) = mean(x[t..t+h]) - mean(x[t-h..t])` on a grid of
@@ -386,7 +524,8 @@ fn step_scan(prefix: &Prefix, n_valid: usize, h: usize) -> StepScan {
     let grid: Vec<usize> = if n >= 2 * h { (h..=n - h).step_by(stride).collect() } else { Vec::new() };
     let dv: Vec<f64> =
         grid.iter().map(|&t| prefix.mean(t, t + h, h.div_ceil(2)) - prefix.mean(t - h, t, h.div_ceil(2))).collect();
-    let threshold = kappa(n_valid as f64 / h as f64) * robust_scale(&dv);
+    let m = (n_valid as f64 / h as f64).max(2.0);
+    let threshold = (2.0 * m.ln()).sqrt().max(STEP_KAPPA_FLOOR) * robust_scale(&dv);
     let mut cand: Vec<usize> = (0..grid.len()).filter(|&i| dv[i].abs() > threshold).collect();
     cand.sort_by(|&a, &b| dv[b].abs().total_cmp(&dv[a].abs()));
     let mut steps: Vec<(usize, f64)> = Vec::new();
@@ -433,6 +572,15 @@ fn find_bursts(ex: &[usize], n_valid: usize, max_len: usize, p_floor: f64) -> (V
                 _ => spans.push((a, b)),
             }
         }
+        for span in &mut spans {
+            let t = trim_span(ex, *span, p);
+            if std::env::var_os("TRANSIENTS_DEBUG").is_some() {
+                let lo = ex.partition_point(|&i| i < span.0);
+                let hi = ex.partition_point(|&i| i <= span.1);
+                eprintln!("burst span {span:?} -> {t:?}, p {p:.3e}: {:?}", &ex[lo..hi]);
+            }
+            *span = t;
+        }
         let mut inside = 0;
         let mut s = 0;
         for &i in ex {
@@ -452,6 +600,42 @@ fn find_bursts(ex: &[usize], n_valid: usize, max_len: usize, p_floor: f64) -> (V
     (spans, p)
 }
 
+/// A burst span reduced to its most significant run of large samples: of every run of consecutive ones, the one
+/// whose count is least likely within its length at the null rate `p` (a window that starts at a lone spike, or
+/// at two that happen to be close, holds the burst too, and they are not part of it). Spans of more than 256 large
+/// samples (dense runs) only lose ends that stand apart by more than [`BURST_TRIM_GAPS`] median gaps.
+fn trim_span(ex: &[usize], (a, b): (usize, usize), p: f64) -> (usize, usize) {
+    let lo = ex.partition_point(|&i| i < a);
+    let hi = ex.partition_point(|&i| i <= b);
+    let mut pts = &ex[lo..hi];
+    if pts.len() < 3 {
+        return (a, b);
+    }
+    if pts.len() <= 256 {
+        let mut best = (f64::INFINITY, 0, pts.len() - 1);
+        for i in 0..pts.len() {
+            for j in i + 1..pts.len() {
+                let w = pts[j] - pts[i] + 1;
+                let score = ln_poisson_sf(p * (w - 1) as f64, j - i);
+                if score < best.0 {
+                    best = (score, i, j);
+                }
+            }
+        }
+        return (pts[best.1], pts[best.2]);
+    }
+    let mut gaps: Vec<usize> = pts.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort_unstable();
+    let limit = BURST_TRIM_GAPS * gaps[gaps.len() / 2].max(1);
+    while pts.len() > 2 && pts[1] - pts[0] > limit {
+        pts = &pts[1..];
+    }
+    while pts.len() > 2 && pts[pts.len() - 1] - pts[pts.len() - 2] > limit {
+        pts = &pts[..pts.len() - 1];
+    }
+    (pts[0], pts[pts.len() - 1])
+}
+
 /// The fewest large samples within `w` that the null rate `p` makes unexpected at level `alpha`.
 fn burst_count(n_valid: usize, p: f64, w: usize, alpha: f64) -> Option<usize> {
     let mu = p * (w - 1) as f64;
@@ -462,21 +646,25 @@ fn burst_count(n_valid: usize, p: f64, w: usize, alpha: f64) -> Option<usize> {
 
 /// P(Poisson(mu) >= k).
 fn poisson_sf(mu: f64, k: usize) -> f64 {
+    ln_poisson_sf(mu, k).exp().min(1.0)
+}
+
+/// ln P(Poisson(mu) >= k), accurate far in the tail: the first term's logarithm plus that of the ratio sum.
+fn ln_poisson_sf(mu: f64, k: usize) -> f64 {
     if k == 0 {
-        return 1.0;
-    }
-    if mu <= 0.0 {
         return 0.0;
     }
-    let mut term = (-mu + k as f64 * mu.ln() - statrs::function::gamma::ln_gamma(k as f64 + 1.0)).exp();
-    let mut sum = term;
-    let mut j = k;
+    if mu <= 0.0 {
+        return f64::NEG_INFINITY;
+    }
+    let lead = -mu + k as f64 * mu.ln() - statrs::function::gamma::ln_gamma(k as f64 + 1.0);
+    let (mut term, mut sum, mut j) = (1.0, 1.0, k);
     while term > sum * 1e-17 && j < k + 100_000 {
         j += 1;
         term *= mu / j as f64;
         sum += term;
     }
-    sum.min(1.0)
+    (lead + sum.ln()).min(0.0)
 }
 
 /// Events sorted by start, merged when the gap between two is shorter than the shorter of them, then padded by
@@ -562,15 +750,17 @@ impl Prefix {
     }
 }
 
-/// The running median of `v` over `k` (odd) points centred on each, NaN skipped. At each end the series is
-/// continued by its point reflection about the end value (`2 v[0] - v[j]`), which keeps a ramp, a step near the
-/// end and a random walk on their course where a truncated window would bend towards the inside.
-fn running_median(v: &[f64], k: usize) -> Vec<f64> {
+/// The running medians of `v` on each side of every point: over offsets `-h..-e` (left) and `e+1..=h` (right),
+/// NaN skipped. The point itself and the `e` on each side that share samples with it (overlapping blocks) are
+/// left out, so a point is always compared with values it does not contain: where the series is locally monotone
+/// (a ramp, a drift that dominates the noise) a median that included it would return the point itself, a residual
+/// of exactly 0 whatever the noise. At each end the series is continued by its point reflection about the end
+/// value (`2 v[0] - v[j]`), which keeps a ramp, a step near the end and a random walk on their course.
+fn side_medians(v: &[f64], h: usize, e: usize) -> (Vec<f64>, Vec<f64>) {
     let n = v.len();
-    let h = k / 2;
     let (Some(first), Some(last)) = (v.iter().position(|x| x.is_finite()), v.iter().rposition(|x| x.is_finite()))
     else {
-        return vec![f64::NAN; n];
+        return (vec![f64::NAN; n], vec![f64::NAN; n]);
     };
     let (pa, pb) = (v[first], v[last]);
     let at = |j: isize| -> f64 {
@@ -592,40 +782,66 @@ fn running_median(v: &[f64], k: usize) -> Vec<f64> {
             }
         }
     };
-    let min_count = (k / 4).max(1);
-    let mut win: Vec<f64> = Vec::with_capacity(k + 1);
-    let insert = |win: &mut Vec<f64>, x: f64| {
-        if x.is_finite() {
-            let p = win.partition_point(|a| a.total_cmp(&x).is_lt());
-            win.insert(p, x);
-        }
-    };
-    let remove = |win: &mut Vec<f64>, x: f64| {
-        if x.is_finite() {
-            let p = win.partition_point(|a| a.total_cmp(&x).is_lt());
-            win.remove(p);
-        }
-    };
-    let h = h as isize;
-    for j in -h..h {
-        insert(&mut win, at(j));
-    }
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n as isize {
-        insert(&mut win, at(i + h));
-        let c = win.len();
-        out.push(if c >= min_count && v[i as usize].is_finite() {
-            if c % 2 == 1 {
-                win[c / 2]
-            } else {
-                0.5 * (win[c / 2 - 1] + win[c / 2])
+    let (h, e) = (h as isize, e as isize);
+    let min_count = ((h - e) as usize / 4).max(1);
+    let sliding = |lo: isize, hi: isize| -> Vec<f64> {
+        let mut win: Vec<f64> = Vec::with_capacity((hi - lo + 2) as usize);
+        let insert = |win: &mut Vec<f64>, x: f64| {
+            if x.is_finite() {
+                let p = win.partition_point(|a| a.total_cmp(&x).is_lt());
+                win.insert(p, x);
             }
-        } else {
-            f64::NAN
-        });
-        remove(&mut win, at(i - h));
+        };
+        let remove = |win: &mut Vec<f64>, x: f64| {
+            if x.is_finite() {
+                let p = win.partition_point(|a| a.total_cmp(&x).is_lt());
+                win.remove(p);
+            }
+        };
+        for j in lo..=hi {
+            insert(&mut win, at(j));
+        }
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n as isize {
+            let c = win.len();
+            out.push(if c >= min_count && v[i as usize].is_finite() {
+                if c % 2 == 1 {
+                    win[c / 2]
+                } else {
+                    0.5 * (win[c / 2 - 1] + win[c / 2])
+                }
+            } else {
+                f64::NAN
+            });
+            remove(&mut win, at(i + lo));
+            insert(&mut win, at(i + hi + 1));
+        }
+        out
+    };
+    (sliding(-h, -e - 1), sliding(e + 1, h))
+}
+
+/// Residuals of `v` against its two sides (see [`side_medians`]): `(two_sided, both)`. `two_sided` is `v` less
+/// the mean of the two side medians: its robust scale is the scale's noise (a step adds to it only at the few
+/// points next to it). `both` is how far `v` stands out from both sides in the same direction (the smaller of
+/// the two differences), 0 where it lies between them: a bump stands out from both sides, a step from one, a
+/// ramp from the two in opposite directions. With one side missing (a gap), the other decides.
+fn residuals(v: &[f64], h: usize, e: usize) -> (Vec<f64>, Vec<f64>) {
+    let (left, right) = side_medians(v, h, e);
+    let mut two = Vec::with_capacity(v.len());
+    let mut both = Vec::with_capacity(v.len());
+    for ((x, l), r) in v.iter().zip(&left).zip(&right) {
+        let (dl, dr) = (x - l, x - r);
+        let (t, b) = match (dl.is_finite(), dr.is_finite()) {
+            (true, true) => (x - 0.5 * (l + r), if dl * dr > 0.0 { dl.signum() * dl.abs().min(dr.abs()) } else { 0.0 }),
+            (true, false) => (dl, dl),
+            (false, true) => (dr, dr),
+            (false, false) => (f64::NAN, f64::NAN),
+        };
+        two.push(t);
+        both.push(b);
     }
-    out
+    (two, both)
 }
 
 /// A robust scale of the finite values of `r`: the larger of 1.4826 MAD and the mean absolute deviation of the
