@@ -245,7 +245,9 @@ fn record(c: &Case, seed: u64) -> Vec<f64> {
 }
 
 fn describe(s: &Scan, fs: f64) -> String {
-    let one = |t: &Transient| format!("[{:.1} s +{:.1} s, peak {:.3e}, {:?}]", t.start as f64 / fs, t.len as f64 / fs, t.peak_dps, t.shape);
+    let one = |t: &Transient| {
+        format!("[{:.1} s +{:.1} s, peak {:.3e}, {:?}]", t.start as f64 / fs, t.len as f64 / fs, t.peak_dps, t.shape)
+    };
     let mut out = s.events.iter().map(one).collect::<Vec<_>>().join(" ");
     for l in &s.left_alone {
         out += &format!(" left alone {} {:?}", one(&l.excursion), l.reason);
@@ -334,7 +336,9 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
             (len, a)
         }
         Kind::Burst => ((uniform(&mut rng, 1.0, 5.0) * fs).max(12.0) as usize, uniform(&mut rng, 10.0, 30.0) * sigma),
-        Kind::Oscillation => ((uniform(&mut rng, 2.0, 20.0) * fs).max(16.0) as usize, uniform(&mut rng, 6.0, 15.0) * sigma),
+        Kind::Oscillation => {
+            ((uniform(&mut rng, 2.0, 20.0) * fs).max(16.0) as usize, uniform(&mut rng, 6.0, 15.0) * sigma)
+        }
     };
     let start = (uniform(&mut rng, 0.02, 0.98) * (n - len) as f64) as usize;
     let before = x.clone();
@@ -381,7 +385,12 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
     let level = around[around.len() / 2];
     let _ = peak;
     let peak = x[start..start + len].iter().map(|v| (v - level).abs()).fold(0.0, f64::max);
-    let what = format!("{kind:?} {:.1} s at {:.0} s, peak {:.1} sigma, fs {fs}", len as f64 / fs, start as f64 / fs, peak / sigma);
+    let what = format!(
+        "{kind:?} {:.1} s at {:.0} s, peak {:.1} sigma, fs {fs}",
+        len as f64 / fs,
+        start as f64 / fs,
+        peak / sigma
+    );
     (x, fs, Injected { kind, sigma, start, len, peak }, what)
 }
 
@@ -419,7 +428,11 @@ fn disturbances_are_found_and_placed() {
         };
         let ok = why.is_empty();
         let offsets = hit.first().map_or(String::new(), |e| {
-            format!(" (start {:+}, end {:+} samples)", e.start as i64 - inj.start as i64, e.end() as i64 - (inj.start + inj.len) as i64)
+            format!(
+                " (start {:+}, end {:+} samples)",
+                e.start as i64 - inj.start as i64,
+                e.end() as i64 - (inj.start + inj.len) as i64
+            )
         });
         let peak = hit.first().map_or(String::new(), |e| format!(", peak found {:.1} sigma", e.peak_dps / inj.sigma));
         println!("{} {what}{offsets}{peak}: {} {why}", if ok { "ok  " } else { "FAIL" }, describe(s, *fs));
@@ -526,7 +539,11 @@ fn cats_disturbance_is_found_on_every_axis() {
                 assert_eq!(hit.len(), 1, "gyro_{axis}: {:?}", s.events);
                 let e = hit[0];
                 // gyro_x shows it from its third sample (23:16:18).
-                assert!(e.start.abs_diff(at) <= 4, "gyro_{axis}: starts {} s from the disturbance", e.start as i64 - at as i64);
+                assert!(
+                    e.start.abs_diff(at) <= 4,
+                    "gyro_{axis}: starts {} s from the disturbance",
+                    e.start as i64 - at as i64
+                );
                 assert!((35..=100).contains(&e.len), "gyro_{axis}: {} s", e.len);
             }
         }

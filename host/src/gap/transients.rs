@@ -213,14 +213,13 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
     }
 
     // Coarse scales: block means against their running median.
-    let mut cores: Vec<Core> =
-        bursts
-            .iter()
-            .map(|&(a, b)| {
-                let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
-                Core { start: a, end: b + 1, scale: 1, z, burst: true }
-            })
-            .collect();
+    let mut cores: Vec<Core> = bursts
+        .iter()
+        .map(|&(a, b)| {
+            let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
+            Core { start: a, end: b + 1, scale: 1, z, burst: true }
+        })
+        .collect();
     let l_max = prev_pow2((max_len / 2).min(n / 32)).max(2);
     let prefix = Prefix::new(&clean);
     // The energy of each sample against both its sides, in per-sample scales, capped so that no single sample
@@ -437,7 +436,8 @@ impl Ctx<'_> {
         };
         let fin: Vec<f64> = d[lo..=hi].iter().copied().filter(|v| v.is_finite()).collect();
         // The peak from the record itself: spikes within the excursion are part of it.
-        let peak = (w0 + lo..=w0 + hi).map(|i| (self.raw[i] - base(i)).abs()).filter(|v| v.is_finite()).fold(0.0, f64::max);
+        let peak =
+            (w0 + lo..=w0 + hi).map(|i| (self.raw[i] - base(i)).abs()).filter(|v| v.is_finite()).fold(0.0, f64::max);
         Some(Grown {
             start: w0 + lo,
             end: w0 + hi + 1,
