@@ -6,7 +6,7 @@ use std::io::BufRead;
 use std::path::Path;
 
 use octavar::gap::transients::{mask, scan, Scan, Shape, Transient};
-use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
+use octavar_shared::sensor::{Channel, GENERIC};
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::temperature::Thermal;
 use octavar_shared::sim::{
@@ -14,32 +14,10 @@ use octavar_shared::sim::{
 };
 use rayon::prelude::*;
 
-use crate::util::data_dir;
+use crate::util::{base_adev, coarse_channel, data_dir, log_uniform, uniform};
 
 fn verbose() -> bool {
     std::env::var_os("TRANSIENTS_VERBOSE").is_some()
-}
-
-fn log_uniform(rng: &mut SimRng, lo: f64, hi: f64) -> f64 {
-    (lo.ln() + (hi / lo).ln() * rng.uniform()).exp()
-}
-
-fn uniform(rng: &mut SimRng, lo: f64, hi: f64) -> f64 {
-    lo + (hi - lo) * rng.uniform()
-}
-
-/// Allan deviation of the base terms at tau.
-fn base_adev(m: &GyroSim, tau: f64) -> f64 {
-    let f = 2.0 * std::f64::consts::LN_2 / std::f64::consts::PI;
-    (m.n_deg_per_rt_s.powi(2) / tau + f * m.b_dps.powi(2) + m.k_dps_per_rt_s.powi(2) * tau / 3.0).sqrt()
-}
-
-/// A generic 16-bit channel whose step is `q` deg/s.
-fn coarse_channel(q: f64) -> Channel {
-    let adc = Adc { bits: 16, vref_mv: 3300.0 };
-    let sens = adc.mv_per_code() / q;
-    let gyro = GyroModel { sensitivity_mv_per_dps: sens, null_mv: 1650.0, range_dps: 30000.0 * q, ..GENERIC };
-    Channel { gyro, front: FrontEnd::WIRE, adc }
 }
 
 /// The noise processes and effects of the vocabulary, each a process that the scan must leave alone.

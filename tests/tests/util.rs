@@ -2,6 +2,10 @@
 
 use std::path::PathBuf;
 
+use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
+use octavar_shared::sim::rng::SimRng;
+use octavar_shared::sim::GyroSim;
+
 /// The reference data folder: `OCTAVAR_DATA`, or `../shared/data` from the workspace root.
 #[allow(dead_code)]
 pub fn data_dir() -> Option<PathBuf> {
@@ -52,4 +56,32 @@ pub fn temp_dir(tag: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("create temp dir");
     dir
+}
+
+/// A draw log-uniform on [lo, hi] (the simulated cases' parameter ranges).
+#[allow(dead_code)]
+pub fn log_uniform(rng: &mut SimRng, lo: f64, hi: f64) -> f64 {
+    (lo.ln() + (hi / lo).ln() * rng.uniform()).exp()
+}
+
+/// A draw uniform on [lo, hi].
+#[allow(dead_code)]
+pub fn uniform(rng: &mut SimRng, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.uniform()
+}
+
+/// The closed-form Allan deviation of a model's base terms (N, B, K) at tau.
+#[allow(dead_code)]
+pub fn base_adev(m: &GyroSim, tau: f64) -> f64 {
+    let f = 2.0 * std::f64::consts::LN_2 / std::f64::consts::PI;
+    (m.n_deg_per_rt_s.powi(2) / tau + f * m.b_dps.powi(2) + m.k_dps_per_rt_s.powi(2) * tau / 3.0).sqrt()
+}
+
+/// A generic 16-bit channel whose step is `q` deg/s.
+#[allow(dead_code)]
+pub fn coarse_channel(q: f64) -> Channel {
+    let adc = Adc { bits: 16, vref_mv: 3300.0 };
+    let sens = adc.mv_per_code() / q;
+    let gyro = GyroModel { sensitivity_mv_per_dps: sens, null_mv: 1650.0, range_dps: 30000.0 * q, ..GENERIC };
+    Channel { gyro, front: FrontEnd::WIRE, adc }
 }
