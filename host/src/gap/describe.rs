@@ -76,7 +76,9 @@ pub fn shape_of(views: &[ViewGap], loc: &Location) -> Option<GapShape> {
     };
     let below = side(a.saturating_sub(2)..a);
     let above = side(b..(b + 2).min(v.points.len()));
-    let up = loc.sign == Sign::Above;
+    // The sign of the core itself: a window can sum to the other sign when the strong point is a narrow one.
+    let up = mean_diff >= 0.0;
+    let sign = if up { Sign::Above } else { Sign::Below };
     let stands = |other: Option<f64>| {
         other.is_some_and(|o| {
             let c = BUMP_CONTRAST.ln();
@@ -160,7 +162,7 @@ pub fn shape_of(views: &[ViewGap], loc: &Location) -> Option<GapShape> {
         view: loc.view,
         band_s: [lo, hi],
         band_hz: matches!(loc.view, ViewKind::Psd | ViewKind::Temperature).then_some(hz),
-        sign: loc.sign,
+        sign,
         z_rms: loc.z_rms,
         kind,
         ratio,
