@@ -416,7 +416,8 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
 }
 
 /// The base terms re-fitted on the OADEV less the resonance's exact Allan variance, without the points where the
-/// resonance makes up more than 80% of the Allan variance; the base model itself where that fit fails.
+/// resonance makes up more than 80% of the Allan variance, and without a ramp where the base fit has none; the
+/// base model itself where that fit fails.
 fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim {
     let fs = d.fs_hz;
     let pts: Vec<_> = oadev_points(d.rate_dps, fs)
@@ -432,7 +433,11 @@ fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim 
     if pts.len() < 3 {
         return d.base.clone();
     }
-    let cols = base_columns(&pts, fs, d.base.bandwidth_hz, d.base.q_deg > 0.0);
+    let mut cols = base_columns(&pts, fs, d.base.bandwidth_hz, d.base.q_deg > 0.0);
+    // No ramp the base fit did not have (as `refit_base`): an all-zero column is never used.
+    if d.base.r_dps_per_s == 0.0 {
+        cols[3].iter_mut().for_each(|v| *v = 0.0);
+    }
     match joint_fit(&pts, &cols) {
         Some(j) => with_base_terms(d.base, &j.theta),
         None => d.base.clone(),
