@@ -65,11 +65,14 @@ fn flips_at(x: &[f64], l: usize) -> Option<Flips> {
     })
 }
 
+/// A jump: sample index, signed size (deg/s), and whether the scan saw it (else it was put back).
+type Jump = (usize, f64, bool);
+
 /// The jumps with the ones the scan missed between two of the same sign put back: the scan keeps one jump of
 /// any two closer than two windows, so a short excursion shows one of its two jumps. Between consecutive jumps of
 /// one sign the missing opposite one is where the mean difference over windows bounded by the two (at most the
 /// scan's) is most opposite; its size is the opposite of the first's.
-fn repaired(x: &[f64], f: &Flips) -> Vec<(usize, f64)> {
+fn repaired(x: &[f64], f: &Flips) -> Vec<Jump> {
     let mut pre = Vec::with_capacity(x.len() + 1);
     let mut acc = 0.0;
     pre.push(0.0);
@@ -81,7 +84,7 @@ fn repaired(x: &[f64], f: &Flips) -> Vec<(usize, f64)> {
     let l = f.window;
     let mut out = Vec::with_capacity(f.jumps.len() * 2);
     for (i, &j) in f.jumps.iter().enumerate() {
-        out.push(j);
+        out.push((j.0, j.1, true));
         let Some(&next) = f.jumps.get(i + 1) else { continue };
         if j.1 * next.1 > 0.0 && next.0 > j.0 + 2 {
             let best = (j.0 + 1..next.0)
@@ -91,7 +94,7 @@ fn repaired(x: &[f64], f: &Flips) -> Vec<(usize, f64)> {
                 })
                 .max_by(|a, b| a.1.total_cmp(&b.1));
             if let Some((t, _)) = best {
-                out.push((t, -j.1));
+                out.push((t, -j.1, false));
             }
         }
     }
@@ -100,7 +103,7 @@ fn repaired(x: &[f64], f: &Flips) -> Vec<(usize, f64)> {
 
 /// The sizes of `jumps` measured again over the longest stretches their neighbours allow (up to 16 windows `l`
 /// each side, half a window kept clear of each jump), signed.
-fn refined_sizes(x: &[f64], jumps: &[(usize, f64)], l: usize) -> Vec<f64> {
+fn refined_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
     let cap = 16 * l;
     let margin = l / 2;
     (0..jumps.len())
@@ -125,8 +128,10 @@ fn refined_sizes(x: &[f64], jumps: &[(usize, f64)], l: usize) -> Vec<f64> {
 /// each pair alternates with probability 1/2; the window whose count is least likely so is kept, and the process
 /// counts when that binomial tail, times the windows tried, is below [`ALTERNATION_ALPHA`], there are at least
 /// [`MIN_JUMPS`] jumps, and their sizes, measured again over the longest stretches the neighbouring jumps allow,
-/// spread by at most [`MAX_SIZE_SPREAD`] (robust coefficient of variation). The step is their mean size. The state
-/// between two jumps is the sign of the jump into it; a dwell's mean in each state is that state's time over its
+/// spread by at most [`MAX_SIZE_SPREAD`] (robust coefficient of variation). The step is their mean size. Where two
+/// consecutive jumps have the same sign, the scan (which keeps one of two jumps closer than 2L) missed the one of
+/// a short excursion between them, and it is put back ([`repaired`]). The state between two jumps is the sign of
+/// the jump into it; a dwell's mean in each state is that state's time over its
 /// completed dwells (the first and last, cut by the record's ends, add time but no count), corrected for the
 /// excursions too short to be seen (about a window: each one merges two dwells of the other state into one,
 /// `d_obs = d / (e^{-c/d_low} + e^{-c/d_high} - 1)`, solved by iteration). The base terms are re-fitted on the record
@@ -155,21 +160,9 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
         return None;
     }
     let jumps = repaired(x, &best);
-    let detected: Vec<bool> = {
-        let mut it = best.jumps.iter().peekable();
-        jumps
-            .iter()
-            .map(|j| {
-                let is = it.peek().is_some_and(|d| d.0 == j.0 && d.1 == j.1);
-                if is {
-                    it.next();
-                }
-                is
-            })
-            .collect()
-    };
+    // The step from the jumps the scan saw (one put back is measured over its short excursion).
     let abs: Vec<f64> =
-        refined_sizes(x, &jumps, best.window).iter().zip(&detected).filter(|(_, &d)| d).map(|(s, _)| s.abs()).collect();
+        refined_sizes(x, &jumps, best.window).iter().zip(&jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect();
     let step = median(&abs);
     let spread = 1.4826 * median(&abs.iter().map(|a| (a - step).abs()).collect::<Vec<_>>()) / step;
     if !(step > 0.0 && spread <= MAX_SIZE_SPREAD) {

@@ -269,14 +269,15 @@ fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64
     let df = f[1] - f[0];
     let mut f0 = f[k0];
     let mut q = (f0 / (2.0 * hw.max(1.0) * df)).clamp(1.0, 1e4);
-    let mut best: Option<(Bump, [f64; 6])> = None;
+    let mut best: Option<Bump> = None;
     for _ in 0..2 {
-        // Six half-widths each way, at least a tenth of f0 and 24 bins, at most an octave.
+        // From six half-widths below f0 to twelve above (about even in ln f), at least a tenth of f0 and 24 bins
+        // below, at most half of f0.
         let half = (6.0 * f0 / (2.0 * q)).max(0.1 * f0).max(24.0 * df).min(f0 * 0.5);
         let lo = (((f0 - half) / df).floor().max(k_lo as f64)) as usize;
         let hi = (((f0 + 2.0 * half) / df).ceil().min(k_hi as f64)) as usize;
         if hi < lo + 20 {
-            return best.map(|b| b.0);
+            return best;
         }
         let w = Window { f: &f[lo..=hi], u: f[lo..=hi].iter().map(|x| (x / f0).ln()).collect(), y: &ln_p[lo..=hi], fs };
         let (bg, rss0) = w.background()?;
@@ -288,7 +289,7 @@ fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64
         let (th, rss1) = w.fit(start);
         let (f_fit, q_fit) = (th[4].exp(), th[5].exp());
         if !(rss1.is_finite() && f_fit > w.f[0] && f_fit < w.f[w.f.len() - 1] && !core.is_empty()) {
-            return best.map(|b| b.0);
+            return best;
         }
         let dof = (w.y.len() - 6) as f64;
         let sigma2 = rss1 / dof;
@@ -314,9 +315,9 @@ fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64
         };
         f0 = f_fit;
         q = q_fit.clamp(1.0, 1e4);
-        best = Some((bump, th));
+        best = Some(bump);
     }
-    best.map(|b| b.0)
+    best
 }
 
 /// Narrowband random vibration: a resonance.
@@ -324,15 +325,16 @@ fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64
 /// Method: the Welch spectrum (Hann segments of a power of two near a 32nd of the record, at least 256 samples
 /// and 16 segments, 50% overlap), in ln P. A median background over a window of one octave around each bin (a
 /// bump a fraction of an octave wide hardly moves it); the up to three largest local maxima of the excess over it
-/// (smoothed over 5 bins) are candidate centres. Each is fitted over a window of six half-widths each way by
-/// Levenberg-Marquardt in ln P: a background quadratic in ln f plus the bump, the exact AR(2) spectrum of
-/// shared::sim's resonance (centre, quality factor, variance), twice, the window re-centred on the first fit. The
-/// most significant bump counts when the fit lowers the chi-square of ln P over its window by [`DELTA_CHI2`]
-/// against the background alone (in units of its own residual variance), its peak is at least half the background
-/// there, it is wider than a line ([`MIN_WIDTH_BINS`]: a sinusoid is the sinusoid candidate's) and five adjacent
-/// bins stand three standard deviations above the fitted background. The base terms are re-fitted on the OADEV
-/// less the resonance's own exact Allan variance (the base fit took its Allan bump for white or angle noise),
-/// leaving out the points where the resonance makes up more than 80% of it.
+/// (smoothed over 5 bins) are candidate centres. Each is fitted by Levenberg-Marquardt in ln P over a window from
+/// six half-widths below its centre to twelve above: a background quadratic in ln f plus the bump, the exact AR(2)
+/// spectrum of shared::sim's resonance (centre, quality factor, variance); twice, the window re-centred on the
+/// first fit. The most significant bump counts when the fit lowers the chi-square of ln P over its window by
+/// [`DELTA_CHI2`] against the background alone (in units of its own residual variance), its peak is at least half
+/// the background there, it is wider than a line ([`MIN_WIDTH_BINS`]: a sinusoid is the sinusoid candidate's), its
+/// Q is at least [`MIN_Q`] and five adjacent bins stand three standard deviations above the fitted background. The
+/// standard errors are the least squares' (widened for the neighbouring bins' correlation). The base terms are
+/// re-fitted on the OADEV less the resonance's own exact Allan variance (the base fit took its Allan bump for
+/// white or angle noise), leaving out the points where the resonance makes up more than 80% of it.
 pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let fs = d.fs_hz;
@@ -416,7 +418,8 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
 }
 
 /// The base terms re-fitted on the OADEV less the resonance's exact Allan variance, without the points where the
-/// resonance makes up more than 80% of the Allan variance; the base model itself where that fit fails.
+/// resonance makes up more than 80% of the Allan variance, and without a ramp where the base fit has none; the
+/// base model itself where that fit fails.
 fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim {
     let fs = d.fs_hz;
     let pts: Vec<_> = oadev_points(d.rate_dps, fs)
@@ -432,7 +435,11 @@ fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim 
     if pts.len() < 3 {
         return d.base.clone();
     }
-    let cols = base_columns(&pts, fs, d.base.bandwidth_hz, d.base.q_deg > 0.0);
+    let mut cols = base_columns(&pts, fs, d.base.bandwidth_hz, d.base.q_deg > 0.0);
+    // No ramp the base fit did not have (as `refit_base`): an all-zero column is never used.
+    if d.base.r_dps_per_s == 0.0 {
+        cols[3].iter_mut().for_each(|v| *v = 0.0);
+    }
     match joint_fit(&pts, &cols) {
         Some(j) => with_base_terms(d.base, &j.theta),
         None => d.base.clone(),
