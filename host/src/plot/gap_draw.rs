@@ -62,7 +62,7 @@ pub fn gap_plot(fig: &GapFigure, opts: &PlotOptions, path: &Path) -> Result<(), 
 }
 
 /// Draw `fig` on `root`.
-pub(super) fn draw<DB: DrawingBackend>(root: &Area<DB>, fig: &GapFigure, opts: &PlotOptions) -> Result<(), String> {
+fn draw<DB: DrawingBackend>(root: &Area<DB>, fig: &GapFigure, opts: &PlotOptions) -> Result<(), String> {
     let look = Look::relative_to(opts, REFERENCE_SIZE);
     root.fill(&WHITE).map_err(err)?;
     let body = title(root, &opts.title, &look)?;

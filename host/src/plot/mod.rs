@@ -133,8 +133,9 @@ pub enum PlotError {
         /// Its extension ("" when it has none).
         ext: String,
     },
-    /// No point with a positive tau and value.
-    #[error("nothing to plot: no point with a positive tau and deviation")]
+    /// No point that can be drawn: none with a positive tau and value (the gap figure: no view point and no
+    /// sample of the record either).
+    #[error("nothing to plot: no point with a positive tau and value")]
     Empty,
     /// Too small to lay out.
     #[error("plot size {width}x{height} is too small (at least 400x300)")]
