@@ -1,5 +1,5 @@
-//! The sim-to-real gap figure (`octavar gap --plot`, the demo's `gap_<channel>.png`): its data, [`GapFigure`],
-//! built from a diagnosis and the record it was made from ([`GapFigure::new`]), and [`gap_plot`], which draws it.
+//! The data of the sim-to-real gap figure (`octavar gap --plot`, the demo's `gap_<channel>.png`), [`GapFigure`],
+//! built from a diagnosis and the record it was made from ([`GapFigure::new`]); [`super::gap_plot`] draws it.
 //!
 //! Where a gyro and the simulation of its fitted model part is often not in the Allan deviation: a spectral line,
 //! heavy tails, a coherence with the temperature. So the figure has one panel per view the diagnosis compared
@@ -40,9 +40,6 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use std::path::Path;
-
-use super::{check_size, format_of, gap_draw, PlotError, PlotOptions};
 use crate::gap::compare::{PointZ, ViewGap};
 use crate::gap::disturbances::Part;
 use crate::gap::{GapInput, GapReport, ViewKind};
@@ -173,14 +170,6 @@ pub struct Column {
     pub max: f64,
 }
 
-impl PlotOptions {
-    /// The options of a gap figure: `title`, at 1600x1200 pixels (the size its text is laid out for).
-    pub fn gap_figure(title: impl Into<String>) -> PlotOptions {
-        let (width, height) = gap_draw::REFERENCE_SIZE;
-        PlotOptions { title: title.into(), width, height, ..Default::default() }
-    }
-}
-
 impl GapFigure {
     /// The figure of `report`, a diagnosis of `input` (the record as given to [`crate::gap::diagnose`], transients
     /// and all).
@@ -214,21 +203,6 @@ impl GapFigure {
     pub fn is_empty(&self) -> bool {
         self.panels.iter().all(|p| p.base.is_empty()) && self.time.columns.is_empty()
     }
-}
-
-/// Draw the gap figure `fig` into `path` (`.png` or `.svg`); [`PlotOptions::gap_figure`] gives the size it is laid
-/// out for (the title is `opts.title`; the units are deg/s whatever `opts.unit` says, as the diagnosis's are).
-///
-/// # Errors
-/// [`PlotError::UnknownFormat`], [`PlotError::Empty`] when no panel has a point and the record has no sample,
-/// [`PlotError::TooSmall`], [`PlotError::Write`].
-pub fn gap_plot(fig: &GapFigure, opts: &PlotOptions, path: &Path) -> Result<(), PlotError> {
-    let format = format_of(path)?;
-    check_size(opts)?;
-    if fig.is_empty() {
-        return Err(PlotError::Empty);
-    }
-    render!(format, path, opts, |root| gap_draw::draw(root, fig, opts))
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -416,12 +390,10 @@ fn time_panel(report: &GapReport, input: &GapInput) -> TimePanel {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
-    use crate::gap::compare::PointZ;
     use crate::gap::views::PointInfo;
     use crate::gap::{diagnose, GapOptions};
-    use crate::plot::test_util::{out_dir, png_size};
 
     use octavar_shared::sensor::{Channel, ADXRS300};
     use octavar_shared::sim::rng::SimRng;
@@ -430,7 +402,7 @@ mod tests {
 
     /// A small record of a gyro with a temperature coupling the base model lacks, and a bump of the bench in its
     /// training part: 2^16 samples at 5 Hz (3.6 h), a temperature cycle of 20 min.
-    fn record() -> (GapInput, usize) {
+    pub fn record() -> (GapInput, usize) {
         let fs = 5.0;
         let n = 1 << 16;
         let model = GyroSim {
@@ -463,7 +435,7 @@ mod tests {
         (GapInput::split(x, Some(t), fs, 0.5).unwrap(), bump)
     }
 
-    fn diagnosis() -> (GapReport, GapInput, usize) {
+    pub fn diagnosis() -> (GapReport, GapInput, usize) {
         let (input, bump) = record();
         let report = diagnose(&input, &GapOptions { seeds: 5, ..Default::default() }, &|_, _, _| {}).unwrap();
         (report, input, bump)
@@ -518,10 +490,9 @@ mod tests {
     }
 
     /// On a real diagnosis: one panel per view the report has (the temperature with a temperature), the located
-    /// bands where the report says, on the PSD panel as frequencies; the transient shaded where the bump is; a
-    /// PNG and an SVG written.
+    /// bands where the report says, in each panel's x units; the transient shaded where the bump is.
     #[test]
-    fn a_diagnosis_draws_one_panel_per_view_with_its_bands_and_transients() {
+    fn a_diagnosis_has_one_panel_per_view_with_its_bands_and_transients() {
         let (report, input, bump) = diagnosis();
         let fig = GapFigure::new(&report, &input);
         let views: Vec<ViewKind> = report.base_eval.training.iter().map(|v| v.view).collect();
@@ -551,39 +522,11 @@ mod tests {
         assert_eq!(fig.time.split_s, Some(input.n_train as f64 / input.fs_hz));
         assert_eq!(fig.time.unit_s, 3600.0);
         assert!(fig.time.columns.len() == TIME_COLUMNS);
-
-        let tmp = tempfile::tempdir().unwrap();
-        let dir = out_dir(&tmp);
-        let opts = PlotOptions::gap_figure("Sim-to-real gap: a coupled gyro");
-        let svg = dir.join("gap.svg");
-        gap_plot(&fig, &opts, &svg).unwrap();
-        let text = std::fs::read_to_string(&svg).unwrap();
-        for s in [
-            "measured",
-            "simulated, base model",
-            "simulated, + temperature",
-            "1: temperature",
-            "tau (s)",
-            "frequency (Hz)",
-            "coherence with temperature",
-            "excess kurtosis",
-            "time (h)",
-            "transient",
-        ] {
-            assert!(text.contains(s), "{s} missing from the SVG");
-        }
-        let png = dir.join("gap.png");
-        gap_plot(&fig, &opts, &png).unwrap();
-        assert_eq!(png_size(&std::fs::read(&png).unwrap()), (1600, 1200));
-        // The transient's red is there.
-        let img = image::open(&png).unwrap().to_rgb8();
-        let red = img.pixels().filter(|p| p.0[0] > 180 && p.0[1] < 120 && p.0[2] < 120).count();
-        assert!(red > 100, "{red} red pixels");
     }
 
     /// A record without a temperature gets no temperature panel. Here the rate has a sinusoid of 20 s that no
     /// candidate is allowed to explain: the gap is a line in the PSD, marked on the PSD panel at frequencies
-    /// (f = 1/tau) around 0.05 Hz. The figure is drawn at the ADEV plot's size.
+    /// (f = 1/tau) around 0.05 Hz.
     #[test]
     fn a_line_is_marked_at_its_frequency_and_no_temperature_gets_no_panel() {
         let (input, _) = record();
@@ -610,10 +553,6 @@ mod tests {
         assert_eq!(m.x, [1.0 / left.band_s[1], 1.0 / left.band_s[0]]);
         assert!(m.x[0] < 0.05 && 0.05 < m.x[1], "{:?}", m.x);
         assert_eq!(fig.unexplained.as_deref(), Some(left.text.as_str()));
-        let tmp = tempfile::tempdir().unwrap();
-        let path = out_dir(&tmp).join("gap-line.png");
-        gap_plot(&fig, &PlotOptions { title: "a line".into(), ..Default::default() }, &path).unwrap();
-        assert_eq!(png_size(&std::fs::read(&path).unwrap()), (1200, 800));
     }
 
     #[test]
@@ -622,27 +561,5 @@ mod tests {
         for v in [ViewKind::Adev, ViewKind::Distribution, ViewKind::Temperature] {
             assert_eq!(band_x(v, [2.0, 50.0]), [2.0, 50.0]);
         }
-    }
-
-    #[test]
-    fn an_empty_figure_is_an_error_and_a_bad_path_is_named() {
-        let tmp = tempfile::tempdir().unwrap();
-        let empty = GapFigure {
-            panels: Vec::new(),
-            time: TimePanel {
-                unit_s: 1.0,
-                x_label: "time (s)".into(),
-                columns: Vec::new(),
-                split_s: None,
-                transients: Vec::new(),
-                duration_s: 0.0,
-            },
-            base_label: String::new(),
-            chain_label: None,
-            unexplained: None,
-        };
-        let path = tmp.path().join("f.png");
-        assert!(matches!(gap_plot(&empty, &PlotOptions::gap_figure("x"), &path), Err(PlotError::Empty)));
-        assert!(!path.exists());
     }
 }

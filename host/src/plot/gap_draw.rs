@@ -1,6 +1,9 @@
-//! Drawing the gap figure ([`super::gap::GapFigure`]): the layout (title, legend rows, a grid of view panels,
-//! the time panel, a footnote of what is left unexplained) and each panel. Sizes are given for
-//! [`REFERENCE_SIZE`] and scale with the picture.
+//! Drawing the gap figure ([`GapFigure`], see [`super::gap`] for what it shows): [`gap_plot`] writes it, laid out
+//! as the title, the legend in rows, a grid of view panels (two across, three when there are three), the time
+//! panel across the bottom, and a footnote of what is left unexplained. Sizes are given for [`REFERENCE_SIZE`]
+//! ([`PlotOptions::gap_figure`]) and scale with the picture.
+
+use std::path::Path;
 
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::prelude::*;
@@ -9,7 +12,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::axis::{clip_scaled, close_frame, tick_label, LinAxis, LogAxis};
 use super::gap::{BandMark, Column, GapFigure, MarkKind, PanelPoint, Scale, TimePanel, ViewPanel};
 use super::legend::{draw_marker, Entry, Legend, Sample};
-use super::{err, lighter, positive, title, Area, Look, PlotOptions, FAMILY, GREY, INK};
+use super::{check_size, err, format_of, lighter, positive, title, Area, Look, PlotError, PlotOptions};
+use super::{FAMILY, GREY, INK};
 
 /// The size the figure's text and lines are given for, pixels.
 pub(super) const REFERENCE_SIZE: (u32, u32) = (1600, 1200);
@@ -34,8 +38,31 @@ type LogAx = plotters::coord::combinators::WithKeyPoints<LogCoord<f64>>;
 /// A view panel's axes: log x, and `Y`.
 type PanelChart<'a, DB, Y> = ChartContext<'a, DB, Cartesian2d<LogAx, Y>>;
 
+impl PlotOptions {
+    /// The options of a gap figure: `title`, at 1600x1200 pixels (the size its text is laid out for).
+    pub fn gap_figure(title: impl Into<String>) -> PlotOptions {
+        let (width, height) = REFERENCE_SIZE;
+        PlotOptions { title: title.into(), width, height, ..Default::default() }
+    }
+}
+
+/// Draw the gap figure `fig` into `path` (`.png` or `.svg`); [`PlotOptions::gap_figure`] gives the size it is laid
+/// out for (the title is `opts.title`; the units are deg/s whatever `opts.unit` says, as the diagnosis's are).
+///
+/// # Errors
+/// [`PlotError::UnknownFormat`], [`PlotError::Empty`] when no panel has a point and the record has no sample,
+/// [`PlotError::TooSmall`], [`PlotError::Write`].
+pub fn gap_plot(fig: &GapFigure, opts: &PlotOptions, path: &Path) -> Result<(), PlotError> {
+    let format = format_of(path)?;
+    check_size(opts)?;
+    if fig.is_empty() {
+        return Err(PlotError::Empty);
+    }
+    render!(format, path, opts, |root| draw(root, fig, opts))
+}
+
 /// Draw `fig` on `root`.
-pub(super) fn draw<DB: DrawingBackend>(root: &Area<DB>, fig: &GapFigure, opts: &PlotOptions) -> Result<(), String> {
+fn draw<DB: DrawingBackend>(root: &Area<DB>, fig: &GapFigure, opts: &PlotOptions) -> Result<(), String> {
     let look = Look::relative_to(opts, REFERENCE_SIZE);
     root.fill(&WHITE).map_err(err)?;
     let body = title(root, &opts.title, &look)?;
@@ -506,7 +533,88 @@ fn draw_time<DB: DrawingBackend>(area: &Area<DB>, t: &TimePanel, look: &Look) ->
 
 #[cfg(test)]
 mod tests {
+    use super::super::gap::tests::diagnosis;
     use super::*;
+    use crate::plot::test_util::{out_dir, png_size};
+
+    /// A real diagnosis (a coupled gyro with a bump) as a PNG and an SVG: every view's panel, the legend, the
+    /// located band's label, the transient's red; and at the ADEV plot's smaller size.
+    #[test]
+    fn a_diagnosis_is_drawn_as_png_and_svg() {
+        let (report, input, _) = diagnosis();
+        let fig = GapFigure::new(&report, &input);
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = out_dir(&tmp);
+        let opts = PlotOptions::gap_figure("Sim-to-real gap: a coupled gyro");
+        let svg = dir.join("gap.svg");
+        gap_plot(&fig, &opts, &svg).unwrap();
+        let text = std::fs::read_to_string(&svg).unwrap();
+        for s in [
+            "Sim-to-real gap: a coupled gyro",
+            "measured",
+            "simulated, base model",
+            "simulated, + temperature",
+            "1: temperature",
+            "Allan deviation",
+            "tau (s)",
+            "frequency (Hz)",
+            "coherence with temperature",
+            "excess kurtosis",
+            "time (h)",
+            "training",
+            "holdout",
+            "transient",
+        ] {
+            assert!(text.contains(s), "{s} missing from the SVG");
+        }
+        let png = dir.join("gap.png");
+        gap_plot(&fig, &opts, &png).unwrap();
+        assert_eq!(png_size(&std::fs::read(&png).unwrap()), (1600, 1200));
+        // The transient's red, the located band's yellow, and text (dark pixels) are there.
+        let img = image::open(&png).unwrap().to_rgb8();
+        let count = |f: &dyn Fn([u8; 3]) -> bool| img.pixels().filter(|p| f(p.0)).count();
+        let red = count(&|[r, g, b]| r > 180 && g < 120 && b < 120);
+        assert!(red > 100, "{red} red pixels");
+        let yellow = count(&|[r, g, b]| r > 220 && g > 210 && b < 190);
+        assert!(yellow > 2000, "{yellow} yellow pixels");
+        assert!(count(&|p| p.iter().all(|&v| v < 60)) > 2000);
+
+        let small = PlotOptions { width: 1200, height: 800, ..opts };
+        let png = dir.join("gap-small.png");
+        gap_plot(&fig, &small, &png).unwrap();
+        assert_eq!(png_size(&std::fs::read(&png).unwrap()), (1200, 800));
+    }
+
+    #[test]
+    fn an_empty_figure_is_an_error_and_a_bad_path_is_named() {
+        let tmp = tempfile::tempdir().unwrap();
+        let mut fig = GapFigure {
+            panels: Vec::new(),
+            time: TimePanel {
+                unit_s: 1.0,
+                x_label: "time (s)".into(),
+                columns: Vec::new(),
+                split_s: None,
+                transients: Vec::new(),
+                duration_s: 0.0,
+            },
+            base_label: String::new(),
+            chain_label: None,
+            unexplained: None,
+        };
+        let path = tmp.path().join("f.png");
+        assert!(matches!(gap_plot(&fig, &PlotOptions::gap_figure("x"), &path), Err(PlotError::Empty)));
+        assert!(!path.exists());
+        // A record alone is drawn; into a folder that does not exist, the error names the file.
+        fig.time.columns.push(Column { t_s: [0.0, 1.0], min: -1.0, max: 1.0 });
+        fig.time.duration_s = 1.0;
+        for name in ["f.png", "f.svg"] {
+            gap_plot(&fig, &PlotOptions::gap_figure("x"), &tmp.path().join(name)).unwrap();
+            let bad = tmp.path().join("no/such/dir").join(name);
+            let e = gap_plot(&fig, &PlotOptions::gap_figure("x"), &bad).unwrap_err();
+            assert!(matches!(&e, PlotError::Write { path, .. } if *path == bad), "{e}");
+        }
+    }
 
     #[test]
     fn extent_keeps_what_the_axis_can_show() {

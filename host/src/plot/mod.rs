@@ -10,10 +10,10 @@
 //!
 //! - [`adev`]: several channels on one log-log plot, points with confidence intervals, the IEEE 952 fit and its
 //!   terms, a legend to the right.
-//! - [`gap`]: the figure's data, built from a gap diagnosis ([`GapFigure::new`]): one panel per view of the
+//! - [`gap`]: the gap figure's data, built from a gap diagnosis ([`GapFigure::new`]): one panel per view of the
 //!   comparison (Allan deviation, PSD, distribution, temperature) with the record, the base model's ensemble band
 //!   and the band of the model with every effect found, the located bands marked; and a time panel of the record
-//!   with its masked transients. `gap_draw` lays it out and draws it.
+//!   with its masked transients. `gap_draw` lays it out and draws it ([`gap_plot`]).
 //! - `axis` (log and linear axes, tick labels, clipping) and `legend` (legend entries and their layouts) are the
 //!   shared drawing pieces.
 //!
@@ -89,7 +89,8 @@ mod gap_draw;
 mod legend;
 
 pub use adev::{adev_plot, AdevSeries};
-pub use gap::{gap_plot, GapFigure};
+pub use gap::GapFigure;
+pub use gap_draw::gap_plot;
 
 /// Options of both figures.
 #[derive(Clone, Debug, PartialEq)]
@@ -132,8 +133,9 @@ pub enum PlotError {
         /// Its extension ("" when it has none).
         ext: String,
     },
-    /// No point with a positive tau and value.
-    #[error("nothing to plot: no point with a positive tau and deviation")]
+    /// No point that can be drawn: none with a positive tau and value (the gap figure: no view point and no
+    /// sample of the record either).
+    #[error("nothing to plot: no point with a positive tau and value")]
     Empty,
     /// Too small to lay out.
     #[error("plot size {width}x{height} is too small (at least 400x300)")]
