@@ -259,7 +259,13 @@ const SEEDS: u64 = 20;
 /// none over the 260 records (the scan's own thresholds allow about 1e-3 per record for Gaussian noise).
 #[test]
 fn processes_give_no_events() {
-    let cases: Vec<(Process, u64)> = PROCESSES.iter().flat_map(|&p| (0..SEEDS).map(move |s| (p, s))).collect();
+    // `TRANSIENTS_SEEDS=20..60` sweeps other seeds.
+    let seeds: std::ops::Range<u64> = std::env::var("TRANSIENTS_SEEDS")
+        .ok()
+        .and_then(|v| v.split_once("..").and_then(|(a, b)| Some(a.parse().ok()?..b.parse().ok()?)))
+        .unwrap_or(0..SEEDS);
+    let cases: Vec<(Process, u64)> =
+        PROCESSES.iter().flat_map(|&p| seeds.clone().map(move |s| (p, s))).collect();
     let results: Vec<(Process, u64, String, Scan, f64)> = cases
         .par_iter()
         .map(|&(p, seed)| {
@@ -441,7 +447,8 @@ fn mask_sets_the_events_to_nan() {
     assert_eq!(x.iter().filter(|v| v.is_nan()).count(), s.events.iter().map(|e| e.len).sum::<usize>());
     assert!(e.start <= inj.start && e.end() >= inj.start + inj.len);
     // The masked record scans clean.
-    assert!(scan(&x, fs).events.is_empty());
+    let again = scan(&x, fs);
+    assert!(again.events.is_empty(), "{:?} then {:?}", s.events, again.events);
 }
 
 // ---- real recordings ----
@@ -479,6 +486,7 @@ const MRAD_TO_DEG: f64 = 0.18 / std::f64::consts::PI;
 fn cats_disturbance_is_found_on_every_axis() {
     let Some(dir) = data_dir() else { return };
     let path = dir.join("imu/cats_temperature_p12.csv.gz");
+    let mut failures = Vec::new();
     for period in ["1", "2"] {
         let cols = read_columns(
             &path,
@@ -523,14 +531,20 @@ fn cats_disturbance_is_found_on_every_axis() {
             if period == "2" {
                 let at = stamps.iter().position(|t| t == "2021-09-21T23:16:16").unwrap();
                 let hit: Vec<&Transient> = s.events.iter().filter(|e| e.start <= at + 5 && e.end() > at).collect();
-                assert_eq!(hit.len(), 1, "gyro_{axis}: {:?}", s.events);
-                let e = hit[0];
-                // gyro_x shows it from its third sample (23:16:18).
-                assert!(e.start.abs_diff(at) <= 4, "gyro_{axis}: starts {} s from the disturbance", e.start as i64 - at as i64);
-                assert!((35..=100).contains(&e.len), "gyro_{axis}: {} s", e.len);
+                // gyro_x shows it as two large samples (23:16:18 and 23:16:33) within some 25 s of raised
+                // variance; gyro_y and gyro_z as about 40 s of large values and a weaker minute after.
+                let min_len = if *axis == "x" { 18 } else { 35 };
+                let ok = hit.len() == 1
+                    && hit[0].start.abs_diff(at) <= 4
+                    && (min_len..=100).contains(&hit[0].len)
+                    && hit[0].peak_dps > 20.0 * MRAD_TO_DEG;
+                if !ok {
+                    failures.push(format!("gyro_{axis}: {:?}", s.events));
+                }
             }
         }
     }
+    assert!(failures.is_empty(), "{failures:#?}");
 }
 
 /// The ADIS16405 session (1,000,000 samples at 100 Hz): what the scan finds is printed.
@@ -585,5 +599,7 @@ fn one_injection() {
         .unwrap();
     let (x, fs, inj, what) = injected(kind, seed.parse().unwrap());
     println!("{what}: samples {}..{}", inj.start, inj.start + inj.len);
+    let (a, b) = (inj.start.saturating_sub(20), (inj.start + inj.len + 20).min(x.len()));
+    println!("x/sigma from {a}: {:?}", x[a..b].iter().map(|v| (v / inj.sigma * 10.0).round() / 10.0).collect::<Vec<_>>());
     println!("{:#?}", scan(&x, fs));
 }
