@@ -245,7 +245,9 @@ fn record(c: &Case, seed: u64) -> Vec<f64> {
 }
 
 fn describe(s: &Scan, fs: f64) -> String {
-    let one = |t: &Transient| format!("[{:.1} s +{:.1} s, peak {:.3e}, {:?}]", t.start as f64 / fs, t.len as f64 / fs, t.peak_dps, t.shape);
+    let one = |t: &Transient| {
+        format!("[{:.1} s +{:.1} s, peak {:.3e}, {:?}]", t.start as f64 / fs, t.len as f64 / fs, t.peak_dps, t.shape)
+    };
     let mut out = s.events.iter().map(one).collect::<Vec<_>>().join(" ");
     for l in &s.left_alone {
         out += &format!(" left alone {} {:?}", one(&l.excursion), l.reason);
@@ -264,8 +266,7 @@ fn processes_give_no_events() {
         .ok()
         .and_then(|v| v.split_once("..").and_then(|(a, b)| Some(a.parse().ok()?..b.parse().ok()?)))
         .unwrap_or(0..SEEDS);
-    let cases: Vec<(Process, u64)> =
-        PROCESSES.iter().flat_map(|&p| seeds.clone().map(move |s| (p, s))).collect();
+    let cases: Vec<(Process, u64)> = PROCESSES.iter().flat_map(|&p| seeds.clone().map(move |s| (p, s))).collect();
     let results: Vec<(Process, u64, String, Scan, f64)> = cases
         .par_iter()
         .map(|&(p, seed)| {
@@ -340,7 +341,9 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
             (len, a)
         }
         Kind::Burst => ((uniform(&mut rng, 1.0, 5.0) * fs).max(12.0) as usize, uniform(&mut rng, 10.0, 30.0) * sigma),
-        Kind::Oscillation => ((uniform(&mut rng, 2.0, 20.0) * fs).max(16.0) as usize, uniform(&mut rng, 6.0, 15.0) * sigma),
+        Kind::Oscillation => {
+            ((uniform(&mut rng, 2.0, 20.0) * fs).max(16.0) as usize, uniform(&mut rng, 6.0, 15.0) * sigma)
+        }
     };
     let start = (uniform(&mut rng, 0.02, 0.98) * (n - len) as f64) as usize;
     let before = x.clone();
@@ -387,7 +390,12 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
     let level = around[around.len() / 2];
     let _ = peak;
     let peak = x[start..start + len].iter().map(|v| (v - level).abs()).fold(0.0, f64::max);
-    let what = format!("{kind:?} {:.1} s at {:.0} s, peak {:.1} sigma, fs {fs}", len as f64 / fs, start as f64 / fs, peak / sigma);
+    let what = format!(
+        "{kind:?} {:.1} s at {:.0} s, peak {:.1} sigma, fs {fs}",
+        len as f64 / fs,
+        start as f64 / fs,
+        peak / sigma
+    );
     (x, fs, Injected { kind, sigma, start, len, peak }, what)
 }
 
@@ -425,7 +433,11 @@ fn disturbances_are_found_and_placed() {
         };
         let ok = why.is_empty();
         let offsets = hit.first().map_or(String::new(), |e| {
-            format!(" (start {:+}, end {:+} samples)", e.start as i64 - inj.start as i64, e.end() as i64 - (inj.start + inj.len) as i64)
+            format!(
+                " (start {:+}, end {:+} samples)",
+                e.start as i64 - inj.start as i64,
+                e.end() as i64 - (inj.start + inj.len) as i64
+            )
         });
         let peak = hit.first().map_or(String::new(), |e| format!(", peak found {:.1} sigma", e.peak_dps / inj.sigma));
         println!("{} {what}{offsets}{peak}: {} {why}", if ok { "ok  " } else { "FAIL" }, describe(s, *fs));
@@ -600,6 +612,9 @@ fn one_injection() {
     let (x, fs, inj, what) = injected(kind, seed.parse().unwrap());
     println!("{what}: samples {}..{}", inj.start, inj.start + inj.len);
     let (a, b) = (inj.start.saturating_sub(20), (inj.start + inj.len + 20).min(x.len()));
-    println!("x/sigma from {a}: {:?}", x[a..b].iter().map(|v| (v / inj.sigma * 10.0).round() / 10.0).collect::<Vec<_>>());
+    println!(
+        "x/sigma from {a}: {:?}",
+        x[a..b].iter().map(|v| (v / inj.sigma * 10.0).round() / 10.0).collect::<Vec<_>>()
+    );
     println!("{:#?}", scan(&x, fs));
 }
