@@ -4,8 +4,9 @@
 //! A real bench record often carries more than one effect (a temperature coupling and a resonance, a Gauss-Markov
 //! hump and outliers). Each step of the chain starts from the model so far ([`Model`]): its ensemble is the
 //! comparison the step ranks against, and its estimators see the training samples less the model's deterministic
-//! part ([`deterministic_part`]: the temperature response, the sinusoids, the warm-up), with the model itself as their base, so
-//! that the effect they add is added to every effect found before. The IEEE base terms are re-fitted on those
+//! part ([`deterministic_part`]: the temperature response, the sinusoids, the warm-up) and less the realisations
+//! that earlier steps recovered ([`StepData::take_out`]: the bistable bias's levels, the bias steps, the spikes),
+//! with the model itself as their base, so that the effect they add is added to every effect found before. The IEEE base terms are re-fitted on those
 //! samples for the estimators that need a base fit. Each step reports where the gap lay on the model before it,
 //! the gap there before and after on both parts, and its ranking; the held-out check of the whole chain compares
 //! the base model with the last one, every parameter frozen from training.
@@ -93,8 +94,9 @@ pub fn deterministic_part(gyro: &GyroSim, fs_hz: f64, temp_c: Option<&[f64]>, n:
     )
 }
 
-/// What a step's estimators learn from: the training samples (gaps filled) less the model's deterministic part,
-/// and an IEEE fit of them (the base fit itself while the model is the base).
+/// What a step's estimators learn from: the training samples (gaps filled) less the realisations the steps before
+/// recovered and less the model's deterministic part, and an IEEE fit of them (the base fit itself while the
+/// model is the base).
 pub struct StepData {
     /// The samples, deg/s.
     pub rate_dps: Vec<f64>,
@@ -125,6 +127,17 @@ impl StepData {
         StepData { rate_dps, base_fit }
     }
 
+    /// `series` (the samples this step's data was made from) less the realisation of the effect that `fit`
+    /// recovered from this step's data, where it recovered one ([`EffectFit::cleaned`]): what the next step's
+    /// data is made from.
+    pub fn take_out(&self, series: &mut [f64], fit: &EffectFit) {
+        if let Some(cleaned) = fit.cleaned.as_deref().filter(|c| c.len() == series.len()) {
+            for ((s, d), c) in series.iter_mut().zip(&self.rate_dps).zip(cleaned) {
+                *s -= d - c;
+            }
+        }
+    }
+
     /// The estimators' view of it, on `model`.
     pub fn training<'a>(&'a self, model: &'a GyroSim, temp_c: Option<&'a [f64]>, fs_hz: f64) -> TrainingData<'a> {
         TrainingData { rate_dps: &self.rate_dps, temp_c, fs_hz, base: model, base_fit: &self.base_fit }
@@ -132,7 +145,8 @@ impl StepData {
 }
 
 /// The chain `effects` learnt from the training samples `filled` (no gaps) as the diagnosis learns it, step by
-/// step from the base model `base` (fitted as `base_fit`); an effect whose estimator finds no trace is skipped.
+/// step from the base model `base` (fitted as `base_fit`), each step from the samples less what the steps before
+/// recovered ([`StepData::take_out`]); an effect whose estimator finds no trace is skipped.
 pub fn learn(
     effects: &[Effect],
     base: &Model,
@@ -142,9 +156,11 @@ pub fn learn(
     fs_hz: f64,
 ) -> Model {
     let mut model = base.clone();
+    let mut series = filled.to_vec();
     for (k, &effect) in effects.iter().enumerate() {
-        let data = StepData::new(&model.gyro, filled, temp_c, fs_hz, base_fit, k == 0);
+        let data = StepData::new(&model.gyro, &series, temp_c, fs_hz, base_fit, k == 0);
         if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, temp_c, fs_hz)) {
+            data.take_out(&mut series, &f);
             model = model.with(&f);
         }
     }

@@ -79,7 +79,8 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     progress("base ensemble", done, total_steps);
 
     // The chain: rank the candidates on the model so far, add the best, go on while a significant gap remains.
-    let filled_train = fill_gaps(training);
+    // The training samples each step learns from, less the realisations the steps before recovered.
+    let mut series = fill_gaps(training);
     let temp_train = rec.training_temp();
     let mut steps: Vec<Step> = Vec::new();
     let mut first_candidates: Vec<CandidateResult> = Vec::new();
@@ -101,7 +102,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         if !first {
             total_steps += remaining.len();
         }
-        let data = StepData::new(&model.gyro, &filled_train, temp_train, fs, &base_fit, first);
+        let data = StepData::new(&model.gyro, &series, temp_train, fs, &base_fit, first);
         let training_data = data.training(&model.gyro, temp_train, fs);
         let fits: Vec<(Effect, Option<EffectFit>)> =
             remaining.par_iter().map(|&e| (e, effects::estimate(e, &training_data))).collect();
@@ -133,6 +134,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         let in_band = |v: &[compare::ViewGap]| rank::band_gap(v, &loc);
         let training_gap = PartGap::new(in_band(&eval.training).unwrap_or(0.0), c.gap_after.unwrap_or(0.0));
         let holdout_gap = in_band(&eval.holdout).map(|b| PartGap::new(b, c.holdout_after.unwrap_or(b)));
+        data.take_out(&mut series, &fit);
         model = model.with(&fit);
         steps.push(Step {
             effect: c.effect,

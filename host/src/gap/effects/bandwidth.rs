@@ -44,5 +44,6 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: None,
+        cleaned: None,
     })
 }

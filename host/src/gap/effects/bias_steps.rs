@@ -2,6 +2,7 @@
 
 use octavar_shared::sim::{BiasSteps, GyroSim};
 use serde_json::json;
+use std::sync::Arc;
 
 use super::common::*;
 use super::{Effect, EffectFit, TrainingData};
@@ -145,5 +146,6 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: None,
+        cleaned: Some(Arc::new(cleaned)),
     })
 }

@@ -9,6 +9,7 @@
 
 use octavar_shared::sim::{BistableSim, GyroSim};
 use serde_json::json;
+use std::sync::Arc;
 
 use super::bias_steps::mosum_scan;
 use super::common::*;
@@ -232,5 +233,6 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: None,
+        cleaned: Some(Arc::new(cleaned)),
     })
 }

@@ -62,5 +62,6 @@ pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: None,
+        cleaned: None,
     })
 }

@@ -25,6 +25,8 @@
 //! All of them run in well under a second on a million samples (one FFT or a few, a few O(N) passes, small fits
 //! on the octave OADEV curve or a window of the spectrum, a 255-point Cholesky factor per block length).
 
+use std::sync::Arc;
+
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::GyroSim;
@@ -149,6 +151,12 @@ pub struct EffectFit {
     /// The sampling spread of the effect's parameters, which each ensemble member draws its own values from
     /// (`None`: every member simulates `gyro` itself).
     pub spread: Option<ParamSpread>,
+    /// The training samples with the realisation of the effect that the estimator recovered taken out (the
+    /// bistable bias's levels, the bias steps, the spikes). Later steps of the chain learn from these, as they
+    /// learn from the samples less the model's deterministic part: a temperature coupling cannot be read under a
+    /// bias that jumps between two levels. `None` where there is nothing to take out: a deterministic effect,
+    /// which the chain subtracts through the model, or a process with no one realisation to recover.
+    pub cleaned: Option<Arc<Vec<f64>>>,
 }
 
 /// The sampling spread of an effect's fitted parameters. An ensemble of the fitted values alone has next to no

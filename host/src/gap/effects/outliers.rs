@@ -2,6 +2,7 @@
 
 use octavar_shared::sim::{GyroSim, Outliers};
 use serde_json::json;
+use std::sync::Arc;
 
 use super::common::*;
 use super::{Effect, EffectFit, TrainingData};
@@ -72,6 +73,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: None,
+        cleaned: Some(Arc::new(cleaned)),
     })
 }
 

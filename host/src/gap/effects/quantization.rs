@@ -122,6 +122,7 @@ pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: Some(lattice_channel(q, m0)),
         spread: None,
+        cleaned: None,
     })
 }
 

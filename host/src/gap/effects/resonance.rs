@@ -414,6 +414,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: None,
+        cleaned: None,
     })
 }
 

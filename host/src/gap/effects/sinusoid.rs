@@ -390,5 +390,6 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: Some(ParamSpread::Sinusoids { se, centre_s: n0 as f64 / d.fs_hz / 2.0 }),
+        cleaned: None,
     })
 }

@@ -146,6 +146,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: (f_hz > 0.0 && se > 0.0).then_some(ParamSpread::Coupling { se_dps_per_c: se, f_hz }),
+        cleaned: None,
     })
 }
 

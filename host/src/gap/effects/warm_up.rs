@@ -234,5 +234,6 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: None,
+        cleaned: None,
     })
 }
