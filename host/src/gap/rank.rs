@@ -14,8 +14,8 @@
 //!   (real above or below the ensemble) and its size (RMS z in the band, and for ADEV and PSD the ratio of real to
 //!   simulated there, for the temperature view the coherences).
 //! - **Ranking** ([`score`], [`choose`]): `score = total_after * (1 + PARAM_PENALTY * n_params)`; the best
-//!   candidate has the lowest score and must be below [`EXPLAINS`] (3/4) of the current model's total
-//!   (`n_params = 0`). The penalty, 5% per parameter, is what an extra parameter must buy: an effect with three
+//!   candidate has the lowest score, and its excess over a right model's total ([`RIGHT_MODEL_GAP`]) must be
+//!   below [`EXPLAINS`] (3/4) of the current model's ([`explains`]). The penalty, 5% per parameter, is what an extra parameter must buy: an effect with three
 //!   parameters must cut the total by more than 15% against an effect with none to win. A gap in the temperature
 //!   view goes to the temperature coupling when it explains the total and scores within [`DRIVER_PREFERENCE`]
 //!   of the best or clears that view: a sinusoid at the temperature's cycle imitates it, but only the coupling
@@ -37,9 +37,10 @@ pub const SIGNIFICANT_GAP: f64 = 2.5;
 /// Penalty per parameter an effect adds, as a fraction of its total gap.
 pub const PARAM_PENALTY: f64 = 0.05;
 
-/// A candidate explains the gap when its score is below this fraction of the base model's total: it must remove
-/// at least a quarter of the total gap, parameters paid for. Below that the gap is reported as significant but
-/// unexplained (the effect is `none`), rather than naming an effect that changes little.
+/// A candidate explains the gap when its score's excess over a right model's total is below this fraction of the
+/// current model's ([`explains`]): it must remove at least a quarter of the gap, parameters paid for. Below that
+/// the gap is reported as significant but unexplained (the effect is `none`), rather than naming an effect that
+/// changes little.
 pub const EXPLAINS: f64 = 0.75;
 
 /// A view's gap counts in full in the total up to this, and by its logarithm beyond ([`soft`]): four times the
@@ -283,6 +284,15 @@ impl CandidateResult {
     }
 }
 
+/// Whether a candidate of score `score` explains a model's total gap `total_before`: it removes at least a
+/// quarter of the excess over [`RIGHT_MODEL_GAP`], the total a right model leaves (`score - 1 < 3/4 (total -
+/// 1)`). Measured from zero instead, a gap in one view of four counts for little in a total that the other three
+/// hold near 1: a temperature view at 3.2 beside three views at 0.6-1.3 is a total of 1.79, and the coupling that
+/// takes it to 1 leaves a total of 1.22, a third of the excess but only 32% of the total.
+pub fn explains(score: f64, total_before: f64) -> bool {
+    score - RIGHT_MODEL_GAP < EXPLAINS * (total_before - RIGHT_MODEL_GAP)
+}
+
 /// The candidate that explains the current model's gap (see the module doc), by its index in `candidates`;
 /// `None` when none removes a quarter of the total `total_before`. `loc` is where the gap lies.
 ///
@@ -293,7 +303,7 @@ impl CandidateResult {
 /// judged there on what it leaves, which a 4% error in the coefficient over ten cycles already shows, while a
 /// sinusoid is judged on the raw coherence.
 pub fn choose(candidates: &[CandidateResult], total_before: f64, loc: Option<&Location>) -> Option<usize> {
-    let explains = |c: &CandidateResult| c.score.is_some_and(|s| s < EXPLAINS * total_before);
+    let explains = |c: &CandidateResult| c.score.is_some_and(|s| explains(s, total_before));
     let best = candidates
         .iter()
         .enumerate()
