@@ -17,8 +17,11 @@ use octavar_shared::sim::noise::LowPass;
 use octavar_shared::sim::temperature::ThermalLag;
 use octavar_shared::sim::GyroSim;
 
+use std::ops::Range;
+
 use super::base::fit_base;
 use super::effects::{self, Effect, EffectFit, ParamSpread, TrainingData};
+use super::input::{fill_gaps, gap_runs, refill};
 use super::judge::Evaluated;
 use super::rank::{CandidateResult, Location, PartGap};
 use crate::fit::{FitOptions, NoiseFit};
@@ -102,29 +105,40 @@ pub struct StepData {
     pub rate_dps: Vec<f64>,
     /// Their base fit.
     pub base_fit: NoiseFit,
+    /// The runs of samples missing or masked in the training part (filled in `rate_dps`).
+    pub gaps: Vec<Range<usize>>,
 }
 
 impl StepData {
-    /// The data of a step on `model`, from the training samples `filled` (no gaps) and their temperature;
-    /// `first` says whether this is the chain's first step (the model is the base, fitted as `base_fit`).
+    /// The data of a step on `model`, from the training samples `filled` (the runs `gaps` filled) and their
+    /// temperature; `first` says whether this is the chain's first step (the model is the base, fitted as
+    /// `base_fit`). The gaps are filled again once the deterministic part is out, and the IEEE fit takes them as
+    /// gaps.
     pub fn new(
         model: &GyroSim,
         filled: &[f64],
+        gaps: &[Range<usize>],
         temp_c: Option<&[f64]>,
         fs_hz: f64,
         base_fit: &NoiseFit,
         first: bool,
     ) -> StepData {
+        let gaps = gaps.to_vec();
         if first {
-            return StepData { rate_dps: filled.to_vec(), base_fit: base_fit.clone() };
+            return StepData { rate_dps: filled.to_vec(), base_fit: base_fit.clone(), gaps };
         }
-        let rate_dps: Vec<f64> = match deterministic_part(model, fs_hz, temp_c, filled.len()) {
+        let mut rate_dps: Vec<f64> = match deterministic_part(model, fs_hz, temp_c, filled.len()) {
             Some(d) => filled.iter().zip(&d).map(|(x, d)| x - d).collect(),
             None => filled.to_vec(),
         };
+        refill(&mut rate_dps, &gaps);
+        let mut gapped = rate_dps.clone();
+        for r in &gaps {
+            gapped[r.clone()].iter_mut().for_each(|v| *v = f64::NAN);
+        }
         let base_fit =
-            fit_base(&rate_dps, fs_hz, &FitOptions::default()).map(|(_, f)| f).unwrap_or_else(|_| base_fit.clone());
-        StepData { rate_dps, base_fit }
+            fit_base(&gapped, fs_hz, &FitOptions::default()).map(|(_, f)| f).unwrap_or_else(|_| base_fit.clone());
+        StepData { rate_dps, base_fit, gaps }
     }
 
     /// `series` (the samples this step's data was made from) less the realisation of the effect that `fit`
@@ -140,25 +154,33 @@ impl StepData {
 
     /// The estimators' view of it, on `model`.
     pub fn training<'a>(&'a self, model: &'a GyroSim, temp_c: Option<&'a [f64]>, fs_hz: f64) -> TrainingData<'a> {
-        TrainingData { rate_dps: &self.rate_dps, temp_c, fs_hz, base: model, base_fit: &self.base_fit }
+        TrainingData {
+            rate_dps: &self.rate_dps,
+            temp_c,
+            fs_hz,
+            base: model,
+            base_fit: &self.base_fit,
+            gaps: &self.gaps,
+        }
     }
 }
 
-/// The chain `effects` learnt from the training samples `filled` (no gaps) as the diagnosis learns it, step by
+/// The chain `effects` learnt from the training samples `training` (gaps as NaN) as the diagnosis learns it, step by
 /// step from the base model `base` (fitted as `base_fit`), each step from the samples less what the steps before
 /// recovered ([`StepData::take_out`]); an effect whose estimator finds no trace is skipped.
 pub fn learn(
     effects: &[Effect],
     base: &Model,
     base_fit: &NoiseFit,
-    filled: &[f64],
+    training: &[f64],
     temp_c: Option<&[f64]>,
     fs_hz: f64,
 ) -> Model {
     let mut model = base.clone();
-    let mut series = filled.to_vec();
+    let gaps = gap_runs(training);
+    let mut series = fill_gaps(training);
     for (k, &effect) in effects.iter().enumerate() {
-        let data = StepData::new(&model.gyro, &series, temp_c, fs_hz, base_fit, k == 0);
+        let data = StepData::new(&model.gyro, &series, &gaps, temp_c, fs_hz, base_fit, k == 0);
         if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, temp_c, fs_hz)) {
             data.take_out(&mut series, &f);
             model = model.with(&f);

@@ -8,7 +8,7 @@ use super::chain::{Model, Step, StepData, MAX_STEPS};
 use super::effects::{self, Effect, EffectFit};
 use super::ensemble;
 use super::error::GapError;
-use super::input::{fill_gaps, GapInput, GapOptions, HoldoutCheck, MIN_PART};
+use super::input::{fill_gaps, gap_runs, GapInput, GapOptions, HoldoutCheck, MIN_PART};
 use super::judge::Judge;
 use super::rank::{self, CandidateResult, PartGap};
 use super::report::{self, GapReport};
@@ -80,6 +80,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
 
     // The chain: rank the candidates on the model so far, add the best, go on while a significant gap remains.
     // The training samples each step learns from, less the realisations the steps before recovered.
+    let gaps = gap_runs(training);
     let mut series = fill_gaps(training);
     let temp_train = rec.training_temp();
     let mut steps: Vec<Step> = Vec::new();
@@ -102,7 +103,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         if !first {
             total_steps += remaining.len();
         }
-        let data = StepData::new(&model.gyro, &series, temp_train, fs, &base_fit, first);
+        let data = StepData::new(&model.gyro, &series, &gaps, temp_train, fs, &base_fit, first);
         let training_data = data.training(&model.gyro, temp_train, fs);
         let fits: Vec<(Effect, Option<EffectFit>)> =
             remaining.par_iter().map(|&e| (e, effects::estimate(e, &training_data))).collect();

@@ -17,7 +17,6 @@ use octavar_shared::sim::GyroSim;
 use super::base::{base_model, fit_base};
 use super::chain::{self, Model};
 use super::effects::Effect;
-use super::input::fill_gaps;
 use crate::fit::{FitOptions, NoiseFit};
 
 /// The diagnosis's learning procedure, to be re-run on simulated training parts.
@@ -51,9 +50,8 @@ impl Learner<'_> {
     /// effect whose estimator finds no trace is left out), and its channel.
     pub fn with_chain(&self, effects: &[Effect], train: &[f64]) -> (GyroSim, Option<Channel>) {
         let (f, base) = self.base(train);
-        let filled = fill_gaps(train);
         let start = Model { gyro: base, spreads: Vec::new(), channel: self.channel };
-        let m = chain::learn(effects, &start, &f, &filled, self.temp_c, self.fs_hz);
+        let m = chain::learn(effects, &start, &f, train, self.temp_c, self.fs_hz);
         (m.gyro, m.channel)
     }
 }

@@ -70,7 +70,7 @@ pub use compare::ViewGap;
 pub use diagnose::{diagnose, ProgressFn};
 pub use effects::{Effect, EffectFit};
 pub use error::GapError;
-pub use input::{fill_gaps, GapInput, GapOptions, HoldoutCheck, MIN_PART};
+pub use input::{fill_gaps, gap_runs, refill, GapInput, GapOptions, HoldoutCheck, MIN_PART};
 pub use judge::{Evaluated, Judge};
 pub use rank::{CandidateResult, PartGap};
 pub use report::GapReport;

@@ -216,7 +216,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
             *c -= v;
         }
     }
-    let refit = refit_base(d.base, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let refit = refit_base(d.base, d.gaps, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
     let gyro = GyroSim {
         bistable: Some(BistableSim { step_dps: step, dwell_low_s: dwell_low, dwell_high_s: dwell_high }),
         ..refit

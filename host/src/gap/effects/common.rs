@@ -2,6 +2,8 @@
 //! IEEE re-fit of a cleaned record, the normal tail, one-dimensional searches (golden section, log grid) and the
 //! FFT.
 
+use std::ops::Range;
+
 use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
@@ -52,8 +54,24 @@ pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
 /// remainder of an imperfectly fitted component at the last one or two Allan points (a sinusoid of a few
 /// cycles per record whose amplitude is read 27% high), and a ramp extrapolated over the holdout is a gap of
 /// its own.
-pub(super) fn refit_base(base: &GyroSim, cleaned: &[f64], fs: f64) -> Option<(GyroSim, [f64; 5])> {
-    let pts = oadev_points(cleaned, fs);
+///
+/// `gaps` are the runs of samples that were missing or masked (filled in `cleaned`): the Allan deviation is taken
+/// with them as gaps, as the base fit took it.
+pub(super) fn refit_base(
+    base: &GyroSim,
+    gaps: &[Range<usize>],
+    cleaned: &[f64],
+    fs: f64,
+) -> Option<(GyroSim, [f64; 5])> {
+    let pts = if gaps.is_empty() {
+        oadev_points(cleaned, fs)
+    } else {
+        let mut gapped = cleaned.to_vec();
+        for r in gaps {
+            gapped[r.start.min(cleaned.len())..r.end.min(cleaned.len())].iter_mut().for_each(|v| *v = f64::NAN);
+        }
+        oadev_points(&gapped, fs)
+    };
     let terms = Term::ALL.into_iter().filter(|t| *t != Term::R || base.r_dps_per_s != 0.0).collect();
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
     let f = fit(&pts, &opts).ok()?;

@@ -25,6 +25,7 @@
 //! All of them run in well under a second on a million samples (one FFT or a few, a few O(N) passes, small fits
 //! on the octave OADEV curve or a window of the spectrum, a 255-point Cholesky factor per block length).
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use octavar_shared::sensor::Channel;
@@ -133,6 +134,10 @@ pub struct TrainingData<'a> {
     pub base: &'a GyroSim,
     /// The base fit itself.
     pub base_fit: &'a NoiseFit,
+    /// The runs of samples that were missing or masked, filled by interpolation in `rate_dps`
+    /// ([`crate::gap::input::gap_runs`]). The base terms are re-fitted with them as gaps, and an estimator that
+    /// takes a component out fills them again from what it leaves ([`crate::gap::input::refill`]).
+    pub gaps: &'a [Range<usize>],
 }
 
 /// An effect fitted on the training data.

@@ -64,7 +64,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     for &i in &hits {
         cleaned[i] = x[i] - r[i];
     }
-    let refit = refit_base(d.base, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let refit = refit_base(d.base, d.gaps, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
     let gyro = GyroSim { outliers: Some(Outliers { per_sample: p, size_dps: size, size_sigma: 0.0 }), ..refit };
     Some(EffectFit {
         effect: Effect::Outliers,

@@ -356,7 +356,7 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         })
         .collect();
     let (mut gyro, squares) =
-        refit_base(d.base, &cleaned, d.fs_hz).unwrap_or_else(|| (d.base.clone(), d.base_fit.squares));
+        refit_base(d.base, d.gaps, &cleaned, d.fs_hz).unwrap_or_else(|| (d.base.clone(), d.base_fit.squares));
     // The least squares' own errors under the noise model, leakage of its red noise included; the Hann
     // background above sees only the noise at the peak's bins.
     let se: Vec<[f64; 3]> = fitted

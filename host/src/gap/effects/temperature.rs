@@ -5,6 +5,7 @@ use serde_json::json;
 
 use super::common::*;
 use super::{Effect, EffectFit, ParamSpread, TrainingData};
+use crate::gap::input::refill;
 
 /// Bias coupled to the temperature through a first-order thermal lag.
 ///
@@ -63,7 +64,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let tapers = sine_tapers(nb, TAPERS);
     let fft_plan = rustfft::FftPlanner::new().plan_fft_forward(nfft);
     let transform = |v: &[f64]| -> Vec<(Vec<f64>, Vec<f64>)> { sine_tapered(v, TAPERS, &*fft_plan) };
-    let rt = transform(&r);
+    let rt1 = transform(&r);
     let df = 1.0 / (nfft as f64 * dt);
     let two_pi = 2.0 * std::f64::consts::PI;
     let spectrum_at = |sq: &[f64; 5], f: f64| -> f64 {
@@ -73,9 +74,9 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let spectrum =
         |sq: &[f64; 5]| -> Vec<f64> { (0..=half).map(|k| spectrum_at(sq, (k as f64 * df).max(df))).collect() };
     // (k, GLS residual, sum |X|^2/S) for a lagged temperature's transforms, summed over the tapers.
-    let gls = |xt: &[(Vec<f64>, Vec<f64>)], s: &[f64]| -> (f64, f64, f64) {
+    let gls = |xt: &[(Vec<f64>, Vec<f64>)], rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]| -> (f64, f64, f64) {
         let (mut sxx, mut sxr, mut srr) = (0.0, 0.0, 0.0);
-        for ((xr, xi), (rr, ri)) in xt.iter().zip(&rt) {
+        for ((xr, xi), (rr, ri)) in xt.iter().zip(rt) {
             for k in 1..=half {
                 sxx += (xr[k] * xr[k] + xi[k] * xi[k]) / s[k];
                 sxr += (xr[k] * rr[k] + xi[k] * ri[k]) / s[k];
@@ -89,9 +90,9 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     };
     let record = nb as f64 * dt;
     let unlagged = transform(&t);
-    let best_lag = |s: &[f64]| -> f64 {
-        let (lag, crit) = log_search(dt, 3.0 * record, 40, |lag| gls(&transform(&lagged(lag)), s).1);
-        if gls(&unlagged, s).1 <= crit {
+    let best_lag = |rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]| -> f64 {
+        let (lag, crit) = log_search(dt, 3.0 * record, 40, |lag| gls(&transform(&lagged(lag)), rt, s).1);
+        if gls(&unlagged, rt, s).1 <= crit {
             0.0
         } else {
             lag
@@ -99,27 +100,41 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     };
     // Pass 1: the base fit's noise.
     let s1 = spectrum(&d.base_fit.squares);
-    let lag1 = best_lag(&s1);
-    let (k1, _, _) = gls(&transform(&lagged(lag1)), &s1);
-    let cleaned_of = |k: f64, lag: f64| -> Vec<f64> {
+    let lag1 = best_lag(&rt1, &s1);
+    let (k1, _, _) = gls(&transform(&lagged(lag1)), &rt1, &s1);
+    // The lagged temperature at every sample.
+    let response = |lag: f64| -> Vec<f64> {
         let a_full = if lag > 0.0 { (-1.0 / (d.fs_hz * lag)).exp() } else { 0.0 };
         let mut y = temp[0];
-        d.rate_dps[..n]
+        temp[..n]
             .iter()
-            .zip(&temp[..n])
-            .map(|(&r, &tc)| {
+            .map(|&tc| {
                 y = tc + a_full * (y - tc);
-                r - k * y
+                y
             })
             .collect()
     };
-    // Pass 2: the noise of the record without the coupling.
-    let (_, squares) = refit_base(d.base, &cleaned_of(k1, lag1), d.fs_hz)?;
+    // The rate less the coupling, its gaps filled from what is left.
+    let cleaned_of = |k: f64, lag: f64| -> Vec<f64> {
+        let mut c: Vec<f64> = d.rate_dps[..n].iter().zip(response(lag)).map(|(&r, y)| r - k * y).collect();
+        refill(&mut c, d.gaps);
+        c
+    };
+    // Pass 2: the noise of the record without the coupling; where the record had gaps, the rate with them filled
+    // from the first pass's coupling (a line through a gap lacks the response there, and reads the coupling low).
+    let cleaned1 = cleaned_of(k1, lag1);
+    let (_, squares) = refit_base(d.base, d.gaps, &cleaned1, d.fs_hz)?;
+    if !d.gaps.is_empty() {
+        let refilled: Vec<f64> = cleaned1.iter().zip(response(lag1)).map(|(c, y)| c + k1 * y).collect();
+        r = block_means(&refilled, m);
+        r.truncate(nb);
+    }
+    let rt = if d.gaps.is_empty() { rt1 } else { transform(&r) };
     let s2 = spectrum(&squares);
-    let lag = best_lag(&s2);
+    let lag = best_lag(&rt, &s2);
     let x = lagged(lag);
     let xt = transform(&x);
-    let (k, _, sxx) = gls(&xt, &s2);
+    let (k, _, sxx) = gls(&xt, &rt, &s2);
     if !(k.is_finite() && k != 0.0 && sxx > 0.0) {
         return None;
     }
@@ -134,7 +149,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         .map(|(xr, xi)| (1..=half).map(|k| (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k] * k as f64 * df).sum::<f64>())
         .sum::<f64>()
         / sxx;
-    let (refit, _) = refit_base(d.base, &cleaned_of(k, lag), d.fs_hz)?;
+    let (refit, _) = refit_base(d.base, d.gaps, &cleaned_of(k, lag), d.fs_hz)?;
     // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
     let c0 = mean(&r) - k * mean(&x);
     let ref_c = (d.base.bias_dps - c0) / k;

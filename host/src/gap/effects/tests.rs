@@ -37,7 +37,7 @@ fn base_of(x: &[f64], fs: f64) -> (GyroSim, NoiseFit) {
 
 fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, fs: f64) -> Option<EffectFit> {
     let (g, f) = base_of(x, fs);
-    let d = TrainingData { rate_dps: x, temp_c: t, fs_hz: fs, base: &g, base_fit: &f };
+    let d = TrainingData { rate_dps: x, temp_c: t, fs_hz: fs, base: &g, base_fit: &f, gaps: &[] };
     let t0 = std::time::Instant::now();
     let out = estimate(effect, &d);
     eprintln!("{effect}: {:?} in {:?}", out.as_ref().map(|e| &e.params), t0.elapsed());
@@ -151,7 +151,7 @@ fn temperature_standard_error_is_the_scatter() {
             let mut g = VirtualGyro::new(&m, Channel::bench(ADXRS300), fs, 100 + seed).unwrap();
             let x: Vec<f64> = t.iter().map(|&tc| g.next_rate(tc)).collect();
             let (b, f) = base_of(&x, fs);
-            let d = TrainingData { rate_dps: &x, temp_c: Some(&t), fs_hz: fs, base: &b, base_fit: &f };
+            let d = TrainingData { rate_dps: &x, temp_c: Some(&t), fs_hz: fs, base: &b, base_fit: &f, gaps: &[] };
             let e = estimate(Effect::Temperature, &d).expect("a 10-sigma coupling is found");
             let k = e.params["dps_per_c"].as_f64().unwrap();
             (k, k / e.params["t_stat"].as_f64().unwrap())

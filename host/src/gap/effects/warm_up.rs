@@ -220,12 +220,12 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
             })
             .collect()
     };
-    let (_, squares) = refit_base(d.base, &cleaned_of(size1, tau1), fs)?;
+    let (_, squares) = refit_base(d.base, d.gaps, &cleaned_of(size1, tau1), fs)?;
     let (size, se, tau_s) = scan(x, fs, &squares, trend)?;
     if !((size / se).abs() > T_STAT) {
         return None;
     }
-    let (refit, _) = refit_base(d.base, &cleaned_of(size, tau_s), fs)?;
+    let (refit, _) = refit_base(d.base, d.gaps, &cleaned_of(size, tau_s), fs)?;
     let gyro = GyroSim { warm_up: Some(WarmUpSim { size_dps: size, tau_s }), ..refit };
     Some(EffectFit {
         effect: Effect::WarmUp,
