@@ -21,7 +21,7 @@ use std::ops::Range;
 
 use super::base::fit_base;
 use super::effects::{self, Effect, EffectFit, ParamSpread, TrainingData};
-use super::input::{fill_gaps, gap_runs, refill};
+use super::fill::{fill_gaps, gap_runs, refill};
 use super::judge::Evaluated;
 use super::rank::{CandidateResult, Location, PartGap};
 use crate::fit::{FitOptions, NoiseFit};

@@ -3,7 +3,6 @@
 
 use octavar_shared::sensor::Channel;
 use serde::Serialize;
-use std::ops::Range;
 
 use super::effects::Effect;
 use super::error::GapError;
@@ -169,66 +168,6 @@ impl HoldoutCheck {
         match self {
             HoldoutCheck::Predictive => "predictive",
             HoldoutCheck::Plain => "plain",
-        }
-    }
-}
-
-/// A copy with NaN runs filled by linear interpolation between their neighbours (the ends by the nearest value);
-/// the estimators want gap-free samples, and the few gaps of a real record hardly move them.
-pub fn fill_gaps(x: &[f64]) -> Vec<f64> {
-    let mut out = x.to_vec();
-    refill(&mut out, &gap_runs(x));
-    out
-}
-
-/// The runs of non-finite samples in `x` (missing, or masked as transients), in order.
-pub fn gap_runs(x: &[f64]) -> Vec<Range<usize>> {
-    let mut runs = Vec::new();
-    let mut start = None;
-    for (i, v) in x.iter().enumerate() {
-        match (v.is_finite(), start) {
-            (false, None) => start = Some(i),
-            (true, Some(a)) => {
-                runs.push(a..i);
-                start = None;
-            }
-            _ => {}
-        }
-    }
-    if let Some(a) = start {
-        runs.push(a..x.len());
-    }
-    runs
-}
-
-/// Fill the samples of `runs` in `x` by linear interpolation between the samples beside each run (a run at an
-/// end takes the nearest one; a series that is all one run is left alone). An estimator that takes a component
-/// out of filled samples fills the runs again from what it leaves, so that the fill carries none of that
-/// component: a line drawn through a gap of minutes under a temperature response would leave the response's
-/// curve, less the line, as a bump in what is left.
-pub fn refill(x: &mut [f64], runs: &[Range<usize>]) {
-    let n = x.len();
-    for r in runs {
-        let (a, b) = (r.start.min(n), r.end.min(n));
-        if a >= b {
-            continue;
-        }
-        match (a.checked_sub(1), (b < n).then_some(b)) {
-            (Some(l), Some(h)) => {
-                let (xl, xh) = (x[l], x[h]);
-                for j in a..b {
-                    x[j] = xl + (xh - xl) * (j - l) as f64 / (h - l) as f64;
-                }
-            }
-            (Some(l), None) => {
-                let v = x[l];
-                x[a..b].iter_mut().for_each(|y| *y = v);
-            }
-            (None, Some(h)) => {
-                let v = x[h];
-                x[a..b].iter_mut().for_each(|y| *y = v);
-            }
-            (None, None) => {}
         }
     }
 }

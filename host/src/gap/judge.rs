@@ -7,7 +7,8 @@ use octavar_shared::sim::GyroSim;
 
 use super::compare::{self, ViewGap};
 use super::error::GapError;
-use super::input::{fill_gaps, GapInput, GapOptions};
+use super::fill::fill_gaps;
+use super::input::{GapInput, GapOptions};
 use super::{effects, ensemble, views};
 
 /// One model's ensemble, compared with the real record on both parts.

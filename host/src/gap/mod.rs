@@ -4,7 +4,7 @@
 //! 1. **Split** ([`input`]): training is the first part of the record, the holdout the rest
 //!    ([`GapInput::split`]), or a second record ([`GapInput::joined`]). **Transients** ([`disturbances`], on the
 //!    scan of [`transients`]): bumps and bursts found in each part are masked as gaps before anything else
-//!    ([`GapOptions::keep_transients`] leaves them in).
+//!    ([`GapOptions::keep_transients`] leaves them in). The estimators see the gaps filled ([`fill`]).
 //! 2. **Base model** ([`base`]): the IEEE 952 fit ([`crate::fit::fit`], default options) on the training OADEV at
 //!    octave tau; its fitted terms and the training mean as the bias, on the record's ADC when it is known
 //!    ([`GapOptions::channel`]), else as the analog rate (no ADC: nothing quantises or clips it; a fine ADC over
@@ -20,7 +20,8 @@
 //!    same seeds, re-measured; ranked by total gap with a penalty per parameter; the best is named, or `none` when
 //!    the base gap is not significant.
 //! 7. **The chain** ([`chain`]): while a significant gap remains, the remaining candidates are ranked again on the
-//!    model that already has the effects found, and the best is added when it removes a quarter of the gap.
+//!    model that already has the effects found, and the best is added when it removes a quarter of the gap's
+//!    excess over what a right model leaves ([`rank::explains`]).
 //! 8. **Holdout** ([`holdout`] for the predictive check): every parameter frozen from training, the gap on the
 //!    holdout before and after each step and for the whole chain.
 //! 9. **What is left** ([`describe`]): a significant gap that no candidate explains is described by its view,
@@ -28,7 +29,7 @@
 //!
 //! [`diagnose()`] runs these steps; [`report`] turns the result into text and the JSON document.
 //!
-//! Imports run one way: `input`, `error`, `spectral` and `base` import nothing of the diagnosis but each other;
+//! Imports run one way: `fill` imports nothing; `input`, `error`, `spectral` and `base` import nothing of the diagnosis but each other;
 //! `views` the spectral tools; `compare` the views; `ensemble` and `judge` those; `rank` the comparison and the
 //! judge; `chain`, `describe` and `holdout` the ranking; `report` all of these; `diagnose` everything.
 //!
@@ -56,6 +57,7 @@ pub mod disturbances;
 pub mod effects;
 pub mod ensemble;
 pub mod error;
+pub mod fill;
 pub mod holdout;
 pub mod input;
 pub mod judge;
@@ -70,7 +72,8 @@ pub use compare::ViewGap;
 pub use diagnose::{diagnose, ProgressFn};
 pub use effects::{Effect, EffectFit};
 pub use error::GapError;
-pub use input::{fill_gaps, gap_runs, refill, GapInput, GapOptions, HoldoutCheck, MIN_PART};
+pub use fill::{fill_gaps, gap_runs, refill};
+pub use input::{GapInput, GapOptions, HoldoutCheck, MIN_PART};
 pub use judge::{Evaluated, Judge};
 pub use rank::{CandidateResult, PartGap};
 pub use report::GapReport;

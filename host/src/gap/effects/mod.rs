@@ -135,8 +135,8 @@ pub struct TrainingData<'a> {
     /// The base fit itself.
     pub base_fit: &'a NoiseFit,
     /// The runs of samples that were missing or masked, filled by interpolation in `rate_dps`
-    /// ([`crate::gap::input::gap_runs`]). The base terms are re-fitted with them as gaps, and an estimator that
-    /// takes a component out fills them again from what it leaves ([`crate::gap::input::refill`]).
+    /// ([`crate::gap::fill::gap_runs`]). The base terms are re-fitted with them as gaps, and an estimator that
+    /// takes a component out fills them again from what it leaves ([`crate::gap::fill::refill`]).
     pub gaps: &'a [Range<usize>],
 }
 

@@ -5,7 +5,7 @@ use serde_json::json;
 
 use super::common::*;
 use super::{Effect, EffectFit, ParamSpread, TrainingData};
-use crate::gap::input::refill;
+use crate::gap::fill::refill;
 
 /// Bias coupled to the temperature through a first-order thermal lag.
 ///
