@@ -19,7 +19,7 @@ use super::{Effect, EffectFit, TrainingData};
 pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     let fs = d.fs_hz;
     // The Allan variance of a resonance or a Gauss-Markov process the model already has is not the filter's.
-    let pts = less_known(&oadev_points(d.rate_dps, fs), d.base, fs);
+    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, fs), d.base, fs);
     if pts.len() < 5 {
         return None;
     }

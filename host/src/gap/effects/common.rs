@@ -46,6 +46,38 @@ pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
         .unwrap_or_default()
 }
 
+/// [`oadev_points`] of `x` with the runs `gaps` (filled in `x`) taken as gaps: a stretch filled by a line has no
+/// noise, and would read the short-tau Allan deviation low by the share of the record it spans.
+pub(super) fn gapped_oadev_points(x: &[f64], gaps: &[Range<usize>], fs: f64) -> Vec<FitPoint> {
+    if gaps.is_empty() {
+        return oadev_points(x, fs);
+    }
+    let mut gapped = x.to_vec();
+    for r in gaps {
+        gapped[r.start.min(x.len())..r.end.min(x.len())].iter_mut().for_each(|v| *v = f64::NAN);
+    }
+    oadev_points(&gapped, fs)
+}
+
+/// The samples of `x` outside the runs `gaps` (in order; the few differences across a join are the only ones
+/// that span a gap).
+pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borrow::Cow<'a, [f64]> {
+    if gaps.is_empty() {
+        return std::borrow::Cow::Borrowed(x);
+    }
+    let mut out = Vec::with_capacity(x.len());
+    let mut at = 0;
+    for r in gaps {
+        let (a, b) = (r.start.min(x.len()), r.end.min(x.len()));
+        if a > at {
+            out.extend_from_slice(&x[at..a]);
+        }
+        at = at.max(b);
+    }
+    out.extend_from_slice(&x[at.min(x.len())..]);
+    std::borrow::Cow::Owned(out)
+}
+
 /// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component: the
 /// base model with its Q, N, B, K, R replaced by the fitted terms of that fit, and the fit's squares.
 ///
@@ -63,15 +95,7 @@ pub(super) fn refit_base(
     cleaned: &[f64],
     fs: f64,
 ) -> Option<(GyroSim, [f64; 5])> {
-    let pts = if gaps.is_empty() {
-        oadev_points(cleaned, fs)
-    } else {
-        let mut gapped = cleaned.to_vec();
-        for r in gaps {
-            gapped[r.start.min(cleaned.len())..r.end.min(cleaned.len())].iter_mut().for_each(|v| *v = f64::NAN);
-        }
-        oadev_points(&gapped, fs)
-    };
+    let pts = gapped_oadev_points(cleaned, gaps, fs);
     let terms = Term::ALL.into_iter().filter(|t| *t != Term::R || base.r_dps_per_s != 0.0).collect();
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
     let f = fit(&pts, &opts).ok()?;

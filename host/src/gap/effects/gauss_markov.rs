@@ -19,7 +19,7 @@ use super::{Effect, EffectFit, TrainingData};
 pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
     let fs = d.fs_hz;
     let tau0 = 1.0 / fs;
-    let pts = oadev_points(d.rate_dps, fs);
+    let pts = gapped_oadev_points(d.rate_dps, d.gaps, fs);
     if pts.len() < 6 {
         return None;
     }

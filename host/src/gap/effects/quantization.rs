@@ -91,9 +91,11 @@ pub(super) fn quantized_var(sigma: f64, q: f64) -> f64 {
 /// quantisation noise; the analog N is recovered by inverting the variance of a quantised Gaussian with a uniformly wandering
 /// offset (Sheppard's `sigma^2 + q^2/12` when sigma > 2q, computed exactly below).
 pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
-    let (q, point) = lattice(d.rate_dps)?;
+    // The recorded samples only: a gap's interpolated fill lies off the lattice.
+    let kept = outside_gaps(d.rate_dps, d.gaps);
+    let x: &[f64] = &kept;
+    let (q, point) = lattice(x)?;
     let fs = d.fs_hz;
-    let x = d.rate_dps;
     // The per-sample white variance from the first differences (half their mean square): below one step the
     // quantised noise is not white at longer tau, so N from the Allan curve would not do.
     let v_white = x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (x.len() - 1) as f64);

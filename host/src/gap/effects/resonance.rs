@@ -37,8 +37,9 @@ const MIN_Q: f64 = 1.5;
 const CANDIDATES: usize = 3;
 
 /// The one-sided Welch spectrum of `x`, (deg/s)^2/Hz: Hann segments of `seg` samples, 50% overlap, each segment's
-/// mean removed; bins `k df`, `k = 0..seg/2`. Also the number of segments.
-fn welch(x: &[f64], fs: f64, seg: usize) -> (Vec<f64>, usize) {
+/// mean removed, the segments that overlap a run of `gaps` (filled in `x`) left out; bins `k df`, `k =
+/// 0..seg/2`. Also the number of segments.
+fn welch(x: &[f64], gaps: &[std::ops::Range<usize>], fs: f64, seg: usize) -> (Vec<f64>, usize) {
     let fft = FftPlanner::new().plan_fft_forward(seg);
     let window: Vec<f64> =
         (0..seg).map(|i| 0.5 * (1.0 - (2.0 * std::f64::consts::PI * i as f64 / seg as f64).cos())).collect();
@@ -48,6 +49,10 @@ fn welch(x: &[f64], fs: f64, seg: usize) -> (Vec<f64>, usize) {
     let mut count = 0;
     let mut start = 0;
     while start + seg <= x.len() {
+        if gaps.iter().any(|g| g.start < start + seg && g.end > start) {
+            start += seg / 2;
+            continue;
+        }
         let part = &x[start..start + seg];
         let mu = mean(part);
         for ((b, v), w) in buf.iter_mut().zip(part).zip(&window) {
@@ -344,7 +349,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
     if n < seg * (MIN_SEGMENTS / 2 + 1) {
         return None;
     }
-    let (p, segments) = welch(x, fs, seg);
+    let (p, segments) = welch(x, d.gaps, fs, seg);
     if segments < MIN_SEGMENTS {
         return None;
     }
@@ -423,7 +428,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
 /// base model itself where that fit fails.
 fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim {
     let fs = d.fs_hz;
-    let pts: Vec<_> = oadev_points(d.rate_dps, fs)
+    let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, fs)
         .into_iter()
         .filter_map(|mut p| {
             let own = bump.power * resonance_avar(bump.freq_hz, bump.q, p.tau_s * fs, fs);
