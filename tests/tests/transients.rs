@@ -32,7 +32,7 @@ use octavar_shared::sim::{
 };
 use rayon::prelude::*;
 
-use crate::util::{base_adev, coarse_channel, data_dir, log_uniform, uniform};
+use crate::util::{base_adev, coarse_channel, data_dir, log_uniform, temperature_coupling, uniform};
 
 fn verbose() -> bool {
     std::env::var_os("TRANSIENTS_VERBOSE").is_some()
@@ -123,18 +123,10 @@ fn draw(process: Process, seed: u64) -> Case {
         Process::Temperature => {
             let p = log_uniform(&mut rng, 300.0, 86_400.0);
             fs = (n as f64 / (8.0 * p)).min(100.0);
-            let swing = uniform(&mut rng, 1.0, 5.0);
-            let lag = log_uniform(&mut rng, 10.0, 0.5 * p);
-            let h = 1.0 / (1.0 + (2.0 * std::f64::consts::PI * lag / p).powi(2)).sqrt();
-            let k = uniform(&mut rng, 3.0, 6.0) * base_adev(&model, p / 3.0) / (0.5 * swing * h);
-            temp = Some(TemperatureProfile {
-                min_c: 22.0,
-                max_c: 22.0 + swing,
-                period_s: p,
-                phase_rad: uniform(&mut rng, -3.0, 3.0),
-                wander: Some(Wander { sigma_c: 0.05 * swing, tau_s: p / 4.0 }),
-            });
-            model.temperature = Some(TempCoupling { dps_per_c: k, ref_c: 23.5, lag_s: lag });
+            let (profile, coupling, swing) = temperature_coupling(&mut rng, &model, p);
+            let (k, lag) = (coupling.dps_per_c, coupling.lag_s);
+            temp = Some(profile);
+            model.temperature = Some(coupling);
             what = format!("k {k:.2e} lag {lag:.0} P {p:.0} swing {swing:.1}");
         }
         Process::Sinusoid => {

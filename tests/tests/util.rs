@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::rng::SimRng;
-use octavar_shared::sim::GyroSim;
+use octavar_shared::sim::{GyroSim, TempCoupling, TemperatureProfile, Wander};
 
 /// The reference data folder: `OCTAVAR_DATA`, or `../shared/data` from the workspace root.
 #[allow(dead_code)]
@@ -84,4 +84,23 @@ pub fn coarse_channel(q: f64) -> Channel {
     let sens = adc.mv_per_code() / q;
     let gyro = GyroModel { sensitivity_mv_per_dps: sens, null_mv: 1650.0, range_dps: 30000.0 * q, ..GENERIC };
     Channel { gyro, front: FrontEnd::WIRE, adc }
+}
+
+/// A temperature cycle of period `p` s (1-5 degC peak to peak, uniform, with a slow wander) and a bias coupled to
+/// it through a thermal lag of 10 s to half the cycle (log-uniform), the coupled bias 3-6 times `model`'s Allan
+/// deviation at a third of the cycle: the profile, the coupling and the swing, degC.
+#[allow(dead_code)]
+pub fn temperature_coupling(rng: &mut SimRng, model: &GyroSim, p: f64) -> (TemperatureProfile, TempCoupling, f64) {
+    let swing = uniform(rng, 1.0, 5.0);
+    let lag = log_uniform(rng, 10.0, 0.5 * p);
+    let h = 1.0 / (1.0 + (2.0 * std::f64::consts::PI * lag / p).powi(2)).sqrt();
+    let k = uniform(rng, 3.0, 6.0) * base_adev(model, p / 3.0) / (0.5 * swing * h);
+    let profile = TemperatureProfile {
+        min_c: 22.0,
+        max_c: 22.0 + swing,
+        period_s: p,
+        phase_rad: uniform(rng, -3.0, 3.0),
+        wander: Some(Wander { sigma_c: 0.05 * swing, tau_s: p / 4.0 }),
+    };
+    (profile, TempCoupling { dps_per_c: k, ref_c: 23.5, lag_s: lag }, swing)
 }
