@@ -21,7 +21,7 @@ use std::ops::Range;
 
 use super::base::fit_base;
 use super::effects::{self, Effect, EffectFit, ParamSpread, TrainingData};
-use super::fill::{fill_gaps, gap_runs, refill};
+use super::fill::{fill_gaps, gap_runs, refill, with_gaps};
 use super::judge::Evaluated;
 use super::rank::{CandidateResult, Location, PartGap};
 use crate::fit::{FitOptions, NoiseFit};
@@ -132,12 +132,9 @@ impl StepData {
             None => filled.to_vec(),
         };
         refill(&mut rate_dps, &gaps);
-        let mut gapped = rate_dps.clone();
-        for r in &gaps {
-            gapped[r.clone()].iter_mut().for_each(|v| *v = f64::NAN);
-        }
-        let base_fit =
-            fit_base(&gapped, fs_hz, &FitOptions::default()).map(|(_, f)| f).unwrap_or_else(|_| base_fit.clone());
+        let base_fit = fit_base(&with_gaps(&rate_dps, &gaps), fs_hz, &FitOptions::default())
+            .map(|(_, f)| f)
+            .unwrap_or_else(|_| base_fit.clone());
         StepData { rate_dps, base_fit, gaps }
     }
 

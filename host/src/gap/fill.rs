@@ -31,6 +31,16 @@ pub fn gap_runs(x: &[f64]) -> Vec<Range<usize>> {
     runs
 }
 
+/// A copy of `x` with the samples of `runs` set to NaN again: for the statistics that take gaps as gaps (the
+/// Allan deviation), where a fill would count as samples.
+pub fn with_gaps(x: &[f64], runs: &[Range<usize>]) -> Vec<f64> {
+    let mut out = x.to_vec();
+    for r in runs {
+        out[r.start.min(x.len())..r.end.min(x.len())].iter_mut().for_each(|v| *v = f64::NAN);
+    }
+    out
+}
+
 /// Fill the samples of `runs` in `x` by linear interpolation between the samples beside each run (a run at an
 /// end takes the nearest one; a series that is all one run is left alone). An estimator that takes a component
 /// out of filled samples fills the runs again from what it leaves, so that the fill carries none of that
@@ -81,6 +91,10 @@ mod tests {
         y[4] = 99.0;
         refill(&mut y, &runs);
         assert_eq!(y, vec![-9.0, -9.0, -18.0, -27.0, -36.0, -45.0, -54.0, -63.0, -63.0, -63.0]);
+        // The runs set to NaN again: the same runs come back, the rest untouched.
+        let back = with_gaps(&y, &runs);
+        assert_eq!(gap_runs(&back), runs);
+        assert_eq!(back[1..3], y[1..3]);
         assert!(gap_runs(&[1.0, 2.0]).is_empty());
         let mut all = [nan; 3];
         refill(&mut all, &gap_runs(&[nan; 3]));

@@ -9,6 +9,7 @@ use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
 use crate::fit::{fit, FitOptions, FitPoint, Term};
+use crate::gap::fill::with_gaps;
 pub(super) use crate::gap::spectral::{block_means, sine_tapers};
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
 
@@ -52,11 +53,7 @@ pub(super) fn gapped_oadev_points(x: &[f64], gaps: &[Range<usize>], fs: f64) -> 
     if gaps.is_empty() {
         return oadev_points(x, fs);
     }
-    let mut gapped = x.to_vec();
-    for r in gaps {
-        gapped[r.start.min(x.len())..r.end.min(x.len())].iter_mut().for_each(|v| *v = f64::NAN);
-    }
-    oadev_points(&gapped, fs)
+    oadev_points(&with_gaps(x, gaps), fs)
 }
 
 /// The samples of `x` outside the runs `gaps` (in order; the few differences across a join are the only ones
