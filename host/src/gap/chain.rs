@@ -149,6 +149,16 @@ impl StepData {
         }
     }
 
+    /// `before` (the realisations the steps before recovered, training length; `None`: none) with the one `fit`
+    /// recovered from this step's data added; `None` when `fit` recovered none.
+    pub fn realised_with(&self, before: Option<&[f64]>, fit: &EffectFit) -> Option<Vec<f64>> {
+        let cleaned = fit.cleaned.as_deref().filter(|c| c.len() == self.rate_dps.len())?;
+        Some(match before {
+            Some(b) => b.iter().zip(&self.rate_dps).zip(cleaned).map(|((b, d), c)| b + d - c).collect(),
+            None => self.rate_dps.iter().zip(cleaned).map(|(d, c)| d - c).collect(),
+        })
+    }
+
     /// The estimators' view of it, on `model`.
     pub fn training<'a>(&'a self, model: &'a GyroSim, temp_c: Option<&'a [f64]>, fs_hz: f64) -> TrainingData<'a> {
         TrainingData {

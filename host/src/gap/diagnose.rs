@@ -75,14 +75,17 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let rec = judge.record();
     done += 1;
     progress("base fit", done, total_steps);
-    let base_eval = judge.evaluate(&base, &[], opts.channel.as_ref(), "base")?;
+    let base_eval = judge.evaluate(&base, &[], opts.channel.as_ref(), None, "base")?;
     done += 1;
     progress("base ensemble", done, total_steps);
 
     // The chain: rank the candidates on the model so far, add the best, go on while a significant gap remains.
     // The training samples each step learns from, less the realisations the steps before recovered.
     let gaps = gap_runs(training);
-    let mut series = fill_gaps(training);
+    let filled = fill_gaps(training);
+    let mut series = filled.clone();
+    // What the chain's steps recovered of their effects' realisations (`filled - series`); `None` before any.
+    let mut realised: Option<Vec<f64>> = None;
     let temp_train = rec.training_temp();
     let mut steps: Vec<Step> = Vec::new();
     let mut first_candidates: Vec<CandidateResult> = Vec::new();
@@ -113,7 +116,9 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
             let eval = match &fit {
                 Some(f) => {
                     let m = model.with(f);
-                    Some(judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), effect.name())?)
+                    let known = data.realised_with(realised.as_deref(), f);
+                    let known = known.as_deref().or(realised.as_deref());
+                    Some(judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), known, effect.name())?)
                 }
                 None => None,
             };
@@ -136,7 +141,10 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         let in_band = |v: &[compare::ViewGap]| rank::band_gap(v, &loc);
         let training_gap = PartGap::new(in_band(&eval.training).unwrap_or(0.0), c.gap_after.unwrap_or(0.0));
         let holdout_gap = in_band(&eval.holdout).map(|b| PartGap::new(b, c.holdout_after.unwrap_or(b)));
-        data.take_out(&mut series, &fit);
+        if fit.cleaned.is_some() {
+            data.take_out(&mut series, &fit);
+            realised = Some(filled.iter().zip(&series).map(|(f, s)| f - s).collect());
+        }
         model = model.with(&fit);
         steps.push(Step {
             effect: c.effect,

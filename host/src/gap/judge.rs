@@ -103,8 +103,13 @@ impl<'a> Judge<'a> {
 
     /// `gyro`'s ensemble (its members drawing their effects' parameters from `spreads`, on channel `ch` or as the analog rate)
     /// compared with the record on both parts. A model with a temperature coupling is judged in the temperature
-    /// view on what its coupling leaves, on the real record as on each member. `name` names the model in an
-    /// error.
+    /// view on what its coupling leaves, on the real record as on each member. `realised` is the realisation of
+    /// the model's random effects recovered from the training part (the bistable bias's levels, the bias steps, the
+    /// spikes; training length, deg/s): the temperature view takes the real training part less it, since a
+    /// coherence with the temperature compares the record with a driver those effects do not follow, and their
+    /// power, once known, only hides a coupling (a member's coherence scatters about the same null level with or
+    /// without them). The other views compare it as recorded with members that draw it afresh. `name` names the
+    /// model in an error.
     ///
     /// # Errors
     /// [`GapError::Sim`]: the simulator rejects the model.
@@ -113,6 +118,7 @@ impl<'a> Judge<'a> {
         gyro: &GyroSim,
         spreads: &[effects::ParamSpread],
         ch: Option<&Channel>,
+        realised: Option<&[f64]>,
         name: &str,
     ) -> Result<Evaluated, GapError> {
         let rec = self.record();
@@ -128,19 +134,25 @@ impl<'a> Judge<'a> {
             explained.as_deref(),
         )
         .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
-        let remeasured = explained.as_ref().map(|resp| {
-            let (resp_train, resp_hold) = resp.split_at(self.n_train);
-            let train =
-                self.train_plan.with_explained(&self.real_train, rec.training(), rec.training_temp(), resp_train);
-            let hold = self
-                .hold_plan
-                .as_ref()
-                .zip(self.real_hold.as_ref())
-                .map(|(p, m)| p.with_explained(m, rec.holdout(), rec.holdout_temp(), resp_hold));
+        let known_train: Option<Vec<f64>> = match (explained.as_deref(), realised) {
+            (Some(resp), Some(r)) => Some(resp[..self.n_train].iter().zip(r).map(|(a, b)| a + b).collect()),
+            (Some(resp), None) => Some(resp[..self.n_train].to_vec()),
+            (None, Some(r)) => Some(r.to_vec()),
+            (None, None) => None,
+        };
+        let remeasured = known_train.as_ref().map(|known| {
+            let train = self.train_plan.with_explained(&self.real_train, rec.training(), rec.training_temp(), known);
+            let hold = explained.as_ref().and_then(|resp| {
+                let resp_hold = &resp[self.n_train..];
+                self.hold_plan
+                    .as_ref()
+                    .zip(self.real_hold.as_ref())
+                    .map(|(p, m)| p.with_explained(m, rec.holdout(), rec.holdout_temp(), resp_hold))
+            });
             (train, hold)
         });
         let (real_train, real_hold) = match &remeasured {
-            Some((t, h)) => (t, h.as_ref()),
+            Some((t, h)) => (t, h.as_ref().or(self.real_hold.as_ref())),
             None => (&self.real_train, self.real_hold.as_ref()),
         };
         let training = compare::compare(&self.train_plan, real_train, &e.training);
