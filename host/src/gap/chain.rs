@@ -66,6 +66,16 @@ pub struct Step {
     pub holdout: Option<PartGap>,
     /// Every candidate of this step, in vocabulary order.
     pub candidates: Vec<CandidateResult>,
+    /// The effect estimated again on the chain's final model less itself ([`backfit`]), where the diagnosis kept
+    /// that round: its parameters are the ones the final model carries.
+    pub refit: Option<EffectFit>,
+}
+
+impl Step {
+    /// The fit whose parameters the final model carries: the backfitted one where there is one.
+    pub fn final_fit(&self) -> &EffectFit {
+        self.refit.as_ref().unwrap_or(&self.fit)
+    }
 }
 
 /// The deterministic part of `gyro`'s rate over the `temp_c.len()` (or `n`) first samples of the record at
@@ -172,11 +182,67 @@ impl StepData {
     }
 }
 
+/// `gyro` without `effect` (its field cleared), for the effects the backfitting round estimates again; `None` for
+/// the ones it leaves as found: quantisation (a channel, not a field) and the effects that recovered a realisation
+/// (the samples the others learnt from have it taken out).
+pub fn without(gyro: &GyroSim, effect: Effect) -> Option<GyroSim> {
+    let mut g = gyro.clone();
+    match effect {
+        Effect::Temperature => g.temperature = None,
+        Effect::Sinusoid => g.sinusoids.clear(),
+        Effect::Bandwidth => g.bandwidth_hz = None,
+        Effect::GaussMarkov => g.gauss_markov = None,
+        Effect::Resonance => g.resonance = None,
+        Effect::WarmUp => g.warm_up = None,
+        Effect::Quantization | Effect::BiasSteps | Effect::Outliers | Effect::Bistable => return None,
+    }
+    Some(g)
+}
+
+/// One backfitting round over a chain of two or more effects: each effect, in the chain's order, is estimated
+/// again on the final model less itself, so that it is read with every other effect of the chain in place rather
+/// than only the ones found before it (a bandwidth read before the resonance under it takes part of the bump for
+/// its corner; the resonance then sits on that corner). `fits` are the chain's fits in its order, `series` the
+/// training samples less the recovered realisations (gaps filled, the runs `gaps`). Returns the final model and,
+/// per step, the fit that replaced it (`None`: kept as found, because the effect is one [`without`] leaves or
+/// its estimator found no trace on the model without it).
+#[allow(clippy::too_many_arguments)]
+pub fn backfit(
+    model: &Model,
+    fits: &[&EffectFit],
+    series: &[f64],
+    gaps: &[Range<usize>],
+    temp_c: Option<&[f64]>,
+    fs_hz: f64,
+    base_fit: &NoiseFit,
+) -> (Model, Vec<Option<EffectFit>>) {
+    let mut gyro = model.gyro.clone();
+    let mut refits: Vec<Option<EffectFit>> = vec![None; fits.len()];
+    if fits.len() >= 2 {
+        for (i, fit) in fits.iter().enumerate() {
+            if fit.cleaned.is_some() {
+                continue;
+            }
+            let Some(rest) = without(&gyro, fit.effect) else { continue };
+            let data = StepData::new(&rest, series, gaps, temp_c, fs_hz, base_fit, false);
+            if let Some(f) = effects::estimate(fit.effect, &data.training(&rest, temp_c, fs_hz)) {
+                gyro = f.gyro.clone();
+                refits[i] = Some(f);
+            }
+        }
+    }
+    let spreads =
+        fits.iter().zip(&refits).filter_map(|(f, r)| r.as_ref().map_or(&f.spread, |r| &r.spread).clone()).collect();
+    (Model { gyro, spreads, channel: model.channel }, refits)
+}
+
 /// The chain `effects` learnt from the training samples `training` (gaps as NaN) as the diagnosis learns it, step by
 /// step from the base model `base` (fitted as `base_fit`), each step from the samples less what the steps before
-/// recovered ([`StepData::take_out`]); an effect whose estimator finds no trace is skipped.
+/// recovered ([`StepData::take_out`]), then backfitted ([`backfit`]) when `backfitted`, as the diagnosis did; an
+/// effect whose estimator finds no trace is skipped.
 pub fn learn(
     effects: &[Effect],
+    backfitted: bool,
     base: &Model,
     base_fit: &NoiseFit,
     training: &[f64],
@@ -186,12 +252,18 @@ pub fn learn(
     let mut model = base.clone();
     let gaps = gap_runs(training);
     let mut series = fill_gaps(training);
+    let mut fits = Vec::new();
     for (k, &effect) in effects.iter().enumerate() {
         let data = StepData::new(&model.gyro, &series, &gaps, temp_c, fs_hz, base_fit, k == 0);
         if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, temp_c, fs_hz)) {
             data.take_out(&mut series, &f);
             model = model.with(&f);
+            fits.push(f);
         }
+    }
+    if backfitted {
+        let fits: Vec<&EffectFit> = fits.iter().collect();
+        model = backfit(&model, &fits, &series, &gaps, temp_c, fs_hz, base_fit).0;
     }
     model
 }

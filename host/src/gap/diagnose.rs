@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use super::base::{base_model, fit_base, training_adev};
-use super::chain::{Model, Step, StepData, MAX_STEPS};
+use super::chain::{self, Model, Step, StepData, MAX_STEPS};
 use super::effects::{self, Effect, EffectFit};
 use super::ensemble;
 use super::error::GapError;
@@ -57,7 +57,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let fs = input.fs_hz;
     let predictive = has_holdout && opts.holdout_check == HoldoutCheck::Predictive;
     // Ensembles: the base, one per candidate of the first step, about half as many again for later steps.
-    let mut total_steps = 2 + opts.effects.len() + usize::from(predictive);
+    let mut total_steps = 3 + opts.effects.len() + usize::from(predictive);
     let mut done = 0;
     progress("base fit", done, total_steps);
 
@@ -154,8 +154,30 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
             training: training_gap,
             holdout: holdout_gap,
             candidates,
+            refit: None,
         });
         eval = after;
+    }
+
+    // One backfitting round over a chain of two or more: kept when the final model's training total falls.
+    let mut backfitted = false;
+    if steps.len() >= 2 {
+        let fits: Vec<&EffectFit> = steps.iter().map(|s| &s.fit).collect();
+        let (refitted, refits) = chain::backfit(&model, &fits, &series, &gaps, temp_train, fs, &base_fit);
+        if refits.iter().any(Option::is_some) {
+            let after =
+                judge.evaluate(&refitted.gyro, &refitted.spreads, refitted.channel.as_ref(), realised.as_deref(), "backfit")?;
+            if rank::total_of(&after.training) < rank::total_of(&eval.training) {
+                for (s, r) in steps.iter_mut().zip(refits) {
+                    s.refit = r;
+                }
+                model = refitted;
+                eval = after;
+                backfitted = true;
+            }
+        }
+        done += 1;
+        progress("backfit", done, total_steps);
     }
 
     // The held-out check against predictive ensembles (see [`holdout`]), of the base model and the whole chain.
@@ -185,7 +207,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                     let effects: Vec<Effect> = steps.iter().map(|s| s.effect).collect();
                     let explained = ensemble::temperature_response(&model.gyro, &rec);
                     let resp_hold = explained.as_deref().map(|r| &r[n_train..]);
-                    let relearn = |t: &[f64]| learner.with_chain(&effects, t);
+                    let relearn = |t: &[f64]| learner.with_chain(&effects, backfitted, t);
                     let m = ensemble::predict_holdout(
                         &model.gyro,
                         model.channel.as_ref(),
@@ -197,7 +219,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                     )
                     .map_err(|err| GapError::Sim { model: last.effect.name().to_string(), err })?;
                     // The real holdout as this model was judged on it (less its own temperature response).
-                    last.eval.real_holdout.as_ref().map(|real| compare::compare(hp, real, &m))
+                    eval.real_holdout.as_ref().map(|real| compare::compare(hp, real, &m))
                 }
                 None => None,
             };
@@ -221,6 +243,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         base_fit,
         real_adev,
         base_eval,
+        final_eval: eval,
         candidates: first_candidates,
         chain: steps,
         last_tried,

@@ -91,6 +91,9 @@ pub struct GapReport {
     pub channel: Option<Channel>,
     /// The base model's comparison.
     pub base_eval: Evaluated,
+    /// The final model's comparison: the chain's, backfitted where the diagnosis kept that round (the base's
+    /// without a chain).
+    pub final_eval: Evaluated,
     /// Real training OADEV (with intervals), for the plot.
     pub real_adev: Vec<DevPoint>,
     /// Sample rate, Hz.
@@ -125,6 +128,8 @@ pub(crate) struct Parts {
     pub base_fit: NoiseFit,
     pub real_adev: Vec<DevPoint>,
     pub base_eval: Evaluated,
+    /// The comparison of the final model (the base's without a chain).
+    pub final_eval: Evaluated,
     /// The first step's candidates.
     pub candidates: Vec<CandidateResult>,
     pub chain: Vec<Step>,
@@ -145,7 +150,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
     let significant = gap_before > rank::SIGNIFICANT_GAP;
     let has_holdout = !p.base_eval.holdout.is_empty();
     let first = p.chain.first();
-    let last_eval = p.chain.last().map_or(&p.base_eval, |s| &s.eval);
+    let last_eval = &p.final_eval;
     let training = PartGap::new(gap_before, first.map_or(gap_before, |s| s.training.gap_after));
     let holdout = if has_holdout { in_band(&p.base_eval.holdout) } else { None }.map(|b| {
         let first_after = first.and_then(|s| s.candidates.iter().find(|c| c.effect == s.effect));
@@ -198,6 +203,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         base_fit: p.base_fit,
         channel: p.channel,
         base_eval: p.base_eval,
+        final_eval: p.final_eval,
         real_adev: p.real_adev,
         fs_hz: p.fs_hz,
         n_train: p.n_train,
@@ -260,7 +266,7 @@ impl GapReport {
 
     /// The comparison of the whole chain's model (the base's without a chain).
     pub fn final_eval(&self) -> &Evaluated {
-        self.chain.last().map_or(&self.base_eval, |s| &s.eval)
+        &self.final_eval
     }
 
     /// No gap, explained, or a gap left unexplained.
@@ -312,7 +318,7 @@ impl GapReport {
             .iter()
             .map(|s| StepDoc {
                 effect: s.effect,
-                params: &s.fit.params,
+                params: &s.final_fit().params,
                 view: s.location.view,
                 band_s: s.location.band_s,
                 sign: s.location.sign,
@@ -352,7 +358,7 @@ impl GapReport {
             candidates,
             model: self.model(),
             model_channel: self.model.channel.filter(|_| self.model.channel != self.channel),
-            effect_params: first.map(|s| &s.fit.params),
+            effect_params: first.map(|s| &s.final_fit().params),
             effects,
             holdout_total: self.holdout_total,
             transients: &self.transients,

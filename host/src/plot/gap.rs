@@ -174,7 +174,7 @@ impl GapFigure {
     /// The figure of `report`, a diagnosis of `input` (the record as given to [`crate::gap::diagnose`], transients
     /// and all).
     pub fn new(report: &GapReport, input: &GapInput) -> GapFigure {
-        let final_eval = report.chain.last().map(|s| &s.eval);
+        let final_eval = (!report.chain.is_empty()).then(|| report.final_eval());
         let marks = band_marks(report);
         let panels = report
             .base_eval
