@@ -69,6 +69,8 @@ pub struct Step {
     /// The effect estimated again on the chain's final model less itself ([`backfit`]), where the diagnosis kept
     /// that round: its parameters are the ones the final model carries.
     pub refit: Option<EffectFit>,
+    /// Whether a backfitting round followed this step (the re-learning on other data repeats it).
+    pub backfitted: bool,
 }
 
 impl Step {
@@ -238,11 +240,11 @@ pub fn backfit(
 
 /// The chain `effects` learnt from the training samples `training` (gaps as NaN) as the diagnosis learns it, step by
 /// step from the base model `base` (fitted as `base_fit`), each step from the samples less what the steps before
-/// recovered ([`StepData::take_out`]), then backfitted ([`backfit`]) when `backfitted`, as the diagnosis did; an
-/// effect whose estimator finds no trace is skipped.
+/// recovered ([`StepData::take_out`]), with a backfitting round ([`backfit`]) after step `k` where `rounds[k]`, as
+/// the diagnosis did; an effect whose estimator finds no trace is skipped.
 pub fn learn(
     effects: &[Effect],
-    backfitted: bool,
+    rounds: &[bool],
     base: &Model,
     base_fit: &NoiseFit,
     training: &[f64],
@@ -260,10 +262,16 @@ pub fn learn(
             model = model.with(&f);
             fits.push(f);
         }
-    }
-    if backfitted {
-        let fits: Vec<&EffectFit> = fits.iter().collect();
-        model = backfit(&model, &fits, &series, &gaps, temp_c, fs_hz, base_fit).0;
+        if rounds.get(k).copied().unwrap_or(false) {
+            let all: Vec<&EffectFit> = fits.iter().collect();
+            let (m, refits) = backfit(&model, &all, &series, &gaps, temp_c, fs_hz, base_fit);
+            for (f, r) in fits.iter_mut().zip(refits) {
+                if let Some(r) = r {
+                    *f = r;
+                }
+            }
+            model = m;
+        }
     }
     model
 }

@@ -15,6 +15,9 @@ use super::rank::{self, CandidateResult, PartGap};
 use super::report::{self, GapReport};
 use super::{compare, disturbances, holdout};
 
+/// Candidates of a later step that get a second chance with the chain backfitted around them, best score first.
+const SECOND_CHANCES: usize = 2;
+
 /// Progress: `(stage, done, total)`, called after each ensemble.
 pub type ProgressFn<'a> = dyn Fn(&str, usize, usize) + Sync + 'a;
 
@@ -126,9 +129,42 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
             done += 1;
             progress(effect.name(), done, total_steps);
         }
-        let chosen = rank::choose(&candidates, rank::total_of(&eval.training), location.as_ref());
+        let total_before = rank::total_of(&eval.training);
+        let mut chosen = rank::choose(&candidates, total_before, location.as_ref());
         if first {
             first_candidates = candidates.clone();
+        }
+        // A later step whose best candidates explain too little alone get a second chance with the chain backfitted
+        // around them: an effect read before the one under it took part of it (a bandwidth's corner read low
+        // under a resonance), and the candidate on that model explains less than it would.
+        let mut backfitted_step: Option<(Model, Vec<Option<EffectFit>>)> = None;
+        if chosen.is_none() && !first && significant {
+            let mut order: Vec<usize> = (0..candidates.len()).filter(|&i| candidates[i].score.is_some()).collect();
+            order.sort_by(|&a, &b| candidates[a].score.unwrap_or(f64::INFINITY).total_cmp(&candidates[b].score.unwrap_or(f64::INFINITY)));
+            for &i in order.iter().take(SECOND_CHANCES) {
+                let Some(f) = candidates[i].fit.clone() else { continue };
+                let mut taken = series.clone();
+                data.take_out(&mut taken, &f);
+                let mut fits: Vec<&EffectFit> = steps.iter().map(Step::final_fit).collect();
+                fits.push(&f);
+                let (m, refits) = chain::backfit(&model.with(&f), &fits, &taken, &gaps, temp_train, fs, &base_fit);
+                if refits.iter().all(Option::is_none) {
+                    continue;
+                }
+                let known = data.realised_with(realised.as_deref(), &f);
+                let known = known.as_deref().or(realised.as_deref());
+                let e = judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), known, f.effect.name())?;
+                let fit = refits.last().cloned().flatten().unwrap_or(f);
+                let c = CandidateResult::new(candidates[i].effect, Some(fit), Some(e), location.as_ref());
+                done += 1;
+                progress("backfit", done, total_steps);
+                if rank::choose(std::slice::from_ref(&c), total_before, location.as_ref()).is_some() {
+                    candidates[i] = c;
+                    chosen = Some(i);
+                    backfitted_step = Some((m, refits));
+                    break;
+                }
+            }
         }
         let (Some(i), true, Some(loc)) = (chosen, significant, location) else {
             if !first {
@@ -145,7 +181,18 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
             data.take_out(&mut series, &fit);
             realised = Some(filled.iter().zip(&series).map(|(f, s)| f - s).collect());
         }
-        model = model.with(&fit);
+        let backfitted = backfitted_step.is_some();
+        match backfitted_step {
+            Some((m, refits)) => {
+                for (s, r) in steps.iter_mut().zip(refits) {
+                    if r.is_some() {
+                        s.refit = r;
+                    }
+                }
+                model = m;
+            }
+            None => model = model.with(&fit),
+        }
         steps.push(Step {
             effect: c.effect,
             fit,
@@ -155,25 +202,35 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
             holdout: holdout_gap,
             candidates,
             refit: None,
+            backfitted,
         });
         eval = after;
     }
 
-    // One backfitting round over a chain of two or more: kept when the final model's training total falls.
-    let mut backfitted = false;
-    if steps.len() >= 2 {
-        let fits: Vec<&EffectFit> = steps.iter().map(|s| &s.fit).collect();
+    // A backfitting round over a chain of two or more whose last step had none: kept when the final model's
+    // training total falls.
+    if steps.len() >= 2 && !steps.last().is_some_and(|s| s.backfitted) {
+        let fits: Vec<&EffectFit> = steps.iter().map(Step::final_fit).collect();
         let (refitted, refits) = chain::backfit(&model, &fits, &series, &gaps, temp_train, fs, &base_fit);
         if refits.iter().any(Option::is_some) {
-            let after =
-                judge.evaluate(&refitted.gyro, &refitted.spreads, refitted.channel.as_ref(), realised.as_deref(), "backfit")?;
+            let after = judge.evaluate(
+                &refitted.gyro,
+                &refitted.spreads,
+                refitted.channel.as_ref(),
+                realised.as_deref(),
+                "backfit",
+            )?;
             if rank::total_of(&after.training) < rank::total_of(&eval.training) {
                 for (s, r) in steps.iter_mut().zip(refits) {
-                    s.refit = r;
+                    if r.is_some() {
+                        s.refit = r;
+                    }
+                }
+                if let Some(last) = steps.last_mut() {
+                    last.backfitted = true;
                 }
                 model = refitted;
                 eval = after;
-                backfitted = true;
             }
         }
         done += 1;
@@ -205,9 +262,10 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
             let chain_views = match steps.last() {
                 Some(last) => {
                     let effects: Vec<Effect> = steps.iter().map(|s| s.effect).collect();
+                    let rounds: Vec<bool> = steps.iter().map(|s| s.backfitted).collect();
                     let explained = ensemble::temperature_response(&model.gyro, &rec);
                     let resp_hold = explained.as_deref().map(|r| &r[n_train..]);
-                    let relearn = |t: &[f64]| learner.with_chain(&effects, backfitted, t);
+                    let relearn = |t: &[f64]| learner.with_chain(&effects, &rounds, t);
                     let m = ensemble::predict_holdout(
                         &model.gyro,
                         model.channel.as_ref(),

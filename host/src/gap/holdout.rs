@@ -48,10 +48,10 @@ impl Learner<'_> {
 
     /// The model with the chain `effects` learnt from `train` as the diagnosis learns it ([`chain::learn`]; an
     /// effect whose estimator finds no trace is left out), and its channel.
-    pub fn with_chain(&self, effects: &[Effect], backfitted: bool, train: &[f64]) -> (GyroSim, Option<Channel>) {
+    pub fn with_chain(&self, effects: &[Effect], rounds: &[bool], train: &[f64]) -> (GyroSim, Option<Channel>) {
         let (f, base) = self.base(train);
         let start = Model { gyro: base, spreads: Vec::new(), channel: self.channel };
-        let m = chain::learn(effects, backfitted, &start, &f, train, self.temp_c, self.fs_hz);
+        let m = chain::learn(effects, rounds, &start, &f, train, self.temp_c, self.fs_hz);
         (m.gyro, m.channel)
     }
 }
