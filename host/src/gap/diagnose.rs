@@ -60,7 +60,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let fs = input.fs_hz;
     let predictive = has_holdout && opts.holdout_check == HoldoutCheck::Predictive;
     // Ensembles: the base, one per candidate of the first step, about half as many again for later steps.
-    let mut total_steps = 3 + opts.effects.len() + usize::from(predictive);
+    let mut total_steps = 2 + opts.effects.len() + usize::from(predictive);
     let mut done = 0;
     progress("base fit", done, total_steps);
 
@@ -140,7 +140,9 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         let mut backfitted_step: Option<(Model, Vec<Option<EffectFit>>)> = None;
         if chosen.is_none() && !first && significant {
             let mut order: Vec<usize> = (0..candidates.len()).filter(|&i| candidates[i].score.is_some()).collect();
-            order.sort_by(|&a, &b| candidates[a].score.unwrap_or(f64::INFINITY).total_cmp(&candidates[b].score.unwrap_or(f64::INFINITY)));
+            order.sort_by(|&a, &b| {
+                candidates[a].score.unwrap_or(f64::INFINITY).total_cmp(&candidates[b].score.unwrap_or(f64::INFINITY))
+            });
             for &i in order.iter().take(SECOND_CHANCES) {
                 let Some(f) = candidates[i].fit.clone() else { continue };
                 let mut taken = series.clone();
@@ -156,6 +158,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                 let e = judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), known, f.effect.name())?;
                 let fit = refits.last().cloned().flatten().unwrap_or(f);
                 let c = CandidateResult::new(candidates[i].effect, Some(fit), Some(e), location.as_ref());
+                total_steps += 1;
                 done += 1;
                 progress("backfit", done, total_steps);
                 if rank::choose(std::slice::from_ref(&c), total_before, location.as_ref()).is_some() {
@@ -220,6 +223,9 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                 realised.as_deref(),
                 "backfit",
             )?;
+            total_steps += 1;
+            done += 1;
+            progress("backfit", done, total_steps);
             if rank::total_of(&after.training) < rank::total_of(&eval.training) {
                 for (s, r) in steps.iter_mut().zip(refits) {
                     if r.is_some() {
@@ -233,8 +239,6 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                 eval = after;
             }
         }
-        done += 1;
-        progress("backfit", done, total_steps);
     }
 
     // The held-out check against predictive ensembles (see [`holdout`]), of the base model and the whole chain.

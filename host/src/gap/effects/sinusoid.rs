@@ -105,6 +105,77 @@ impl DesignRows {
     }
 }
 
+/// The residual sum of squares of [`sinusoid_ls`] as a function of the frequency of sinusoid `j` alone, the
+/// other frequencies held: the rows of the held columns are stored once, with their `A'A`, `A'y` and `y'y`, so
+/// each trial passes over the record for the two columns that change (a fifth of the work of a whole
+/// [`sinusoid_ls`] with four sinusoids). The refinement below calls it some forty times per frequency.
+struct OneVarying<'a> {
+    y: &'a [f64],
+    dt: f64,
+    t_off: f64,
+    /// The held columns' rows, `p` per sample.
+    rows: Vec<f64>,
+    p: usize,
+    ata: Vec<Vec<f64>>,
+    atb: Vec<f64>,
+    yy: f64,
+}
+
+impl<'a> OneVarying<'a> {
+    fn new(y: &'a [f64], freqs: &[f64], j: usize, dt: f64, t_off: f64) -> Self {
+        let held: Vec<f64> = freqs.iter().enumerate().filter(|&(i, _)| i != j).map(|(_, &f)| f).collect();
+        let mut design = DesignRows::new(y.len(), &held, dt, t_off);
+        let p = design.width();
+        let mut rows = vec![0.0; y.len() * p];
+        for row in rows.chunks_exact_mut(p) {
+            design.next_row(row);
+        }
+        let (ata, atb, yy) = normal_equations(y, &held, dt, t_off);
+        OneVarying { y, dt, t_off, rows, p, ata, atb, yy }
+    }
+
+    /// The residual sum of squares with sinusoid `j` at `f` (infinite where the system is singular).
+    fn rss(&self, f: f64) -> f64 {
+        let p = self.p;
+        let mut phase = DesignRows::new(self.y.len(), &[f], self.dt, self.t_off);
+        let mut cs = [0.0; 5];
+        let (mut cc, mut csx, mut ss, mut yc, mut ys) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut cf = vec![0.0; p];
+        let mut sf = vec![0.0; p];
+        for (row, &v) in self.rows.chunks_exact(p).zip(self.y) {
+            phase.next_row(&mut cs);
+            let (c, s) = (cs[3], cs[4]);
+            cc += c * c;
+            csx += c * s;
+            ss += s * s;
+            yc += v * c;
+            ys += v * s;
+            for ((a, b), r) in cf.iter_mut().zip(sf.iter_mut()).zip(row) {
+                *a += c * r;
+                *b += s * r;
+            }
+        }
+        let mut ata = vec![vec![0.0; p + 2]; p + 2];
+        for (r, row) in self.ata.iter().enumerate() {
+            ata[r][..p].copy_from_slice(row);
+            ata[r][p] = cf[r];
+            ata[r][p + 1] = sf[r];
+            ata[p][r] = cf[r];
+            ata[p + 1][r] = sf[r];
+        }
+        ata[p][p] = cc;
+        ata[p][p + 1] = csx;
+        ata[p + 1][p] = csx;
+        ata[p + 1][p + 1] = ss;
+        let mut atb = self.atb.clone();
+        atb.extend([yc, ys]);
+        match solve(ata, atb.clone()) {
+            Some(coef) => self.yy - coef.iter().zip(&atb).map(|(a, b)| a * b).sum::<f64>(),
+            None => f64::INFINITY,
+        }
+    }
+}
+
 /// `A'A`, `A'y` and `y'y` of the design of the record `y`.
 fn normal_equations(y: &[f64], freqs: &[f64], dt: f64, t_off: f64) -> (Vec<Vec<f64>>, Vec<f64>, f64) {
     let mut rows = DesignRows::new(y.len(), freqs, dt, t_off);
@@ -309,11 +380,8 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     for _ in 0..2 {
         for j in 0..freqs.len() {
             let f0 = freqs[j];
-            let (f, _) = golden(f0 - 0.5 * df, f0 + 0.5 * df, 20, |f| {
-                let mut trial = freqs.clone();
-                trial[j] = f;
-                sinusoid_ls(&y, &trial, dt, t_off).map_or(f64::INFINITY, |r| r.rss)
-            });
+            let varying = OneVarying::new(&y, &freqs, j, dt, t_off);
+            let (f, _) = golden(f0 - 0.5 * df, f0 + 0.5 * df, 20, |f| varying.rss(f));
             freqs[j] = f;
         }
     }
@@ -392,4 +460,35 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         spread: Some(ParamSpread::Sinusoids { se, centre_s: n0 as f64 / d.fs_hz / 2.0 }),
         cleaned: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one-varying residual is the whole joint least squares' at every trial frequency.
+    #[test]
+    fn one_varying_residual_is_the_joint_least_squares() {
+        let dt = 0.01;
+        let y: Vec<f64> = crate::test_signals::white(20_000, 3)
+            .iter()
+            .enumerate()
+            .map(|(i, w)| {
+                let t = i as f64 * dt;
+                w + 0.3 * (2.0 * std::f64::consts::PI * 1.7 * t).sin()
+                    + 0.2 * (2.0 * std::f64::consts::PI * 7.3 * t).cos()
+            })
+            .collect();
+        let freqs = [1.7, 7.3, 12.1];
+        for j in 0..freqs.len() {
+            let varying = OneVarying::new(&y, &freqs, j, dt, 0.002);
+            for f in [freqs[j] - 0.004, freqs[j], freqs[j] + 0.0031] {
+                let mut trial = freqs;
+                trial[j] = f;
+                let whole = sinusoid_ls(&y, &trial, dt, 0.002).unwrap().rss;
+                let one = varying.rss(f);
+                assert!((one - whole).abs() <= 1e-9 * whole, "j {j} f {f}: {one} against {whole}");
+            }
+        }
+    }
 }
