@@ -6,10 +6,17 @@
 //! comparison the step ranks against, and its estimators see the training samples less the model's deterministic
 //! part ([`deterministic_part`]: the temperature response, the sinusoids, the warm-up) and less the realisations
 //! that earlier steps recovered ([`StepData::take_out`]: the bistable bias's levels, the bias steps, the spikes),
-//! with the model itself as their base, so that the effect they add is added to every effect found before. The IEEE base terms are re-fitted on those
-//! samples for the estimators that need a base fit. Each step reports where the gap lay on the model before it,
-//! the gap there before and after on both parts, and its ranking; the held-out check of the whole chain compares
-//! the base model with the last one, every parameter frozen from training.
+//! with the model itself as their base, so that the effect they add is added to every effect found before. The
+//! IEEE base terms are re-fitted on those samples for the estimators that need a base fit. Each step reports where
+//! the gap lay on the model before it, the gap there before and after on both parts, and its ranking; the
+//! held-out check of the whole chain compares the base model with the last one, every parameter frozen from
+//! training.
+//!
+//! Effects found one after the other are each read with only the ones before them in place: a filter corner read
+//! with a resonance still in the record takes part of the bump for its knee, and the resonance is then read on
+//! that corner. [`backfit`] estimates each effect again on the final model less itself; the diagnosis runs it when
+//! a later step's candidate explains too little on the chain as found, and once over the whole chain, keeping it
+//! where the fit improves, and [`learn`] repeats it where the diagnosis did.
 
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::effects::{Sinusoids, WarmUp};

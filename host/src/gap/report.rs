@@ -7,7 +7,9 @@
 //! located band), `candidates` `[{effect, params, gap_after, shrink, ...}]` (the first step's ranking), `model`
 //! (the base model with every effect of the chain, as a `model.toml` channel's `gyro`), `effect_params` (the first
 //! effect's). The chain: `effects` `[{effect, params, view, band_s, sign, gap_before, gap_after, holdout:
-//! {gap_before, gap_after}}]` in the order found, and `holdout_total` `{gap_before, gap_after, shrink}`, the
+//! {gap_before, gap_after}, backfitted, found_params}]` in the order found (`params` as the final model carries
+//! them; where a backfitting round estimated the effect again, `backfitted` is true and `found_params` are the
+//! step's first values; the gaps are the step's own), and `holdout_total` `{gap_before, gap_after, shrink}`, the
 //! largest held-out gap over the chain's located bands, of the base model and of the whole chain, every
 //! parameter frozen. Also:
 //! `transients` `[{part, start_s, duration_s, peak_dps}]` (the disturbances masked as gaps, `start_s` from the
@@ -319,6 +321,8 @@ impl GapReport {
             .map(|s| StepDoc {
                 effect: s.effect,
                 params: &s.final_fit().params,
+                found_params: s.refit.as_ref().map(|_| &s.fit.params),
+                backfitted: s.refit.is_some(),
                 view: s.location.view,
                 band_s: s.location.band_s,
                 sign: s.location.sign,
@@ -588,6 +592,15 @@ impl GapReport {
                         .map_or(String::new(), |h| format!(", {:.2} -> {:.2} held out", h.gap_before, h.gap_after))
                 );
             }
+            let refitted: Vec<&str> =
+                self.chain.iter().filter(|s| s.refit.is_some()).map(|s| s.effect.name()).collect();
+            if !refitted.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "backfitted: {} estimated again with every other effect of the chain in place (the model carries those values)",
+                    refitted.join(", ")
+                );
+            }
             if let (true, Some(t)) = (self.chain.len() > 1, self.holdout_total) {
                 let _ = writeln!(
                     s,
@@ -774,7 +787,12 @@ struct CandidateHoldout {
 #[derive(Debug, Serialize)]
 struct StepDoc<'a> {
     effect: Effect,
+    /// The parameters the final model carries (backfitted where `backfitted`).
     params: &'a Value,
+    /// The parameters as the step first found them, where a backfitting round changed them.
+    found_params: Option<&'a Value>,
+    /// Whether a backfitting round estimated the effect again on the final model less itself.
+    backfitted: bool,
     view: ViewKind,
     band_s: [f64; 2],
     sign: Sign,
