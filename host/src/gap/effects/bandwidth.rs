@@ -15,16 +15,20 @@ use super::{Effect, EffectFit, TrainingData};
 /// log-domain chi-square falls by at least [`CURVE_DELTA_CHI2`] from the unfiltered fit. N, B, K, R and Q are
 /// re-fitted with the bandwidth in place (the base fit reads N low from the bent short taus). On a model that
 /// already carries a resonance, a Gauss-Markov process or a bistable bias (a later step of the chain), their
-/// closed-form Allan variance is taken off the curve first.
+/// closed-form Allan variance through the corner tried is taken off the curve first.
 pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     let fs = d.fs_hz;
-    // The Allan variance of a resonance or a Gauss-Markov process the model already has is not the filter's.
-    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, fs), d.base, fs);
-    if pts.len() < 5 {
+    // The Allan variance of a resonance or a Gauss-Markov process the model already has is not the filter's; the
+    // simulator passes them through the filter too, so what is taken off depends on the corner tried.
+    let raw = gapped_oadev_points(d.rate_dps, d.gaps, fs);
+    if raw.len() < 5 {
         return None;
     }
     let with_q = d.base.q_deg > 0.0;
-    let score = |f: Option<f64>| joint_fit(&pts, &base_columns(&pts, fs, f, with_q));
+    let score = |f: Option<f64>| {
+        let pts = less_known(&raw, d.base, f, fs);
+        joint_fit(&pts, &base_columns(&pts, fs, f, with_q))
+    };
     let plain = score(None)?;
     let (f, chi) = log_search(fs / 2000.0, fs / 2.0, 40, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
     if !(chi + CURVE_DELTA_CHI2 < plain.chi2) {

@@ -2,7 +2,9 @@
 //! white noise, the base-term columns (N, B, K, R, Q), and the weighted non-negative joint fit over subsets of
 //! terms that the bandwidth and Gauss-Markov estimators share.
 
+use octavar_shared::sim::noise::Resonance;
 use octavar_shared::sim::GyroSim;
+use rustfft::num_complex::Complex64;
 
 use crate::fit::{FitPoint, FLICKER_AVAR_FACTOR};
 
@@ -41,7 +43,7 @@ pub(super) fn gm_avar(t_s: f64, tau: f64, tau0: f64) -> f64 {
 /// sum of n samples `G(n) = n + 2 Re((1 - i c) S(n))`, `S(n) = sum_{k=1}^{n-1} (n - k) z^k
 /// = (z^{n+1} - n z^2 + (n - 1) z) / (1 - z)^2`.
 pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, fs: f64) -> f64 {
-    use rustfft::num_complex::Complex;
+    type Complex = Complex64;
     let zeta = 0.5 / q;
     let w0 = 2.0 * std::f64::consts::PI * freq_hz / fs;
     let r = (-zeta * w0).exp();
@@ -57,30 +59,131 @@ pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, fs: f64) -> f64 {
     (4.0 * g(m) - g(2.0 * m)) / (2.0 * m * m)
 }
 
-/// The Allan variance at `tau` of the stochastic effects `model` already carries beyond the base terms (a
-/// resonance, a Gauss-Markov process, a bistable bias, each with its closed form), which an estimator fitting
-/// the base terms and one more effect on the Allan curve must not take for its own.
-pub(super) fn known_avar(model: &GyroSim, tau: f64, fs: f64) -> f64 {
+/// Allan variance at `m` samples of the discrete autoregressive process with the distinct poles `poles`, driven
+/// by white noise of unit variance: its autocovariance is `gamma(k) = sum_i A_i p_i^k`, `A_i = p_i^(P-1) /
+/// (prod_{j != i} (p_i - p_j) prod_j (1 - p_i p_j))` for P poles (the AR(p) covariance in partial fractions), and
+/// the Allan variance `(4 G(m) - G(2m)) / (2 m^2)` with `G(n) = n gamma(0) + 2 Re sum_i A_i S_i(n)`, `S_i` as in
+/// [`resonance_avar`]. Poles closer than 1e-9 are moved apart by that much (the form has no limit written out).
+pub(super) fn ar_avar(poles: &[Complex64], m: f64) -> f64 {
+    let one = Complex64::new(1.0, 0.0);
+    let mut p: Vec<Complex64> = poles.to_vec();
+    for i in 1..p.len() {
+        for j in 0..i {
+            if (p[i] - p[j]).norm() < 1e-9 {
+                p[i] *= 1.0 - 2e-9;
+            }
+        }
+    }
+    let order = p.len() as i32;
+    let coeffs: Vec<Complex64> = p
+        .iter()
+        .enumerate()
+        .map(|(i, &pi)| {
+            let mut den = one;
+            for (j, &pj) in p.iter().enumerate() {
+                if j != i {
+                    den *= pi - pj;
+                }
+                den *= one - pi * pj;
+            }
+            pi.powi(order - 1) / den
+        })
+        .collect();
+    let gamma0: f64 = coeffs.iter().map(|a| a.re).sum();
+    let g = |n: f64| {
+        let s: f64 = coeffs
+            .iter()
+            .zip(&p)
+            .map(|(a, &z)| (a * (z.powf(n + 1.0) - z * z * n + z * (n - 1.0)) / ((one - z) * (one - z))).re)
+            .sum();
+        n * gamma0 + 2.0 * s
+    };
+    let m = m.round().max(1.0);
+    (4.0 * g(m) - g(2.0 * m)) / (2.0 * m * m)
+}
+
+/// The pole of shared::sim's sampled first-order low-pass `y = a y + (1 - a) x` at `f3db_hz`: `exp(-2 pi f3dB /
+/// fs)`.
+pub(super) fn lowpass_pole(f3db_hz: f64, fs: f64) -> f64 {
+    (-2.0 * std::f64::consts::PI * f3db_hz / fs).exp()
+}
+
+/// The power gain of that low-pass at `f`: `(1 - a)^2 / |1 - a e^{-i w}|^2`, `w = 2 pi f / fs`.
+pub(super) fn lowpass_gain(f3db_hz: f64, fs: f64, f: f64) -> f64 {
+    let a = lowpass_pole(f3db_hz, fs);
+    let w = 2.0 * std::f64::consts::PI * f / fs;
+    (1.0 - a) * (1.0 - a) / (1.0 - 2.0 * a * w.cos() + a * a)
+}
+
+/// Allan variance at `m` samples of the unit-variance AR process with `poles` (`innovation_var`, the variance of
+/// the white noise driving it, gives the unit variance) after the low-pass at `f3db_hz` (none: the process
+/// itself), as shared::sim adds a resonance, a Gauss-Markov process or a bistable bias before its output
+/// bandwidth: the low-pass adds its pole and scales the driving noise by `(1 - a)^2`.
+fn through_lowpass(poles: &[Complex64], innovation_var: f64, f3db_hz: Option<f64>, m: f64, fs: f64) -> f64 {
+    match f3db_hz {
+        Some(f) if f > 0.0 => {
+            let a = lowpass_pole(f, fs);
+            let mut all = poles.to_vec();
+            all.push(Complex64::new(a, 0.0));
+            innovation_var * (1.0 - a) * (1.0 - a) * ar_avar(&all, m)
+        }
+        _ => innovation_var * ar_avar(poles, m),
+    }
+}
+
+/// Allan variance at `m` samples of the unit-variance resonance of shared::sim after the low-pass at `f3db_hz`
+/// ([`resonance_avar`] without one).
+pub(super) fn filtered_resonance_avar(freq_hz: f64, q: f64, f3db_hz: Option<f64>, m: f64, fs: f64) -> f64 {
+    if f3db_hz.is_none() {
+        return resonance_avar(freq_hz, q, m, fs);
+    }
+    let (a1, a2, b) = Resonance::coefficients(freq_hz, q, 1.0 / fs);
+    // The roots of z^2 - a1 z - a2: a complex pair for Q > 1/2.
+    let disc = Complex64::new(a1 * a1 + 4.0 * a2, 0.0).sqrt();
+    let poles = [(Complex64::new(a1, 0.0) + disc) / 2.0, (Complex64::new(a1, 0.0) - disc) / 2.0];
+    through_lowpass(&poles, b * b, f3db_hz, m, fs)
+}
+
+/// Allan variance at `tau` of a unit-variance Gauss-Markov process of correlation time `t_s` after the low-pass at
+/// `f3db_hz` ([`gm_avar`] without one, or where T is beyond a thousand samples: the low-pass, whose corner is at
+/// least fs/2000, then hardly touches it).
+pub(super) fn filtered_gm_avar(t_s: f64, f3db_hz: Option<f64>, tau: f64, fs: f64) -> f64 {
     let tau0 = 1.0 / fs;
+    match f3db_hz {
+        Some(_) if t_s / tau0 <= 1000.0 => {
+            let a = (-tau0 / t_s).exp();
+            through_lowpass(&[Complex64::new(a, 0.0)], 1.0 - a * a, f3db_hz, tau / tau0, fs)
+        }
+        _ => gm_avar(t_s, tau, tau0),
+    }
+}
+
+/// The Allan variance at `tau` of the stochastic effects `model` already carries beyond the base terms (a
+/// resonance, a Gauss-Markov process, a bistable bias, each with its closed form), after the output bandwidth
+/// `f3db_hz` as the simulator applies it, which an estimator fitting the base terms and one more effect on the
+/// Allan curve must not take for its own.
+pub(super) fn known_avar(model: &GyroSim, f3db_hz: Option<f64>, tau: f64, fs: f64) -> f64 {
     let mut v = 0.0;
     if let Some(r) = &model.resonance {
-        v += r.sigma_dps * r.sigma_dps * resonance_avar(r.freq_hz, r.q, tau / tau0, fs);
+        v += r.sigma_dps * r.sigma_dps * filtered_resonance_avar(r.freq_hz, r.q, f3db_hz, tau * fs, fs);
     }
     if let Some(g) = &model.gauss_markov {
-        v += g.sigma_dps * g.sigma_dps * gm_avar(g.tau_s, tau, tau0);
+        v += g.sigma_dps * g.sigma_dps * filtered_gm_avar(g.tau_s, f3db_hz, tau, fs);
     }
     if let Some(b) = &model.bistable {
         let (l1, l2) = (1.0 / b.dwell_low_s, 1.0 / b.dwell_high_s);
         let var = b.step_dps * b.step_dps * l1 * l2 / ((l1 + l2) * (l1 + l2));
-        v += var * gm_avar(1.0 / (l1 + l2), tau, tau0);
+        v += var * filtered_gm_avar(1.0 / (l1 + l2), f3db_hz, tau, fs);
     }
     v
 }
 
-/// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`]), each point kept at no
-/// less than a tenth of its own value (the rest is what the fit has to explain).
-pub(super) fn less_known(pts: &[FitPoint], model: &GyroSim, fs: f64) -> Vec<FitPoint> {
-    pts.iter().map(|p| FitPoint { avar: (p.avar - known_avar(model, p.tau_s, fs)).max(0.1 * p.avar), ..*p }).collect()
+/// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`], through the bandwidth
+/// `f3db_hz`), each point kept at no less than a tenth of its own value (the rest is what the fit has to explain).
+pub(super) fn less_known(pts: &[FitPoint], model: &GyroSim, f3db_hz: Option<f64>, fs: f64) -> Vec<FitPoint> {
+    pts.iter()
+        .map(|p| FitPoint { avar: (p.avar - known_avar(model, f3db_hz, p.tau_s, fs)).max(0.1 * p.avar), ..*p })
+        .collect()
 }
 
 /// Allan variance of white rate noise of unit N (per-sample variance fs) through the sampled first-order

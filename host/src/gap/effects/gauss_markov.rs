@@ -11,24 +11,26 @@ use super::{Effect, EffectFit, TrainingData};
 /// A Gauss-Markov (first-order exponentially correlated) rate noise.
 ///
 /// Method: the OADEV at octave tau is fitted jointly with the base terms N, B, K, R, Q and a Gauss-Markov term of
-/// unit variance (its exact Allan form: the discrete AR(1) expression, or IEEE 952 Annex C's continuous one for
-/// T beyond a thousand samples), weighted NNLS as for the bandwidth, T on a log grid from 2 tau0 to a third of
+/// unit variance (its exact Allan form: the discrete AR(1) expression, through the model's output bandwidth where
+/// it has one, or IEEE 952 Annex C's continuous one for T beyond a thousand samples), weighted NNLS as for the bandwidth, T on a log grid from 2 tau0 to a third of
 /// the record refined by golden search. It counts when the log-domain chi-square falls by at least
 /// [`CURVE_DELTA_CHI2`] from the base-terms-only fit and the process carries at least a fifth of the model's
-/// Allan variance somewhere on the curve; N, B, K, R and Q are re-fitted with it.
+/// Allan variance somewhere on the curve; N, B, K, R and Q are re-fitted with it. On a model that already carries
+/// a resonance or a bistable bias, their Allan variance is taken off the curve first.
 pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
     let fs = d.fs_hz;
     let tau0 = 1.0 / fs;
-    let pts = gapped_oadev_points(d.rate_dps, d.gaps, fs);
+    let bw = d.base.bandwidth_hz;
+    // A resonance or a bistable bias the model already has is not this process (a later step of the chain).
+    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, fs), d.base, bw, fs);
     if pts.len() < 6 {
         return None;
     }
-    let bw = d.base.bandwidth_hz;
     let base_cols = base_columns(&pts, fs, bw, d.base.q_deg > 0.0);
     let plain = joint_fit(&pts, &base_cols)?;
     let cols_for = |t: f64| {
         let mut c = base_cols.clone();
-        c.push(pts.iter().map(|q| gm_avar(t, q.tau_s, tau0)).collect());
+        c.push(pts.iter().map(|q| filtered_gm_avar(t, bw, q.tau_s, fs)).collect());
         c
     };
     let record = d.rate_dps.len() as f64 * tau0;

@@ -134,13 +134,16 @@ struct Bump {
     se_ln: [f64; 3],
 }
 
-/// The spectrum's log over a window, and the model `ln(exp(c0 + c1 u + c2 u^2) + s2 H(f; f0, Q))`,
-/// `u = ln(f / centre)`, in the parameters `[c0, c1, c2, ln s2, ln f0, ln Q]`.
+/// The spectrum's log over a window, and the model `ln(exp(c0 + c1 u + c2 u^2) + s2 H(f; f0, Q) L(f))`,
+/// `u = ln(f / centre)`, `L` the power gain of the model's output bandwidth, in the parameters `[c0, c1, c2, ln s2, ln f0, ln Q]`.
 struct Window<'a> {
     f: &'a [f64],
     u: Vec<f64>,
     y: &'a [f64],
     fs: f64,
+    /// The power gain of the model's output bandwidth at each bin (1 without one): the simulator passes the
+    /// resonance through it, so the bump in the record is the resonance's spectrum times this gain.
+    gain: Vec<f64>,
 }
 
 impl Window<'_> {
@@ -152,8 +155,8 @@ impl Window<'_> {
         }
         let s2 = th[3].exp();
         let v: Vec<f64> = unit_spectrum(f0, q, self.fs, self.f.iter().copied())
-            .zip(&self.u)
-            .map(|(h, &u)| ((th[0] + th[1] * u + th[2] * u * u).exp() + s2 * h).ln())
+            .zip(self.u.iter().zip(&self.gain))
+            .map(|(h, (&u, g))| ((th[0] + th[1] * u + th[2] * u * u).exp() + s2 * h * g).ln())
             .collect();
         v.iter().all(|x| x.is_finite()).then_some(v)
     }
@@ -269,7 +272,16 @@ impl Window<'_> {
 
 /// Fit a bump near bin `k0` (its initial half-power half-width `hw` bins) over a window of the spectrum; `None`
 /// when the window is too small or the fit fails.
-fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64, fs: f64) -> Option<Bump> {
+fn fit_bump(
+    f: &[f64],
+    ln_p: &[f64],
+    k_range: (usize, usize),
+    k0: usize,
+    hw: f64,
+    fs: f64,
+    bw: Option<f64>,
+) -> Option<Bump> {
+    let gain_at = |x: f64| bw.map_or(1.0, |b| lowpass_gain(b, fs, x));
     let (k_lo, k_hi) = k_range;
     let df = f[1] - f[0];
     let mut f0 = f[k0];
@@ -284,7 +296,13 @@ fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64
         if hi < lo + 20 {
             return best;
         }
-        let w = Window { f: &f[lo..=hi], u: f[lo..=hi].iter().map(|x| (x / f0).ln()).collect(), y: &ln_p[lo..=hi], fs };
+        let w = Window {
+            f: &f[lo..=hi],
+            u: f[lo..=hi].iter().map(|x| (x / f0).ln()).collect(),
+            y: &ln_p[lo..=hi],
+            fs,
+            gain: f[lo..=hi].iter().map(|&x| gain_at(x)).collect(),
+        };
         let (bg, rss0) = w.background()?;
         // Start: the background under the bump's shoulders and the excess power under it.
         let core: Vec<usize> = (0..w.y.len()).filter(|&i| (w.f[i] - f0).abs() <= f0 / (2.0 * q)).collect();
@@ -301,7 +319,7 @@ fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64
         let bg_fit = |i: usize| (th[0] + th[1] * w.u[i] + th[2] * w.u[i] * w.u[i]).exp();
         let i0 = (0..w.f.len()).min_by(|&a, &b| (w.f[a] - f_fit).abs().total_cmp(&(w.f[b] - f_fit).abs()))?;
         let power = th[3].exp();
-        let peak_ratio = power * unit_spectrum_at(f_fit, q_fit, fs, f_fit) / bg_fit(i0);
+        let peak_ratio = power * unit_spectrum_at(f_fit, q_fit, fs, f_fit) * gain_at(f_fit) / bg_fit(i0);
         let thr = 3.0 * sigma2.sqrt();
         let (mut run, mut longest) = (0, 0);
         for i in 0..w.y.len() {
@@ -339,7 +357,11 @@ fn fit_bump(f: &[f64], ln_p: &[f64], k_range: (usize, usize), k0: usize, hw: f64
 /// Q is at least [`MIN_Q`] and five adjacent bins stand three standard deviations above the fitted background. The
 /// standard errors are the least squares' (widened for the neighbouring bins' correlation). The base terms are
 /// re-fitted on the OADEV less the resonance's own exact Allan variance (the base fit took its Allan bump for
-/// white or angle noise), leaving out the points where the resonance makes up more than 80% of it.
+/// white or angle noise), leaving out the points where the resonance makes up more than 80% of it. On a model
+/// that already has an output bandwidth (a later step of the chain, or a backfitting round) the bump is fitted,
+/// and its Allan variance taken off, through that low-pass, as the simulator applies it to the resonance: read
+/// on the filtered record as it is, a resonance at 0.6 of the corner comes out with three quarters of its power
+/// and is filtered once more in the simulation.
 pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let fs = d.fs_hz;
@@ -387,7 +409,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
             let drop = ex[k] - std::f64::consts::LN_2;
             let right = (k..k_hi - 2).find(|&j| ex[j] < drop).unwrap_or(k_hi - 2) - k;
             let left = k - (k_lo + 2..=k).rev().find(|&j| ex[j] < drop).unwrap_or(k_lo + 2);
-            fit_bump(&f, &ln_p, (k_lo, k_hi), k, 0.5 * (left + right) as f64, fs)
+            fit_bump(&f, &ln_p, (k_lo, k_hi), k, 0.5 * (left + right) as f64, fs, d.base.bandwidth_hz)
         })
         .collect();
     let bump = bumps
@@ -431,7 +453,7 @@ fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim 
     let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, fs)
         .into_iter()
         .filter_map(|mut p| {
-            let own = bump.power * resonance_avar(bump.freq_hz, bump.q, p.tau_s * fs, fs);
+            let own = bump.power * filtered_resonance_avar(bump.freq_hz, bump.q, d.base.bandwidth_hz, p.tau_s * fs, fs);
             (own < 0.8 * p.avar).then(|| {
                 p.avar -= own;
                 p
