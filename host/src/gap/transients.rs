@@ -36,7 +36,9 @@
 //!   burst (alpha = 1e-3 per part); a burst is cut to its most significant run of large samples, so a lone spike
 //!   that opened the window stays out. The spikes of a steady outlier process are not dense enough to be a burst;
 //!   they are replaced by the median of the nearer side for everything that follows (so a spike does not show at
-//!   every block length), and counted ([`Scan::spikes`]).
+//!   every block length), and counted ([`Scan::spikes`]). A large sample whose two neighbours both stand beyond 3
+//!   scales on its side is the peak of a short excursion (a swell of three samples), not a spike: it stays in and
+//!   is grown like a flagged block.
 //! - **Block lengths.** Block means at L = 2, 4, 8, ... up to half the longest event (and a 32nd of the part), with
 //!   a stride of L/2, of the series with its large samples replaced: offsets. From L = 8, block energies: the mean
 //!   of the squared scale-1 residual, each sample's capped at 9 (3 sigmas squared) so that no lone sample lifts a
@@ -105,6 +107,10 @@ const KAPPA_MARGIN: f64 = 1.5;
 const KAPPA_FLOOR: f64 = 5.5;
 /// Family-wise false-alarm probability of the burst test over a part.
 const BURST_ALPHA: f64 = 1e-3;
+/// A large sample whose two neighbours both stand this many robust scales beyond their sides, on its side, is the
+/// peak of a short excursion, not a spike: an isolated spike's neighbours are noise, and both beyond 3 scales on
+/// the spike's side happens about twice in a million spikes.
+const SHOULDER_Z: f64 = 3.0;
 /// Fewest large samples in a burst found by the window test (pairs have their own test).
 const MIN_BURST_SPIKES: usize = 3;
 /// A large sample at the end of a burst stands apart from it beyond this many median gaps of the burst.
@@ -292,7 +298,25 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
     }
     let mut despiked = x.to_vec();
     let mut clean = x.to_vec();
+    let mut cores: Vec<Core> = bursts
+        .iter()
+        .map(|&(a, b)| {
+            let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
+            Core { start: a, end: b + 1, scale: 1, z, burst: true }
+        })
+        .collect();
+    // A large sample whose two neighbours both stand out on the same side is the peak of a short excursion (a
+    // swell of a few samples), not a spike: it stays in, as a core of its own.
+    let shouldered = |i: usize| {
+        i > 0
+            && i + 1 < n
+            && [r1[i - 1], r1[i + 1]].iter().all(|v| v.is_finite() && v * r1[i].signum() > SHOULDER_Z * s1)
+    };
     for &i in &exceed {
+        if !in_burst[i] && shouldered(i) {
+            cores.push(Core { start: i - 1, end: i + 2, scale: 1, z: r1[i].abs() / s1, burst: false });
+            continue;
+        }
         // The side nearer to the sample: x less its residual against that side.
         let fill = x[i] - r1[i];
         if !in_burst[i] {
@@ -303,13 +327,6 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
     }
 
     // Block lengths 2, 4, ...: block means (and energies) against the medians of their sides.
-    let mut cores: Vec<Core> = bursts
-        .iter()
-        .map(|&(a, b)| {
-            let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
-            Core { start: a, end: b + 1, scale: 1, z, burst: true }
-        })
-        .collect();
     let l_max = prev_pow2((max_len / 2).min(n / 32)).max(2);
     let prefix = Prefix::new(&clean);
     // The energy of each sample against both its sides, in per-sample scales, capped so that no single sample
@@ -1130,6 +1147,29 @@ mod tests {
             let t0 = std::time::Instant::now();
             let s = scan(&x, 100.0);
             println!("{} events in {:.3} s", s.events.len(), t0.elapsed().as_secs_f64());
+        }
+    }
+
+    /// A swell of three samples (half a sine: 6, 12 and 6 sigmas) is an event, though only its peak is a large
+    /// sample; 40 lone spikes of 12 sigmas at a steady rate are not, and are counted as spikes.
+    #[test]
+    fn a_three_sample_swell_is_an_event_and_lone_spikes_are_not() {
+        for seed in 0..4 {
+            let mut x = white(1 << 18, seed);
+            let at = 100_000 + 7_919 * seed as usize;
+            for (v, w) in x[at..at + 3].iter_mut().zip([6.0, 12.0, 6.0]) {
+                *v += w;
+            }
+            let s = scan(&x, 1.0);
+            assert_eq!(s.events.len(), 1, "seed {seed}: {:?}", s.events);
+            assert!(s.events[0].start <= at && s.events[0].end() >= at + 3, "seed {seed}: {:?}", s.events);
+            let mut y = white(1 << 18, seed + 10);
+            for k in 0..40 {
+                y[3_001 + 6_469 * k] += if k % 2 == 0 { 12.0 } else { -12.0 };
+            }
+            let s = scan(&y, 1.0);
+            assert!(s.events.is_empty(), "seed {seed}: {:?}", s.events);
+            assert!(s.spikes >= 40, "seed {seed}: {} spikes", s.spikes);
         }
     }
 
