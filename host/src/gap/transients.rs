@@ -47,7 +47,10 @@
 //! - **Growing.** Each flagged block (or burst), the most significant first, is grown into an excursion. The
 //!   baseline is the line through the medians of the record on either side of a search window 3 block lengths
 //!   wider than the block; the deviations d from it are scored, and the interval of largest score sum that
-//!   overlaps the block is the excursion (a burst keeps its whole span and only grows outward). An offset (mean d
+//!   overlaps the block is the excursion (a burst keeps its whole span and only grows outward; a burst of separate
+//!   spikes, whose large samples fill less than half its span or have both signs, is its span from first to last
+//!   spike, and a burst whatever its span's mean, which the red noise under a long burst moves more than its
+//!   spikes do). An offset (mean d
 //!   at least half the mean |d|) scores `sign * d - k` with `k = min(|mean| / 2, 1.5 sigma)` (the CUSUM
 //!   reference; the edges go where the samples are clearly raised); a burst scores its energy
 //!   `min(d^2 / sigma^2, 16) - c`, c between 2 and 4 (between the noise's energy and the block's).
@@ -302,7 +305,10 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
         .iter()
         .map(|&(a, b)| {
             let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
-            Core { start: a, end: b + 1, scale: 1, z, burst: true }
+            let large: Vec<f64> = exceed.iter().filter(|&&i| i >= a && i <= b).map(|&i| r1[i]).collect();
+            let up = large.iter().filter(|v| **v > 0.0).count() as f64 / large.len().max(1) as f64;
+            let spiky = (large.len() as f64) < 0.5 * (b + 1 - a) as f64 || (0.2..=0.8).contains(&up);
+            Core { start: a, end: b + 1, scale: 1, z, burst: true, spiky }
         })
         .collect();
     // A large sample whose two neighbours both stand out on the same side is the peak of a short excursion (a
@@ -314,7 +320,7 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
     };
     for &i in &exceed {
         if !in_burst[i] && shouldered(i) {
-            cores.push(Core { start: i - 1, end: i + 2, scale: 1, z: r1[i].abs() / s1, burst: false });
+            cores.push(Core { start: i - 1, end: i + 2, scale: 1, z: r1[i].abs() / s1, burst: false, spiky: false });
             continue;
         }
         // The side nearer to the sample: x less its residual against that side.
@@ -361,7 +367,7 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
                 stat.max_z = stat.max_z.max(z);
                 if z > kap {
                     stat.flagged += 1;
-                    cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false });
+                    cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false, spiky: false });
                 }
             }
         }
@@ -376,7 +382,7 @@ pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
                     stat.energy_max_z = stat.energy_max_z.max(z);
                     if z > kap {
                         stat.energy_flagged += 1;
-                        cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false });
+                        cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false, spiky: false });
                     }
                 }
             }
@@ -449,6 +455,10 @@ struct Core {
     scale: usize,
     z: f64,
     burst: bool,
+    /// A burst of separate spikes: its large samples fill less than half its span or have both signs (a fifth of
+    /// them or more each way). Its shape is a burst whatever the mean of its span, which the red noise under a
+    /// long burst can lift or lower more than its few spikes.
+    spiky: bool,
 }
 
 /// An excursion grown from a core.
@@ -518,7 +528,7 @@ impl Ctx<'_> {
         }
         let m = mean(&core_d);
         let ma = core_d.iter().map(|v| v.abs()).sum::<f64>() / core_d.len() as f64;
-        let shape = if m.abs() >= 0.5 * ma { Shape::Offset } else { Shape::Burst };
+        let shape = if m.abs() >= 0.5 * ma && !core.spiky { Shape::Offset } else { Shape::Burst };
         let s = self.sigma;
         let g: Vec<f64> = match shape {
             Shape::Offset => {
@@ -537,7 +547,11 @@ impl Ctx<'_> {
             }
         };
         let (a, b) = (core.start - w0, core.end - w0);
-        let (lo, hi) = if core.burst {
+        let (lo, hi) = if core.spiky {
+            // Separate spikes: their span, first to last; the energy of the samples between them and around is the
+            // noise's, and on a wandering level a line through the sides' medians would take the wander for more.
+            (a, b - 1)
+        } else if core.burst {
             // A burst's large samples belong together (the Poisson test said so): the whole span, extended outward
             // over weaker edges.
             (a - best_run(g[..a].iter().rev()), b - 1 + best_run(g[b..].iter()))
@@ -1170,6 +1184,34 @@ mod tests {
             let s = scan(&y, 1.0);
             assert!(s.events.is_empty(), "seed {seed}: {:?}", s.events);
             assert!(s.spikes >= 40, "seed {seed}: {} spikes", s.spikes);
+        }
+    }
+
+    /// A burst of 8 spikes of both signs spread over 6000 samples of a record that wanders (white noise and a
+    /// random walk that moves the level by several sigmas over the burst) is a burst, not an offset that does not
+    /// return: it is found, as one event over its spikes.
+    #[test]
+    fn a_spread_burst_on_a_wandering_level_is_found() {
+        for seed in 0..3 {
+            let w = white(1 << 18, seed + 20);
+            let steps = white(1 << 18, seed + 40);
+            let mut level = 0.0;
+            let mut x: Vec<f64> = w
+                .iter()
+                .zip(&steps)
+                .map(|(v, s)| {
+                    level += 0.05 * s;
+                    v + level
+                })
+                .collect();
+            let at = 50_000 + 10_007 * seed as usize;
+            for k in 0..8 {
+                x[at + 750 * k + 11] += if k % 3 == 0 { -30.0 } else { 30.0 };
+            }
+            let s = scan(&x, 100.0);
+            let hit: Vec<&Transient> = s.events.iter().filter(|e| e.start <= at + 11 && e.end() > at + 5261).collect();
+            assert_eq!(hit.len(), 1, "seed {seed}: {:?} left alone {:?}", s.events, s.left_alone);
+            assert_eq!(hit[0].shape, Shape::Burst, "seed {seed}");
         }
     }
 
