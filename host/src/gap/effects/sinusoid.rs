@@ -1,6 +1,7 @@
 //! The sinusoid candidate: up to four sinusoids on the rate, from the periodogram and a joint least squares.
 
 use octavar_shared::sim::{Sinusoid, MAX_SINUSOIDS};
+use rayon::prelude::*;
 use serde_json::{json, Value};
 
 use super::common::*;
@@ -65,13 +66,18 @@ struct DesignRows {
 
 impl DesignRows {
     fn new(n: usize, freqs: &[f64], dt: f64, t_off: f64) -> Self {
+        Self::from(n, 0, freqs, dt, t_off)
+    }
+
+    /// The rows from sample `i` on.
+    fn from(n: usize, i: usize, freqs: &[f64], dt: f64, t_off: f64) -> Self {
         let phasor = |a: f64| (a.cos(), a.sin());
         let two_pi = 2.0 * std::f64::consts::PI;
         DesignRows {
             n,
-            i: 0,
+            i,
             rot: freqs.iter().map(|f| phasor(two_pi * f * dt)).collect(),
-            ph: freqs.iter().map(|f| phasor(two_pi * f * t_off)).collect(),
+            ph: freqs.iter().map(|f| phasor(two_pi * f * (t_off + i as f64 * dt))).collect(),
         }
     }
 
@@ -102,6 +108,9 @@ impl DesignRows {
     }
 }
 
+/// Samples per chunk of [`OneVarying::rss`]'s pass (a multiple of the phasors' renormalisation period, 1024).
+const RSS_CHUNK: usize = 1 << 16;
+
 /// The residual sum of squares of [`sinusoid_ls`] as a function of the frequency of sinusoid `j` alone, the
 /// other frequencies held: the rows of the held columns are stored once, with their `A'A`, `A'y` and `y'y`, so
 /// each trial passes over the record for the two columns that change (a fifth of the work of a whole
@@ -131,26 +140,48 @@ impl<'a> OneVarying<'a> {
         OneVarying { y, dt, t_off, rows, p, ata, atb, yy }
     }
 
-    /// The residual sum of squares with sinusoid `j` at `f` (infinite where the system is singular).
+    /// The residual sum of squares with sinusoid `j` at `f` (infinite where the system is singular). The pass over
+    /// the record runs in chunks of [`RSS_CHUNK`] samples in parallel (their sums added in order, so the result
+    /// does not depend on the threads): the refinement is the longest of the estimators, and the others are done
+    /// before it.
     fn rss(&self, f: f64) -> f64 {
         let p = self.p;
-        let mut phase = DesignRows::new(self.y.len(), &[f], self.dt, self.t_off);
-        let mut cs = [0.0; 5];
+        let n = self.y.len();
+        let chunk = |k: usize| -> (f64, f64, f64, f64, f64, Vec<f64>, Vec<f64>) {
+            let i0 = k * RSS_CHUNK;
+            let i1 = (i0 + RSS_CHUNK).min(n);
+            let mut phase = DesignRows::from(n, i0, &[f], self.dt, self.t_off);
+            let mut cs = [0.0; 5];
+            let (mut cc, mut csx, mut ss, mut yc, mut ys) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            let mut cf = vec![0.0; p];
+            let mut sf = vec![0.0; p];
+            for (row, &v) in self.rows[i0 * p..i1 * p].chunks_exact(p).zip(&self.y[i0..i1]) {
+                phase.next_row(&mut cs);
+                let (c, s) = (cs[3], cs[4]);
+                cc += c * c;
+                csx += c * s;
+                ss += s * s;
+                yc += v * c;
+                ys += v * s;
+                for ((a, b), r) in cf.iter_mut().zip(sf.iter_mut()).zip(row) {
+                    *a += c * r;
+                    *b += s * r;
+                }
+            }
+            (cc, csx, ss, yc, ys, cf, sf)
+        };
+        let parts: Vec<_> = (0..n.div_ceil(RSS_CHUNK)).into_par_iter().map(chunk).collect();
         let (mut cc, mut csx, mut ss, mut yc, mut ys) = (0.0, 0.0, 0.0, 0.0, 0.0);
         let mut cf = vec![0.0; p];
         let mut sf = vec![0.0; p];
-        for (row, &v) in self.rows.chunks_exact(p).zip(self.y) {
-            phase.next_row(&mut cs);
-            let (c, s) = (cs[3], cs[4]);
-            cc += c * c;
-            csx += c * s;
-            ss += s * s;
-            yc += v * c;
-            ys += v * s;
-            for ((a, b), r) in cf.iter_mut().zip(sf.iter_mut()).zip(row) {
-                *a += c * r;
-                *b += s * r;
-            }
+        for (a, b, c, d, e, f_, g) in parts {
+            cc += a;
+            csx += b;
+            ss += c;
+            yc += d;
+            ys += e;
+            cf.iter_mut().zip(&f_).for_each(|(x, y)| *x += y);
+            sf.iter_mut().zip(&g).for_each(|(x, y)| *x += y);
         }
         let mut ata = vec![vec![0.0; p + 2]; p + 2];
         for (r, row) in self.ata.iter().enumerate() {
@@ -463,11 +494,12 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
 mod tests {
     use super::*;
 
-    /// The one-varying residual is the whole joint least squares' at every trial frequency.
+    /// The one-varying residual is the whole joint least squares' at every trial frequency, on a record of three
+    /// chunks of its parallel pass.
     #[test]
     fn one_varying_residual_is_the_joint_least_squares() {
         let dt = 0.01;
-        let y: Vec<f64> = crate::test_signals::white(20_000, 3)
+        let y: Vec<f64> = crate::test_signals::white(150_000, 3)
             .iter()
             .enumerate()
             .map(|(i, w)| {
