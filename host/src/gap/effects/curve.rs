@@ -193,7 +193,7 @@ pub(super) fn lowpass_white_avar(f3db: Option<f64>, tau: f64, fs: f64) -> f64 {
     let m = (tau * fs).round().max(1.0);
     match f3db {
         Some(f) if f > 0.0 => {
-            let a = (-2.0 * std::f64::consts::PI * f / fs).exp();
+            let a = lowpass_pole(f, fs);
             fs * (1.0 - a) / (1.0 + a) * ar1_avar(a, m)
         }
         _ => fs / m,

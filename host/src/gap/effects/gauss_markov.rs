@@ -12,8 +12,8 @@ use super::{Effect, EffectFit, TrainingData};
 ///
 /// Method: the OADEV at octave tau is fitted jointly with the base terms N, B, K, R, Q and a Gauss-Markov term of
 /// unit variance (its exact Allan form: the discrete AR(1) expression, through the model's output bandwidth where
-/// it has one, or IEEE 952 Annex C's continuous one for T beyond a thousand samples), weighted NNLS as for the bandwidth, T on a log grid from 2 tau0 to a third of
-/// the record refined by golden search. It counts when the log-domain chi-square falls by at least
+/// it has one, or IEEE 952 Annex C's continuous one for T beyond a thousand samples), weighted NNLS as for the
+/// bandwidth, T on a log grid from 2 tau0 to a third of the record refined by golden search. It counts when the log-domain chi-square falls by at least
 /// [`CURVE_DELTA_CHI2`] from the base-terms-only fit and the process carries at least a fifth of the model's
 /// Allan variance somewhere on the curve; N, B, K, R and Q are re-fitted with it. On a model that already carries
 /// a resonance or a bistable bias, their Allan variance is taken off the curve first.

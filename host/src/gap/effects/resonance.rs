@@ -135,7 +135,8 @@ struct Bump {
 }
 
 /// The spectrum's log over a window, and the model `ln(exp(c0 + c1 u + c2 u^2) + s2 H(f; f0, Q) L(f))`,
-/// `u = ln(f / centre)`, `L` the power gain of the model's output bandwidth, in the parameters `[c0, c1, c2, ln s2, ln f0, ln Q]`.
+/// `u = ln(f / centre)`, `L` the power gain of the model's output bandwidth, in the parameters
+/// `[c0, c1, c2, ln s2, ln f0, ln Q]`.
 struct Window<'a> {
     f: &'a [f64],
     u: Vec<f64>,

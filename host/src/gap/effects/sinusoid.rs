@@ -147,42 +147,33 @@ impl<'a> OneVarying<'a> {
     fn rss(&self, f: f64) -> f64 {
         let p = self.p;
         let n = self.y.len();
-        let chunk = |k: usize| -> (f64, f64, f64, f64, f64, Vec<f64>, Vec<f64>) {
+        let chunk = |k: usize| -> ChunkSums {
             let i0 = k * RSS_CHUNK;
             let i1 = (i0 + RSS_CHUNK).min(n);
             let mut phase = DesignRows::from(n, i0, &[f], self.dt, self.t_off);
             let mut cs = [0.0; 5];
-            let (mut cc, mut csx, mut ss, mut yc, mut ys) = (0.0, 0.0, 0.0, 0.0, 0.0);
-            let mut cf = vec![0.0; p];
-            let mut sf = vec![0.0; p];
+            let mut sums = ChunkSums::zero(p);
             for (row, &v) in self.rows[i0 * p..i1 * p].chunks_exact(p).zip(&self.y[i0..i1]) {
                 phase.next_row(&mut cs);
                 let (c, s) = (cs[3], cs[4]);
-                cc += c * c;
-                csx += c * s;
-                ss += s * s;
-                yc += v * c;
-                ys += v * s;
-                for ((a, b), r) in cf.iter_mut().zip(sf.iter_mut()).zip(row) {
+                sums.cc += c * c;
+                sums.csx += c * s;
+                sums.ss += s * s;
+                sums.yc += v * c;
+                sums.ys += v * s;
+                for ((a, b), r) in sums.cf.iter_mut().zip(sums.sf.iter_mut()).zip(row) {
                     *a += c * r;
                     *b += s * r;
                 }
             }
-            (cc, csx, ss, yc, ys, cf, sf)
+            sums
         };
-        let parts: Vec<_> = (0..n.div_ceil(RSS_CHUNK)).into_par_iter().map(chunk).collect();
-        let (mut cc, mut csx, mut ss, mut yc, mut ys) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        let mut cf = vec![0.0; p];
-        let mut sf = vec![0.0; p];
-        for (a, b, c, d, e, f_, g) in parts {
-            cc += a;
-            csx += b;
-            ss += c;
-            yc += d;
-            ys += e;
-            cf.iter_mut().zip(&f_).for_each(|(x, y)| *x += y);
-            sf.iter_mut().zip(&g).for_each(|(x, y)| *x += y);
-        }
+        let parts: Vec<ChunkSums> = (0..n.div_ceil(RSS_CHUNK)).into_par_iter().map(chunk).collect();
+        let ChunkSums { cc, csx, ss, yc, ys, cf, sf } =
+            parts.into_iter().fold(ChunkSums::zero(p), |mut total, part| {
+                total.add(&part);
+                total
+            });
         let mut ata = vec![vec![0.0; p + 2]; p + 2];
         for (r, row) in self.ata.iter().enumerate() {
             ata[r][..p].copy_from_slice(row);
@@ -201,6 +192,34 @@ impl<'a> OneVarying<'a> {
             Some(coef) => self.yy - coef.iter().zip(&atb).map(|(a, b)| a * b).sum::<f64>(),
             None => f64::INFINITY,
         }
+    }
+}
+
+/// The sums one chunk of [`OneVarying::rss`]'s pass adds up: the varying sinusoid's cos and sin against each
+/// other, the record and the held columns.
+struct ChunkSums {
+    cc: f64,
+    csx: f64,
+    ss: f64,
+    yc: f64,
+    ys: f64,
+    cf: Vec<f64>,
+    sf: Vec<f64>,
+}
+
+impl ChunkSums {
+    fn zero(p: usize) -> Self {
+        ChunkSums { cc: 0.0, csx: 0.0, ss: 0.0, yc: 0.0, ys: 0.0, cf: vec![0.0; p], sf: vec![0.0; p] }
+    }
+
+    fn add(&mut self, o: &ChunkSums) {
+        self.cc += o.cc;
+        self.csx += o.csx;
+        self.ss += o.ss;
+        self.yc += o.yc;
+        self.ys += o.ys;
+        self.cf.iter_mut().zip(&o.cf).for_each(|(x, y)| *x += y);
+        self.sf.iter_mut().zip(&o.sf).for_each(|(x, y)| *x += y);
     }
 }
 
