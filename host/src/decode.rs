@@ -17,6 +17,7 @@
 //! let mut enc = Encoder::new();
 //! let status = Frame::Status(Status {
 //!     uptime_ms: 1000, samples_per_channel: 2000, adc_overruns: 0, frames_dropped: 0, temperature_c: None,
+//!     samples_lost: 0,
 //! });
 //! let mut bytes = enc.encode_to_vec(&status).unwrap().to_vec();
 //! bytes.extend_from_slice(&[0x42, 0x13]); // a frame cut short at the end of the capture
@@ -34,7 +35,7 @@ use std::path::{Path, PathBuf};
 
 use octavar_shared::acc::{Snapshot, LEVELS};
 use octavar_shared::proto::{
-    self, Decoder, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotError, SnapshotPart, Status,
+    self, Ack, Decoder, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotError, SnapshotPart, Status,
     LEVELS_PER_PART, PROTOCOL_VERSION,
 };
 use serde::Serialize;
@@ -135,6 +136,8 @@ pub enum Record {
     FieldLog(FieldLogSnapshot),
     /// The end of a field-log read-out.
     FieldLogEnd(FieldLogEnd),
+    /// The device carried out the host command with this sequence number.
+    Ack(Ack),
 }
 
 /// A record and where it came from.
@@ -244,6 +247,8 @@ pub struct DecodeStats {
     pub field_log_snapshots: u64,
     /// Field-log end frames.
     pub field_log_ends: u64,
+    /// Command acknowledgements.
+    pub acks: u64,
     /// A hello announced a protocol version this host does not know.
     pub unknown_protocol: Option<u16>,
     /// The first bad frames, with their offsets.
@@ -408,6 +413,10 @@ impl StreamDecoder {
             Frame::FieldLogEnd(e) => {
                 self.stats.field_log_ends += 1;
                 Record::FieldLogEnd(e)
+            }
+            Frame::Ack(a) => {
+                self.stats.acks += 1;
+                Record::Ack(a)
             }
             Frame::AllanSnapshot(part) => {
                 self.stats.snapshot_parts += 1;
@@ -972,7 +981,7 @@ impl CsvSet {
                     ])?;
                 }
             }
-            Record::Hello(_) | Record::FieldLogEnd(_) => {}
+            Record::Hello(_) | Record::FieldLogEnd(_) | Record::Ack(_) => {}
         }
         Ok(())
     }
@@ -1023,7 +1032,7 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
             }
             Record::Status(status) => statuses.push(StatusSummary { frame_seq: seq, status }),
             Record::Estimate(estimate) => estimates.push(EstimateSummary { frame_seq: seq, estimate }),
-            Record::FieldLogEnd(_) => {}
+            Record::FieldLogEnd(_) | Record::Ack(_) => {}
         }
     }
     let csv_files = csv.map(CsvSet::finish).transpose()?.unwrap_or_default();

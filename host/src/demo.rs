@@ -215,19 +215,27 @@ fn accumulate_group(
 }
 
 /// The device's frames for the snapshots of every channel: a hello (the demo's channels in bench order, its
-/// sample rate and the firmware's stride), then, round after round, each channel's snapshot parts, as
-/// `characterize.rs` sends them. This is the capture the host would have recorded.
+/// sample rate and the firmware's stride), then, round after round, each channel's snapshot parts, as the
+/// device core sends them. This is the capture the host would have recorded.
 pub fn snapshot_capture(snapshots: &[Vec<Snapshot>]) -> Vec<u8> {
     use octavar_shared::proto::{Encoder, Frame, SnapshotPart};
-    let base = crate::device_sim::DeviceConfig::firmware();
-    let channels = TABLE1.iter().map(|p| octavar_shared::proto::ChannelInfo::new(p.sensor, p.label)).collect();
-    let cfg = crate::device_sim::DeviceConfig {
-        channels,
+    use octavar_shared::device::{ChannelSpec, DeviceConfig};
+    const CHANNELS: [ChannelSpec<'static>; TABLE1.len()] = {
+        let mut out = [ChannelSpec { kind: SensorKind::Generic, name: "" }; TABLE1.len()];
+        let mut i = 0;
+        while i < TABLE1.len() {
+            out[i] = ChannelSpec { kind: TABLE1[i].sensor, name: TABLE1[i].label };
+            i += 1;
+        }
+        out
+    };
+    let cfg = DeviceConfig {
+        channels: &CHANNELS,
         gyros: TABLE1.len(),
         temp_channel: None,
         sample_rate_hz: BENCH_RATE_HZ as u32,
-        firmware: format!("octavar demo {}", env!("CARGO_PKG_VERSION")),
-        ..base
+        firmware: concat!("octavar demo ", env!("CARGO_PKG_VERSION")),
+        ..DeviceConfig::F405
     };
     let mut enc = Encoder::new();
     let mut out = Vec::new();

@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use crate::capture::{CaptureError, CaptureSink, CaptureWriter};
 use crate::decode::{adev_codes_at, DecodeStats, Record, StreamDecoder};
-use crate::device_sim::dps_per_code;
+use octavar_shared::sensor::dps_per_code;
 
 /// The averaging time of the live ADEV readout, s.
 pub const LIVE_TAU_S: f64 = 1.0;
@@ -595,7 +595,7 @@ mod tests {
 
     fn wire() -> Vec<u8> {
         let scans = (0..6100u32).map(|i| [2000 + (i % 17) as u16, 2010, 2020 + (i % 3) as u16, 2047, 1900]);
-        device_frames(DeviceConfig::firmware(), 0x1f, scans)
+        device_frames(DeviceConfig::F405, 0x1f, scans)
     }
 
     fn commands(bytes: &[u8]) -> Vec<Command> {

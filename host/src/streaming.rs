@@ -829,7 +829,7 @@ pub fn analyze_capture<R: Read>(
     }
     let tau0 = 1.0 / rate;
     let ch_name = |c: usize| hello.channels.get(c).map_or_else(|| format!("ch{c}"), |i| i.name.as_str().to_string());
-    let ch_scale = |c: usize| hello.channels.get(c).map_or(1.0, |i| crate::device_sim::dps_per_code(i.kind));
+    let ch_scale = |c: usize| hello.channels.get(c).map_or(1.0, |i| octavar_shared::sensor::dps_per_code(i.kind));
     let mut out = Vec::new();
     let have_samples = accs.iter().any(|a| a.samples() > 0);
     let mut samples = 0;
@@ -1006,7 +1006,7 @@ mod tests {
         let mut acc = StreamOadev::new(DEFAULT_STRIDE).unwrap();
         acc.push(&y);
         let t = acc.finish();
-        let scale = crate::device_sim::dps_per_code(SensorKind::Adxrs300);
+        let scale = octavar_shared::sensor::dps_per_code(SensorKind::Adxrs300);
         let want = t.points(1.0 / 500.0, scale, 0.683);
         for (p, q) in a.channels[0].fit_points.iter().zip(&want) {
             assert_eq!(p.n, q.n);

@@ -21,7 +21,7 @@
 //! use octavar::decode::CaptureReader;
 //! use octavar::device_sim::{device_frames, DeviceConfig};
 //! let scans = (0..6_000u32).map(|i| [2048 + (i * 7 % 11) as u16, 2040, 2050, 2047, 1900]);
-//! let wire = device_frames(DeviceConfig::firmware(), 0x1f, scans);
+//! let wire = device_frames(DeviceConfig::F405, 0x1f, scans);
 //! let report = octavar::verify::verify(CaptureReader::new(&wire[..], "run.cap")).unwrap();
 //! assert_eq!((report.checked, report.matched, report.mismatched_snapshots), (12, 12, 0));
 //! assert!(report.passed());
@@ -657,7 +657,7 @@ mod tests {
 
     #[test]
     fn a_device_gap_is_pooled_and_matches() {
-        let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+        let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
         let mut out = Vec::new();
         dev.boot(&mut out);
         run(&mut dev, 0, 3000, &mut out);
@@ -670,7 +670,7 @@ mod tests {
 
     #[test]
     fn raw_streaming_paused_is_not_checkable_rather_than_a_mismatch() {
-        let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+        let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
         let mut out = Vec::new();
         dev.boot(&mut out);
         run(&mut dev, 0, 2100, &mut out);
@@ -688,7 +688,7 @@ mod tests {
     #[test]
     fn late_start_lost_frames_and_unstreamed_channels_are_explained() {
         // Raw streaming of channels 0 and 1 only, starting after the first round.
-        let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0);
+        let mut dev = DeviceSim::new(DeviceConfig::F405, 0);
         let mut out = Vec::new();
         dev.boot(&mut out);
         run(&mut dev, 0, 2500, &mut out);
@@ -702,7 +702,7 @@ mod tests {
         assert!(reasons.contains(&(3, Unchecked::NotStreamed)), "{reasons:?}");
 
         // Lost raw frames: the snapshot before the loss is checked, the ones after are not.
-        let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+        let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
         let mut out = Vec::new();
         dev.boot(&mut out);
         run(&mut dev, 0, 2100, &mut out);
@@ -739,12 +739,12 @@ mod tests {
     fn snapshots_after_a_reset_that_restarts_the_raw_index_are_checked() {
         // The firmware at a reset: empty accumulators and the raw index back to 0 at the next block, frames
         // numbered on (no reboot). After the reset it sends what a fresh device sends, without the hello.
-        let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+        let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
         let mut out = Vec::new();
         dev.boot(&mut out);
         run(&mut dev, 0, 39 * 128, &mut out); // two rounds, then the reset at a block boundary
         let next_seq = out.iter().filter(|&&b| b == 0).count() as u32;
-        let mut fresh = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+        let mut fresh = DeviceSim::new(DeviceConfig::F405, 0x1f);
         let mut after = Vec::new();
         run(&mut fresh, 39 * 128, 33 * 128, &mut after); // two more rounds
         let mut wire = out.clone();
@@ -764,7 +764,7 @@ mod tests {
 
     #[test]
     fn a_wrong_snapshot_is_reported_with_channel_level_expected_and_got() {
-        let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+        let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
         let mut out = Vec::new();
         dev.boot(&mut out);
         run(&mut dev, 0, 2100, &mut out);

@@ -16,7 +16,7 @@ fn scan(i: u32) -> [u16; 5] {
 
 /// Three rounds of a simulated device streaming every channel raw.
 fn capture_bytes() -> Vec<u8> {
-    device_frames(DeviceConfig::firmware(), 0x1f, (0..6100).map(scan))
+    device_frames(DeviceConfig::F405, 0x1f, (0..6100).map(scan))
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
@@ -76,7 +76,7 @@ fn verify_and_decode_a_simulated_device() {
 fn verify_exits_1_on_a_wrong_snapshot_and_when_nothing_can_be_checked() {
     let dir = tempfile::tempdir().unwrap();
     // A device whose snapshot of channel 2 is off in level 5 (a valid frame: the CRC is right).
-    let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+    let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
     let mut bytes = Vec::new();
     dev.boot(&mut bytes);
     (0..2100).for_each(|i| dev.push_scan(&scan(i), &mut bytes));
@@ -94,7 +94,7 @@ fn verify_exits_1_on_a_wrong_snapshot_and_when_nothing_can_be_checked() {
     assert!(stdout(&o).contains("FAILED: 1 of 5 checked snapshots differ"), "{}", stdout(&o));
 
     // No raw streaming: nothing can be checked.
-    let cap = write(dir.path(), "noraw.cap", &device_frames(DeviceConfig::firmware(), 0, (0..4100).map(scan)));
+    let cap = write(dir.path(), "noraw.cap", &device_frames(DeviceConfig::F405, 0, (0..4100).map(scan)));
     let o = octavar(&["verify", s(&cap)], None);
     assert_eq!(o.status.code(), Some(1));
     assert!(stdout(&o).contains("no raw samples of this channel"), "{}", stdout(&o));

@@ -7,7 +7,10 @@
 //! - [`proto`]: the frames that travel between device and host (postcard, COBS, CRC-32);
 //! - [`sensor`]: the gyro and ADC models (code <-> volts <-> deg/s);
 //! - [`sim`]: a deterministic virtual gyro + ADC that streams in constant memory;
-//! - [`estimate`]: the onboard estimate of N and B from an accumulator snapshot.
+//! - [`estimate`]: the onboard estimate of N and B from an accumulator snapshot;
+//! - [`device`]: the device core: channel table, schedule, characterizer, sample ring (firmware and host
+//!   simulator both run it);
+//! - [`fieldlog`]: the field log's record format, recovery and checkpoint policy, over any NOR flash.
 //!
 //! The crate has no allocation and no unsafe code; it builds for `thumbv7em-none-eabihf`.
 #![cfg_attr(not(test), no_std)]
@@ -18,6 +21,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool, clippy::needless_range_loop)]
 
 pub mod acc;
+pub mod device;
 pub mod estimate;
 pub mod fieldlog;
 pub mod proto;

@@ -283,9 +283,44 @@ impl Channel {
     }
 }
 
+/// The bench scale of the part `kind`: deg/s per ADC code through [`Channel::bench`] (1 for a channel without a
+/// built-in model, whose codes are already the unit).
+pub fn dps_per_code(kind: SensorKind) -> f64 {
+    GyroModel::of(kind).map_or(1.0, |g| Channel::bench(g).dps_per_code())
+}
+
+/// The ADC code of the bench's temperature channel at `temp_c`: the ADXRS300 TEMP output (2.50 V at 25 degC,
+/// 8.4 mV/K) through the same 2/3 divider as its rate output.
+pub fn temperature_code(temp_c: f64) -> u16 {
+    let (ch, t) = adxrs300_temp();
+    ch.adc.quantize(ch.front.apply(t.mv_at_25c + t.mv_per_c * (temp_c - 25.0)))
+}
+
+/// The temperature in degC that a mean code of the bench's temperature channel stands for (the inverse of
+/// [`temperature_code`], at the centre of the code's step).
+pub fn temperature_c(mean_code: f64) -> f32 {
+    let (ch, t) = adxrs300_temp();
+    let sensor_mv = ch.front.invert((mean_code + 0.5) * ch.adc.mv_per_code());
+    (25.0 + (sensor_mv - t.mv_at_25c) / t.mv_per_c) as f32
+}
+
+fn adxrs300_temp() -> (Channel, TempOutput) {
+    let t = ADXRS300.temp_output.expect("the ADXRS300 has a TEMP output");
+    (Channel::bench(ADXRS300), t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn temperature_code_round_trips() {
+        for t in [20.0, 22.5, 25.0, 31.0] {
+            let back = temperature_c(f64::from(temperature_code(t)));
+            // One code is 1/7 K: the round trip lands within half a step.
+            assert!((f64::from(back) - t).abs() < 0.08, "{t} -> {back}");
+        }
+    }
 
     #[test]
     fn code_round_trip_within_one_step() {

@@ -7,7 +7,8 @@ use std::time::Duration;
 
 use octavar::capture::CaptureWriter;
 use octavar::decode::{CaptureReader, Record, StreamDecoder};
-use octavar::device_sim::{temperature_code, DeviceConfig, DeviceSim};
+use octavar::device_sim::{DeviceConfig, DeviceSim};
+use octavar_shared::sensor::temperature_code;
 use octavar::record::{record, ReaderSource, RecordOptions};
 use octavar::verify::{verify, verify_path};
 use octavar_shared::acc::{OctaveAllan, Snapshot};
@@ -42,7 +43,7 @@ pub fn next_scan(b: &mut Bench) -> [u16; 5] {
 /// `seconds` of the bench through a simulated device streaming every channel raw; also the scans.
 pub fn device_capture(seed: u64, seconds: u32) -> (Vec<u8>, Vec<[u16; 5]>) {
     let mut b = bench(seed);
-    let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+    let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
     let mut cap = CaptureWriter::new(Vec::new(), std::path::Path::new("pipeline.cap"));
     let mut out = Vec::new();
     dev.boot(&mut out);
@@ -130,7 +131,7 @@ fn chunking_does_not_change_what_is_decoded() {
 #[test]
 fn device_gaps_are_pooled_and_a_reset_starts_a_new_session() {
     let mut b = bench(5);
-    let mut dev = DeviceSim::new(DeviceConfig::firmware(), 0x1f);
+    let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
     let mut out = Vec::new();
     dev.boot(&mut out);
     for i in 0..9000u32 {

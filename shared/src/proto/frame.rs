@@ -30,6 +30,8 @@ pub enum Frame {
     FieldLog(FieldLogRecord),
     /// The end of a field-log read-out.
     FieldLogEnd(FieldLogEnd),
+    /// A host command was carried out.
+    Ack(Ack),
 }
 
 impl Frame {
@@ -43,6 +45,7 @@ impl Frame {
             Frame::Estimate(_) => "estimate",
             Frame::FieldLog(_) => "field-log",
             Frame::FieldLogEnd(_) => "field-log-end",
+            Frame::Ack(_) => "ack",
         }
     }
 }
@@ -211,12 +214,16 @@ pub struct Status {
     pub uptime_ms: u64,
     /// Samples taken per channel since the last reset.
     pub samples_per_channel: u64,
-    /// ADC overruns since boot (each one restarts the ADC and loses samples).
+    /// Sample losses since boot: ADC overruns, stalls that outlasted the sample ring, a characterizer that fell
+    /// behind. Each is a gap in the hardware sample index, pooled across.
     pub adc_overruns: u32,
     /// Frames dropped since boot because USB was busy or disconnected.
     pub frames_dropped: u32,
     /// Board temperature in degC (the MCU's sensor, or a gyro's temperature output); `None` without one.
     pub temperature_c: Option<f32>,
+    /// Scans lost since the last reset: the sum of this session's gaps, each counted exactly from the hardware
+    /// sample index. `samples_per_channel + samples_lost` scans of time have passed in the session.
+    pub samples_lost: u64,
 }
 
 /// The onboard noise estimate of the gyro channels.
@@ -270,6 +277,14 @@ pub struct FieldLogRecord {
     pub adc_overruns: u32,
     /// The snapshot part, as [`Frame::AllanSnapshot`] carries it.
     pub part: SnapshotPart,
+}
+
+/// The acknowledgement of a host command, sent once the command has taken effect.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Ack {
+    /// The sequence number of the command's frame.
+    pub seq: u32,
 }
 
 /// The end of a field-log read-out.

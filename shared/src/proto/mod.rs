@@ -55,6 +55,7 @@
 //!     adc_overruns: 0,
 //!     frames_dropped: 0,
 //!     temperature_c: Some(24.5),
+//!     samples_lost: 0,
 //! });
 //! let mut enc = Encoder::new();
 //! let mut wire = [0u8; 2 * MAX_FRAME];
@@ -83,13 +84,13 @@ mod tests;
 
 pub use command::Command;
 pub use decoder::{DecodeError, Decoder, DecoderStats, Feed, Received};
-pub use frame::{ChannelEstimate, ChannelInfo, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, Status};
+pub use frame::{Ack, ChannelEstimate, ChannelInfo, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, Status};
 pub use framing::{crc32, encode_frame, encode_to_vec, EncodeError, Encoder, FrameBuf};
 pub use size::{varint_max, MaxSize};
 pub use snapshot::{SnapshotError, SnapshotPart, SnapshotParts};
 
 /// The version of the wire format, sent in [`Hello`]. Bump it on any change a golden-bytes test catches.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
 
 /// The largest encoded frame in bytes, the 0x00 delimiter included: the receive buffer size.
 pub const MAX_FRAME: usize = 512;

@@ -15,7 +15,7 @@
 use heapless::{String, Vec};
 
 use super::{
-    ChannelEstimate, ChannelInfo, Command, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotPart,
+    ChannelEstimate, ChannelInfo, Command, Ack, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotPart,
     Status, MAX_BODY,
 };
 use crate::acc::LevelSum;
@@ -115,6 +115,7 @@ sum_of_fields!(Status {
     adc_overruns: u32,
     frames_dropped: u32,
     temperature_c: Option<f32>,
+    samples_lost: u64,
 });
 sum_of_fields!(ChannelEstimate {
     channel: u8,
@@ -125,12 +126,13 @@ sum_of_fields!(ChannelEstimate {
 sum_of_fields!(Estimate { samples: u64, channels: Vec<ChannelEstimate, { super::MAX_CHANNELS }> });
 sum_of_fields!(FieldLogRecord { checkpoint: u32, time_s: u32, sessions: u32, adc_overruns: u32, part: SnapshotPart });
 sum_of_fields!(FieldLogEnd { checkpoints: u32 });
+sum_of_fields!(Ack { seq: u32 });
 
 impl MaxSize for Frame {
-    // Seven variants: one varint byte of index, then the largest variant.
+    // Eight variants: one varint byte of index, then the largest variant.
     const MAX_SIZE: usize = 1 + max(
         max(max(Hello::MAX_SIZE, Samples::MAX_SIZE), max(SnapshotPart::MAX_SIZE, Status::MAX_SIZE)),
-        max(max(Estimate::MAX_SIZE, FieldLogRecord::MAX_SIZE), FieldLogEnd::MAX_SIZE),
+        max(max(Estimate::MAX_SIZE, FieldLogRecord::MAX_SIZE), max(FieldLogEnd::MAX_SIZE, Ack::MAX_SIZE)),
     );
 }
 

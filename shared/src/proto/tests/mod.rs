@@ -64,10 +64,12 @@ pub(super) fn example_frames() -> Vec<Frame> {
             adc_overruns: 2,
             frames_dropped: 17,
             temperature_c: Some(23.5),
+            samples_lost: 3_999,
         }),
         Frame::Estimate(estimate),
         Frame::FieldLog(FieldLogRecord { checkpoint: 12, time_s: 3600, sessions: 2, adc_overruns: 1, part }),
         Frame::FieldLogEnd(FieldLogEnd { checkpoints: 13 }),
+        Frame::Ack(Ack { seq: 70_000 }),
     ]
 }
 
@@ -128,6 +130,7 @@ pub(super) fn worst_frames() -> Vec<Frame> {
             adc_overruns: u32::MAX,
             frames_dropped: u32::MAX,
             temperature_c: Some(f32::MAX),
+            samples_lost: u64::MAX,
         }),
         Frame::Estimate(Estimate { samples: u64::MAX, channels: est }),
         Frame::FieldLog(FieldLogRecord {
@@ -138,6 +141,7 @@ pub(super) fn worst_frames() -> Vec<Frame> {
             part: worst_part(),
         }),
         Frame::FieldLogEnd(FieldLogEnd { checkpoints: u32::MAX }),
+        Frame::Ack(Ack { seq: u32::MAX }),
     ]
 }
 
@@ -166,7 +170,7 @@ impl XorShift {
 /// A random frame of a random kind (field values random, collections of random length).
 pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
     let r = |rng: &mut XorShift, bits: u32| rng.next_u64() >> (64 - bits);
-    match rng.below(7) {
+    match rng.below(8) {
         0 => {
             let mut h = Hello::new("0.1.0+g1234567", "octavar-f405", r(rng, 16) as u32, 12, 3300, 8);
             for i in 0..rng.below(MAX_CHANNELS + 1) {
@@ -214,6 +218,7 @@ pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
             adc_overruns: r(rng, 8) as u32,
             frames_dropped: r(rng, 16) as u32,
             temperature_c: (rng.below(2) == 0).then(|| r(rng, 10) as f32 / 16.0),
+            samples_lost: r(rng, 24),
         }),
         4 => {
             let n = rng.below(MAX_CHANNELS + 1);
@@ -227,7 +232,8 @@ pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
                 .collect();
             Frame::Estimate(Estimate { samples: r(rng, 40), channels })
         }
-        _ => Frame::FieldLogEnd(FieldLogEnd { checkpoints: r(rng, 20) as u32 }),
+        6 => Frame::FieldLogEnd(FieldLogEnd { checkpoints: r(rng, 20) as u32 }),
+        _ => Frame::Ack(Ack { seq: r(rng, 32) as u32 }),
     }
 }
 

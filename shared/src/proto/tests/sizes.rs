@@ -21,6 +21,7 @@ fn worst_case_values_take_exactly_max_size() {
             Frame::Estimate(v) => (body_len(v), Estimate::MAX_SIZE),
             Frame::FieldLog(v) => (body_len(v), FieldLogRecord::MAX_SIZE),
             Frame::FieldLogEnd(v) => (body_len(v), FieldLogEnd::MAX_SIZE),
+            Frame::Ack(v) => (body_len(v), Ack::MAX_SIZE),
         };
         assert_eq!(inner, max, "{f:?}");
         assert_eq!(body_len(f), 1 + max);
@@ -37,10 +38,11 @@ fn worst_case_table() {
     assert_eq!(Hello::MAX_SIZE + 1, 209);
     assert_eq!(Samples::MAX_SIZE + 1, 494);
     assert_eq!(SnapshotPart::MAX_SIZE + 1, 480);
-    assert_eq!(Status::MAX_SIZE + 1, 36);
+    assert_eq!(Status::MAX_SIZE + 1, 46);
     assert_eq!(Estimate::MAX_SIZE + 1, 140);
     assert_eq!(FieldLogRecord::MAX_SIZE + 1, 500);
     assert_eq!(FieldLogEnd::MAX_SIZE + 1, 6);
+    assert_eq!(Ack::MAX_SIZE + 1, 6);
     assert_eq!(Frame::MAX_SIZE, 500);
     assert_eq!(Command::MAX_SIZE, 6);
     // 500 body + 8 sequence/CRC = 508 bytes before COBS; COBS adds ceil(508 / 254) = 2; plus the delimiter.

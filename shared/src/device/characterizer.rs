@@ -1,0 +1,256 @@
+//! The characterizer: sample blocks in; snapshots, estimates, status and (on command) raw samples out.
+//!
+//! It feeds one exact octave Allan accumulator (`OctaveAllan<8>`) per gyro channel and, every
+//! [`DeviceConfig::snapshot_every`] scans, sends a snapshot round through its [`FrameSink`]: the snapshot of each
+//! gyro (split into parts that fit a frame), the onboard estimate of N and B, and a status frame. The firmware's
+//! characterize task and the host's device simulator are this code with a different sink.
+//!
+//! # Gaps
+//! Blocks carry the hardware index of their first scan (the sampler's trigger count since boot). A block that
+//! does not start where the previous one ended follows a gap: the scans between were lost (an ADC overrun, a
+//! flash erase that outlasted the ring, a characterizer that fell behind), and the gap's size is exact. The
+//! accumulators are *pooled* across it: their snapshot is merged into a base and they restart, so no Allan
+//! difference straddles the gap ([`Snapshot::merge`]). The raw samples show the gap as the same jump in
+//! `first_sample`, and the status frame counts the lost scans, so a host replay pools at the same place and
+//! matches bit for bit.
+//!
+//! # Sessions
+//! A reset ([`Command::Reset`]) starts a new session: empty accumulators, and the raw sample index
+//! ([`Samples::first_sample`]) back to 0 at the first block after the reset, so a host lines the raw samples up
+//! with the new accumulators as after a boot. Scans lost before that block are not a gap of the new session.
+
+use crate::acc::{OctaveAllan, Snapshot};
+use crate::device::config::{DeviceConfig, STRIDE};
+use crate::estimate::{estimate, EstimateConfig};
+use crate::proto::{Ack, ChannelEstimate, Command, Estimate, Frame, Samples, SnapshotPart, Status};
+use crate::sensor;
+
+/// Where the characterizer's frames go: the firmware's frame queue, or the host simulator's byte vector.
+///
+/// Sending never blocks: a sink that cannot take a frame drops it and counts the drop.
+pub trait FrameSink {
+    /// Queue one frame (or drop it and count the drop).
+    fn send(&mut self, frame: &Frame);
+    /// Frames dropped since boot, for the status frame.
+    fn frames_dropped(&self) -> u32;
+    /// A snapshot round is complete: every gyro's pooled snapshot this session, the sample losses since boot and
+    /// the scans accumulated this session (what the field log checkpoints). Called after the round's frames.
+    fn round(&mut self, snapshots: &[Snapshot], losses: u32, samples: u64) {
+        let _ = (snapshots, losses, samples);
+    }
+}
+
+/// The characterizer's state: accumulators, pooled bases, the schedule, raw streaming, loss counters.
+#[derive(Clone, Debug)]
+pub struct Characterizer<'a, const G: usize> {
+    cfg: DeviceConfig<'a>,
+    accs: [OctaveAllan<STRIDE>; G],
+    /// Snapshots pooled before the last gap (or reset).
+    base: [Snapshot; G],
+    /// Scans accumulated this session.
+    samples: u64,
+    /// Hardware index of this session's first scan: raw samples are numbered from it. `None` until the first
+    /// block of the session.
+    origin: Option<u64>,
+    /// Hardware index the next block should start at (`None` before the first block since boot).
+    next_index: Option<u64>,
+    /// Scans until the next snapshot round.
+    until_round: u64,
+    /// Channels streamed raw (0: off).
+    raw_mask: u8,
+    /// Sum and count of temperature codes since the last round.
+    temp_sum: u64,
+    temp_n: u32,
+    /// Scans lost this session (the sum of its gaps).
+    samples_lost: u64,
+    /// Loss events since boot.
+    losses: u32,
+}
+
+impl<'a, const G: usize> Characterizer<'a, G> {
+    /// A device just booted: empty accumulators, raw streaming of the channels in `raw_mask` (0: none).
+    ///
+    /// # Panics
+    /// If `cfg` is not [`DeviceConfig::is_valid`] or does not have `G` gyros (a build-time mistake).
+    pub fn new(cfg: DeviceConfig<'a>, raw_mask: u8) -> Self {
+        assert!(cfg.is_valid() && cfg.gyros == G, "a device configuration with G gyros");
+        let empty = DeviceConfig::empty_snapshot();
+        Self {
+            accs: [const { OctaveAllan::new() }; G],
+            base: [empty; G],
+            samples: 0,
+            origin: None,
+            next_index: None,
+            until_round: cfg.snapshot_every,
+            raw_mask: raw_mask & cfg.all_channels_mask(),
+            temp_sum: 0,
+            temp_n: 0,
+            samples_lost: 0,
+            losses: 0,
+            cfg,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &DeviceConfig<'a> {
+        &self.cfg
+    }
+
+    /// The hello frame of this device.
+    pub fn hello(&self) -> Frame {
+        self.cfg.hello()
+    }
+
+    /// Scans accumulated this session.
+    pub fn samples(&self) -> u64 {
+        self.samples
+    }
+
+    /// Scans lost this session.
+    pub fn samples_lost(&self) -> u64 {
+        self.samples_lost
+    }
+
+    /// Loss events since boot.
+    pub fn losses(&self) -> u32 {
+        self.losses
+    }
+
+    /// The channels streamed raw.
+    pub fn raw_mask(&self) -> u8 {
+        self.raw_mask
+    }
+
+    /// The hardware index the next block is expected at (`None` before the first block).
+    pub fn next_index(&self) -> Option<u64> {
+        self.next_index
+    }
+
+    /// The pooled snapshot of gyro `g`: the base merged with the running accumulator.
+    pub fn snapshot(&self, g: usize) -> Snapshot {
+        let mut s = self.base[g];
+        // Same stride by construction.
+        let _ = s.merge(&self.accs[g].snapshot());
+        s
+    }
+
+    /// Act on a host command that arrived with sequence number `seq`, and acknowledge it with that number.
+    /// [`Command::ReadFieldLog`] is the field log's (the firmware routes it there); it is not acknowledged here.
+    pub fn command(&mut self, seq: u32, cmd: Command, sink: &mut impl FrameSink) {
+        match cmd {
+            Command::StartRaw { channel_mask } => self.raw_mask = channel_mask & self.cfg.all_channels_mask(),
+            Command::StopRaw => self.raw_mask = 0,
+            Command::Reset => self.reset(),
+            Command::Hello => sink.send(&self.hello()),
+            Command::ReadFieldLog { .. } => return,
+        }
+        sink.send(&Frame::Ack(Ack { seq }));
+    }
+
+    /// Start a new session (see the module docs); raw streaming and the loss count since boot carry on.
+    pub fn reset(&mut self) {
+        let empty = DeviceConfig::empty_snapshot();
+        self.accs.iter_mut().for_each(OctaveAllan::reset);
+        self.base = [empty; G];
+        self.samples = 0;
+        self.origin = None;
+        self.until_round = self.cfg.snapshot_every;
+        self.temp_sum = 0;
+        self.temp_n = 0;
+        self.samples_lost = 0;
+    }
+
+    /// Feed one block of whole scans (`codes[scan * width + channel]`) whose first scan has hardware index
+    /// `first_index`: pool across a gap, stream the raw codes, accumulate, and send a snapshot round on each
+    /// round boundary. A trailing partial scan is ignored.
+    pub fn feed(&mut self, first_index: u64, codes: &[u16], sink: &mut impl FrameSink) {
+        let width = self.cfg.width();
+        let scans = codes.len() / width;
+        let codes = &codes[..scans * width];
+        if let Some(expected) = self.next_index {
+            if first_index != expected {
+                self.losses = self.losses.saturating_add(1);
+                if self.origin.is_some() {
+                    // An index that went back (a restarted counter) is a discontinuity too: pool, lose nothing.
+                    self.samples_lost += first_index.saturating_sub(expected);
+                    self.pool();
+                }
+            }
+        }
+        self.next_index = Some(first_index + scans as u64);
+        let origin = *self.origin.get_or_insert(first_index);
+        if self.raw_mask != 0 {
+            let first = first_index.saturating_sub(origin);
+            let (mask, per) = (self.raw_mask, self.cfg.raw_scans_per_frame);
+            for frame in Samples::pack_scans(first, mask, width, per, codes) {
+                sink.send(&Frame::Samples(frame));
+            }
+        }
+        let mut at = 0;
+        while at < scans {
+            let n = (scans - at).min(self.until_round as usize);
+            let chunk = &codes[at * width..(at + n) * width];
+            for (g, acc) in self.accs.iter_mut().enumerate() {
+                for scan in chunk.chunks_exact(width) {
+                    acc.push(scan[g]);
+                }
+            }
+            if let Some(t) = self.cfg.temp_channel {
+                for scan in chunk.chunks_exact(width) {
+                    self.temp_sum += u64::from(scan[t]);
+                }
+                self.temp_n += n as u32;
+            }
+            self.samples += n as u64;
+            self.until_round -= n as u64;
+            at += n;
+            if self.until_round == 0 {
+                self.until_round = self.cfg.snapshot_every;
+                self.round(first_index + at as u64, sink);
+            }
+        }
+    }
+
+    /// Merge the running accumulators into the base and restart them.
+    fn pool(&mut self) {
+        for (base, acc) in self.base.iter_mut().zip(self.accs.iter_mut()) {
+            let _ = base.merge(&acc.snapshot());
+            acc.reset();
+        }
+    }
+
+    /// A round is complete, `scans_since_boot` scans into the hardware count: snapshots, estimate, status; then
+    /// the sink's round hook.
+    fn round(&mut self, scans_since_boot: u64, sink: &mut impl FrameSink) {
+        let mut snapshots = [DeviceConfig::empty_snapshot(); G];
+        let mut est = Estimate { samples: self.samples, channels: heapless::Vec::new() };
+        for (g, snap) in snapshots.iter_mut().enumerate() {
+            *snap = self.snapshot(g);
+            for part in SnapshotPart::split(g as u8, snap) {
+                sink.send(&Frame::AllanSnapshot(part));
+            }
+            let cfg = EstimateConfig {
+                sample_rate_hz: self.cfg.sample_rate_hz as f32,
+                dps_per_code: sensor::dps_per_code(self.cfg.channels[g].kind) as f32,
+                min_independent: 4,
+            };
+            let _ = est.channels.push(ChannelEstimate::new(g as u8, &estimate(snap, &cfg)));
+        }
+        if G > 0 {
+            sink.send(&Frame::Estimate(est));
+        }
+        let temperature_c =
+            (self.temp_n > 0).then(|| sensor::temperature_c(self.temp_sum as f64 / f64::from(self.temp_n)));
+        self.temp_sum = 0;
+        self.temp_n = 0;
+        sink.send(&Frame::Status(Status {
+            uptime_ms: scans_since_boot * 1000 / u64::from(self.cfg.sample_rate_hz),
+            samples_per_channel: self.samples,
+            adc_overruns: self.losses,
+            frames_dropped: sink.frames_dropped(),
+            temperature_c,
+            samples_lost: self.samples_lost,
+        }));
+        sink.round(&snapshots, self.losses, self.samples);
+    }
+}
