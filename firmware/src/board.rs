@@ -1,4 +1,5 @@
-//! The board: clocks, the pin table, the ADC channel map, and one parts struct per task.
+//! The board: clocks, the flash accelerator, brown-out level, watchdog, the USB serial number, and one parts
+//! struct per task. The crystal and the analog pins are the board variant's (`board_config.rs`).
 //!
 //! | signal                 | pin  | ADC1 channel | front end (see README)                  |
 //! |------------------------|------|--------------|-----------------------------------------|
@@ -10,26 +11,27 @@
 //! | USB OTG FS D- / D+     | PA11 / PA12 | -     | -                                       |
 //! | SWD (probe-rs, defmt)  | PA13 / PA14 | -     | -                                       |
 //!
-//! The scan order is the channel order of `config::CHANNEL_KINDS`.
+//! The scan order is the channel order of `octavar_shared::device::F405_CHANNELS`.
 
-use embassy_stm32::adc::{AdcChannel, AnyAdcChannel};
 use embassy_stm32::flash::{Blocking, Flash};
-use embassy_stm32::peripherals::{ADC1, DMA2_CH0, TIM3, USB_OTG_FS};
+use embassy_stm32::pac;
+use embassy_stm32::peripherals::{ADC1, DMA2_CH0, TIM3, TIM5, USB_OTG_FS};
 use embassy_stm32::time::Hertz;
-use embassy_stm32::{bind_interrupts, dma, peripherals, usb, Config, Peri};
+use embassy_stm32::{bind_interrupts, peripherals, usb, Config, Peri};
+
+use crate::board_config::BOARD;
 
 bind_interrupts!(
     /// The interrupts the tasks' drivers need.
     pub struct Irqs {
         OTG_FS => usb::InterruptHandler<peripherals::USB_OTG_FS>;
-        DMA2_STREAM0 => dma::InterruptHandler<peripherals::DMA2_CH0>;
     }
 );
 
 /// The crystal on the board (HSE), Hz.
-pub const HSE_HZ: u32 = 8_000_000;
-/// PLL input divider M: the VCO input must be 1..2 MHz (RM0090 section 6.3.2).
-pub const PLL_M: u32 = 4;
+pub const HSE_HZ: u32 = BOARD.hse_hz;
+/// PLL input divider M: a 2 MHz VCO input (RM0090 section 6.3.2 allows 1..2 MHz; 2 MHz has the least jitter).
+pub const PLL_M: u32 = HSE_HZ / 2_000_000;
 /// PLL multiplier N: VCO output 100..432 MHz.
 pub const PLL_N: u32 = 168;
 /// PLL divider P: the system clock.
@@ -42,13 +44,15 @@ pub const VCO_HZ: u32 = HSE_HZ / PLL_M * PLL_N;
 pub const SYSCLK_HZ: u32 = VCO_HZ / PLL_P;
 /// USB OTG FS clock, Hz.
 pub const USB_HZ: u32 = VCO_HZ / PLL_Q;
-/// APB1 (42 MHz max): TIM3 runs at twice it when the prescaler is not 1.
+/// APB1 (42 MHz max): its timers run at twice it when the prescaler is not 1.
 pub const APB1_HZ: u32 = SYSCLK_HZ / 4;
 /// APB2 (84 MHz max): the ADC clock is APB2 / 4 = 21 MHz (36 MHz max).
 pub const APB2_HZ: u32 = SYSCLK_HZ / 2;
-/// TIM3's kernel clock, Hz.
+/// The kernel clock of TIM2..TIM5, Hz.
 pub const TIM3_HZ: u32 = 2 * APB1_HZ;
 
+const _: () = assert!(HSE_HZ.is_multiple_of(2_000_000) && HSE_HZ >= 4_000_000 && HSE_HZ <= 26_000_000);
+const _: () = assert!(PLL_M >= 2 && PLL_M <= 63);
 const _: () = assert!(HSE_HZ / PLL_M >= 1_000_000 && HSE_HZ / PLL_M <= 2_000_000);
 const _: () = assert!(VCO_HZ >= 100_000_000 && VCO_HZ <= 432_000_000);
 const _: () = assert!(SYSCLK_HZ == 168_000_000 && USB_HZ == 48_000_000);
@@ -56,20 +60,22 @@ const _: () = assert!(APB1_HZ <= 42_000_000 && APB2_HZ <= 84_000_000);
 // TIM3 divides exactly down to the sample rate: 84 MHz / 2 kHz = 42 000 counts, in 16 bits.
 const _: () =
     assert!(TIM3_HZ.is_multiple_of(crate::config::SAMPLE_RATE_HZ) && TIM3_HZ / crate::config::SAMPLE_RATE_HZ <= 65_536);
-// The field log's sectors are the ones memory.x reserves (0x080C_0000, 2 x 128 KiB).
+// The field log's sectors are the ones memory.x reserves.
 const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[0].address == 0x080C_0000);
 const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[1].address == 0x080E_0000);
 
-/// What the sampler owns: ADC1, its DMA stream, the trigger timer, and the analog inputs in scan order.
+/// What the sampler owns: ADC1, its DMA stream, the trigger timer and the trigger counter (`adc.rs`). `adc.rs`
+/// drives them through the PAC; holding them here keeps every other driver off them.
+#[allow(dead_code)]
 pub struct SamplerParts {
     /// The converter.
     pub adc: Peri<'static, ADC1>,
     /// DMA2 stream 0 (ADC1's request, channel 0).
     pub dma: Peri<'static, DMA2_CH0>,
     /// The 2 kHz trigger.
-    pub tim: Peri<'static, TIM3>,
-    /// IN0..IN4 in scan order.
-    pub inputs: [AnyAdcChannel<'static, ADC1>; crate::config::CHANNELS],
+    pub tim3: Peri<'static, TIM3>,
+    /// The trigger counter: the hardware scan index.
+    pub tim5: Peri<'static, TIM5>,
 }
 
 /// What the USB task owns.
@@ -100,7 +106,7 @@ pub struct Parts {
     pub syst: cortex_m::peripheral::SYST,
 }
 
-/// Set the clocks, start the HAL and split the peripherals.
+/// Set the clocks, the flash accelerator and the brown-out level, start the HAL and split the peripherals.
 pub fn init() -> Parts {
     let mut config = Config::default();
     {
@@ -108,7 +114,7 @@ pub fn init() -> Parts {
         config.rcc.hse = Some(Hse { freq: Hertz(HSE_HZ), mode: HseMode::Oscillator });
         config.rcc.pll_src = PllSource::HSE;
         config.rcc.pll = Some(Pll {
-            prediv: PllPreDiv::DIV4,   // PLL_M
+            prediv: pll_prediv(PLL_M),
             mul: PllMul::MUL168,       // PLL_N
             divp: Some(PllPDiv::DIV2), // PLL_P: SYSCLK_HZ
             divq: Some(PllQDiv::DIV7), // PLL_Q: USB_HZ
@@ -121,22 +127,83 @@ pub fn init() -> Parts {
         config.rcc.mux.clk48sel = mux::Clk48sel::PLL1_Q;
     }
     let p = embassy_stm32::init(config);
+    flash_accelerator_on();
+    brown_out_level_3();
     let core = cortex_m::Peripherals::take().expect("core peripherals are taken once");
     Parts {
-        sampler: SamplerParts {
-            adc: p.ADC1,
-            dma: p.DMA2_CH0,
-            tim: p.TIM3,
-            inputs: [
-                p.PA0.degrade_adc(),
-                p.PA1.degrade_adc(),
-                p.PA2.degrade_adc(),
-                p.PA3.degrade_adc(),
-                p.PA4.degrade_adc(),
-            ],
-        },
+        sampler: SamplerParts { adc: p.ADC1, dma: p.DMA2_CH0, tim3: p.TIM3, tim5: p.TIM5 },
         usb: UsbParts { otg: p.USB_OTG_FS, dp: p.PA12, dm: p.PA11 },
         store: StoreParts { flash: Flash::new_blocking(p.FLASH) },
         syst: core.SYST,
     }
+}
+
+/// The PLL's M divider as embassy-stm32 spells it.
+const fn pll_prediv(m: u32) -> embassy_stm32::rcc::PllPreDiv {
+    use embassy_stm32::rcc::PllPreDiv;
+    match m {
+        4 => PllPreDiv::DIV4,
+        6 => PllPreDiv::DIV6,
+        8 => PllPreDiv::DIV8,
+        12 => PllPreDiv::DIV12,
+        _ => panic!("add the PLL divider of this crystal"),
+    }
+}
+
+/// Instruction and data caches and prefetch on (embassy-stm32 sets the wait states but leaves the ART off).
+pub fn flash_accelerator_on() {
+    pac::FLASH.acr().modify(|w| {
+        w.set_prften(true);
+        w.set_icen(true);
+        w.set_dcen(true);
+    });
+}
+
+/// After a flash erase or write: the caches may hold the old contents of the changed lines. RM0090 section
+/// 3.5.2: disable them, reset them, enable them again.
+pub fn flash_caches_reset() {
+    let acr = pac::FLASH.acr();
+    acr.modify(|w| {
+        w.set_icen(false);
+        w.set_dcen(false);
+    });
+    acr.modify(|w| {
+        w.set_icrst(true);
+        w.set_dcrst(true);
+    });
+    acr.modify(|w| {
+        w.set_icrst(false);
+        w.set_dcrst(false);
+    });
+    flash_accelerator_on();
+}
+
+/// Brown-out reset at level 3 (2.70 V) so a sagging battery resets the MCU rather than corrupt a flash write.
+/// The level is an option byte (BOR_LEV = 00): programmed once, on the first boot that finds it otherwise.
+fn brown_out_level_3() {
+    let flash = pac::FLASH;
+    if flash.optcr().read().bor_lev() == 0 {
+        return;
+    }
+    flash.optkeyr().write_value(0x0819_2A3B);
+    flash.optkeyr().write_value(0x4C5D_6E7F);
+    flash.optcr().modify(|w| w.set_bor_lev(0));
+    flash.optcr().modify(|w| w.set_optstrt(true));
+    while flash.sr().read().bsy() {}
+    flash.optcr().modify(|w| w.set_optlock(true));
+    defmt::info!("board: brown-out reset level set to 3 (2.70 V)");
+}
+
+/// The chip's 96-bit unique ID as 24 hex digits: the USB serial number, so every board is its own port.
+pub fn serial_number() -> &'static str {
+    static SERIAL: static_cell::StaticCell<[u8; 24]> = static_cell::StaticCell::new();
+    let buf = SERIAL.init([0; 24]);
+    for (i, word) in (0..3).map(|n| pac::UID.uid(n).read()).enumerate() {
+        for (k, b) in word.to_be_bytes().iter().enumerate() {
+            let hex = b"0123456789ABCDEF";
+            buf[8 * i + 2 * k] = hex[usize::from(b >> 4)];
+            buf[8 * i + 2 * k + 1] = hex[usize::from(b & 0xF)];
+        }
+    }
+    core::str::from_utf8(buf).unwrap_or("octavar")
 }

@@ -1,45 +1,36 @@
-//! The characterize task: sample blocks in; snapshots, estimates, status and (on command) raw samples out.
+//! The characterize task: the device core (`octavar_shared::device::Characterizer`) between the sampler's
+//! blocks and the frame queue.
 //!
-//! It feeds one exact octave Allan accumulator (`OctaveAllan<8>`) per gyro channel and, every second of samples,
-//! sends a snapshot round: the snapshot of each gyro (split into parts that fit a frame), the onboard estimate of
-//! N and B, and a status frame. The same round goes to the store task through [`SNAPSHOT_READY`]. This code is
-//! the same on the board and in QEMU: only the source of the blocks and the sink of the frames differ.
-//!
-//! Gaps: when the sampler loses samples (an ADC overrun, a flash erase stalling the CPU), the block after the gap
-//! says so and the accumulators are *pooled* across it: their snapshot is merged into a base and they restart, so
-//! no Allan difference straddles the gap ([`Snapshot::merge`]). The raw samples show the gap as a jump in
-//! `first_sample`; a host replay pools at the same place and matches bit for bit.
+//! Everything it computes (accumulators, snapshot rounds, the onboard estimate, raw streaming, pooling across
+//! gaps, commands and their acknowledgements) is the shared core, which the host's device simulator runs too;
+//! this task only moves blocks and commands in, frames out, and hands each snapshot round to the store task.
 
-use core::sync::atomic::Ordering;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_futures::select::{select, Either};
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, NoopRawMutex};
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 use embassy_sync::zerocopy_channel;
-use octavar_shared::acc::{OctaveAllan, Snapshot};
-use octavar_shared::estimate::{estimate, EstimateConfig};
-use octavar_shared::proto::{
-    ChannelEstimate, ChannelInfo, Command, Estimate, Frame, Hello, Samples, SnapshotPart, Status,
-};
+use octavar_shared::acc::Snapshot;
+use octavar_shared::device::{Characterizer, DeviceConfig, FrameSink};
+use octavar_shared::proto::{Command, Frame};
+use static_cell::ConstStaticCell;
 
 use crate::config::*;
 use crate::frames;
 
-/// One block of scans from the sampler: `codes[set * CHANNELS + channel]`.
+/// One block of scans from the sampler: `codes[scan * CHANNELS + channel]`.
 pub struct SampleBlock {
-    /// Index of the first scan since boot (jumps over lost samples). The raw `Samples` frames count from the last
-    /// reset instead (see [`Characterizer`]).
-    pub first_sample: u64,
-    /// Samples were lost just before this block.
-    pub gap_before: bool,
+    /// Hardware index (the trigger count since boot) of the block's first scan: it jumps over lost scans.
+    pub first_index: u64,
     /// The codes, scan by scan.
     pub codes: [u16; BLOCK_CODES],
 }
 
 impl SampleBlock {
     /// An empty block (the zerocopy channel's storage starts with these).
-    pub const EMPTY: SampleBlock = SampleBlock { first_sample: 0, gap_before: false, codes: [0; BLOCK_CODES] };
+    pub const EMPTY: SampleBlock = SampleBlock { first_index: 0, codes: [0; BLOCK_CODES] };
 }
 
 /// Receiving end of the sample blocks (sampler -> characterize).
@@ -52,7 +43,7 @@ pub type BlockSender = zerocopy_channel::Sender<'static, NoopRawMutex, SampleBlo
 pub struct Round {
     /// The pooled snapshot of every gyro channel (this session only).
     pub snapshots: [Snapshot; GYROS],
-    /// ADC overruns so far this session.
+    /// Sample losses since boot.
     pub adc_overruns: u32,
     /// Scans accumulated this session.
     pub samples: u64,
@@ -60,188 +51,69 @@ pub struct Round {
 
 /// The latest snapshot round, characterize -> store.
 pub static SNAPSHOT_READY: Signal<CriticalSectionRawMutex, Round> = Signal::new();
-/// Host commands for characterize (raw streaming, reset, hello), from the link task.
-pub static COMMANDS: Channel<CriticalSectionRawMutex, Command, 4> = Channel::new();
+/// Host commands for characterize with their frame's sequence number, from the link task.
+pub static COMMANDS: Channel<CriticalSectionRawMutex, (u32, Command), 4> = Channel::new();
+/// Blocks characterize has taken: the watchdog is fed only while this moves.
+pub static BLOCKS_TAKEN: AtomicU32 = AtomicU32::new(0);
 
-/// The hello frame: versions, board, rates and the channel list.
-pub fn hello() -> Frame {
-    let mut h = Hello::new(
-        env!("CARGO_PKG_VERSION"),
-        if cfg!(feature = "qemu") { "qemu netduinoplus2" } else { "STM32F405RG" },
-        SAMPLE_RATE_HZ,
-        12,
-        3300,
-        STRIDE as u8,
-    );
-    for (kind, name) in CHANNEL_KINDS {
-        let _ = h.channels.push(ChannelInfo::new(kind, name));
-    }
-    Frame::Hello(h)
-}
+/// The frame queue as the device core's sink; rounds go to the store task, estimates to the defmt log.
+struct Queue;
 
-/// The characterize task's state: accumulators, pooled bases, raw streaming.
-///
-/// A reset (`Command::Reset`) starts a new session: empty accumulators, and the raw sample index
-/// (`Samples::first_sample`) back to 0 at the first block after the reset, so that the host lines the raw
-/// samples up with the new accumulators as after a boot. Gaps after that still show as jumps in the index.
-pub struct Characterizer {
-    accs: [OctaveAllan<STRIDE>; GYROS],
-    /// Snapshots pooled before the last gap (or reset).
-    base: [Snapshot; GYROS],
-    /// Scans accumulated since boot or reset.
-    samples: u64,
-    /// The sampler's index (since boot) of this session's first scan: raw samples are numbered from it. `None`
-    /// until the first block of the session.
-    origin: Option<u64>,
-    /// Scans until the next snapshot round.
-    until_round: u64,
-    /// Channels streamed raw (0: off).
-    raw_mask: u8,
-    /// Sum and count of temperature codes since the last round.
-    temp_sum: u64,
-    temp_n: u32,
-}
-
-impl Characterizer {
-    /// A fresh state (empty accumulators, raw streaming `raw_mask`).
-    pub fn new(raw_mask: u8) -> Self {
-        let empty = Snapshot::empty(STRIDE).expect("stride is a power of two");
-        Self {
-            accs: [const { OctaveAllan::new() }; GYROS],
-            base: [empty; GYROS],
-            samples: 0,
-            origin: None,
-            until_round: SNAPSHOT_EVERY_SETS,
-            raw_mask: raw_mask & ALL_CHANNELS_MASK,
-            temp_sum: 0,
-            temp_n: 0,
-        }
-    }
-
-    /// Act on a host command.
-    pub fn command(&mut self, cmd: Command) {
-        match cmd {
-            Command::StartRaw { channel_mask } => self.raw_mask = channel_mask & ALL_CHANNELS_MASK,
-            Command::StopRaw => self.raw_mask = 0,
-            Command::Reset => *self = Self::new(self.raw_mask),
-            Command::Hello => frames::send(&hello()),
-            // The link task routes field-log reads to the store task.
-            Command::ReadFieldLog { .. } => {}
-        }
-        defmt::info!("command {}: raw mask {=u8:#x}", cmd, self.raw_mask);
-    }
-
-    /// The pooled snapshot of gyro `g`: the base merged with the running accumulator.
-    pub fn snapshot(&self, g: usize) -> Snapshot {
-        let mut s = self.base[g];
-        // Same stride by construction.
-        let _ = s.merge(&self.accs[g].snapshot());
-        s
-    }
-
-    /// Feed one block: accumulate, stream raw codes, and send a snapshot round on each second boundary.
-    pub fn feed(&mut self, block: &SampleBlock) {
-        let origin = *self.origin.get_or_insert(block.first_sample);
-        if block.gap_before {
-            for g in 0..GYROS {
-                let _ = self.base[g].merge(&self.accs[g].snapshot());
-                self.accs[g].reset();
-            }
-        }
-        if self.raw_mask != 0 {
-            self.stream_raw(block, block.first_sample.saturating_sub(origin));
-        }
-        let mut at = 0;
-        while at < BLOCK_SETS {
-            let n = (BLOCK_SETS - at).min(self.until_round as usize);
-            let codes = &block.codes[at * CHANNELS..(at + n) * CHANNELS];
-            for (g, acc) in self.accs.iter_mut().enumerate() {
-                for set in codes.chunks_exact(CHANNELS) {
-                    acc.push(set[g]);
+impl FrameSink for Queue {
+    fn send(&mut self, frame: &Frame) {
+        if let Frame::Estimate(e) = frame {
+            for c in &e.channels {
+                if let (Some(n), Some(b)) = (c.n_dps_per_rt_s, c.b_dps) {
+                    let name = DEVICE.channels[usize::from(c.channel)].name;
+                    defmt::info!("{}: N {} deg/sqrt(h), B {} deg/h", name, n * 60.0, b * 3600.0);
                 }
             }
-            for set in codes.chunks_exact(CHANNELS) {
-                self.temp_sum += u64::from(set[TEMP_CHANNEL]);
-            }
-            self.temp_n += n as u32;
-            self.samples += n as u64;
-            self.until_round -= n as u64;
-            at += n;
-            if self.until_round == 0 {
-                self.until_round = SNAPSHOT_EVERY_SETS;
-                self.round();
-            }
         }
+        frames::send(frame);
     }
 
-    /// Send the block's codes of the streamed channels; `first` is its first scan's index in this session.
-    fn stream_raw(&self, block: &SampleBlock, first: u64) {
-        for frame in Samples::pack_scans(first, self.raw_mask, CHANNELS, RAW_SETS_PER_FRAME, &block.codes) {
-            frames::send(&Frame::Samples(frame));
-        }
+    fn frames_dropped(&self) -> u32 {
+        frames::FRAMES_DROPPED.load(Ordering::Relaxed)
     }
 
-    /// One second of samples is complete: snapshots, estimate, status; the round to the store task.
-    fn round(&mut self) {
-        let mut snapshots = [Snapshot::empty(STRIDE).expect("power of two"); GYROS];
-        let mut est = Estimate { samples: self.samples, channels: heapless::Vec::new() };
-        for (g, snap) in snapshots.iter_mut().enumerate() {
-            *snap = self.snapshot(g);
-            for part in SnapshotPart::split(g as u8, snap) {
-                frames::send(&Frame::AllanSnapshot(part));
-            }
-            let ch = gyro_channel(g);
-            let cfg = EstimateConfig {
-                sample_rate_hz: SAMPLE_RATE_HZ as f32,
-                dps_per_code: ch.dps_per_code() as f32,
-                min_independent: 4,
-            };
-            let e = estimate(snap, &cfg);
-            if let (Some(n), Some(b)) = (e.n_dps_per_rt_s, e.b_dps) {
-                defmt::info!(
-                    "{}: N {} deg/sqrt(h), B {} deg/h (tau {} s)",
-                    CHANNEL_KINDS[g].1,
-                    n * 60.0,
-                    b * 3600.0,
-                    e.tau_b_s.unwrap_or(0.0)
-                );
-            }
-            let _ = est.channels.push(ChannelEstimate {
-                channel: g as u8,
-                n_dps_per_rt_s: e.n_dps_per_rt_s,
-                b_dps: e.b_dps,
-                tau_b_s: e.tau_b_s,
-            });
-        }
-        frames::send(&Frame::Estimate(est));
-
-        let temperature_c = (self.temp_n > 0).then(|| temperature_c(self.temp_sum as f64 / f64::from(self.temp_n)));
-        self.temp_sum = 0;
-        self.temp_n = 0;
-        let adc_overruns = crate::ADC_OVERRUNS.load(Ordering::Relaxed);
-        frames::send(&Frame::Status(Status {
-            uptime_ms: embassy_time::Instant::now().as_millis(),
-            samples_per_channel: self.samples,
-            adc_overruns,
-            frames_dropped: frames::FRAMES_DROPPED.load(Ordering::Relaxed),
-            temperature_c,
-        }));
-        SNAPSHOT_READY.signal(Round { snapshots, adc_overruns, samples: self.samples });
+    fn round(&mut self, snapshots: &[Snapshot], losses: u32, samples: u64) {
+        let mut round = Round { snapshots: [DeviceConfig::empty_snapshot(); GYROS], adc_overruns: losses, samples };
+        round.snapshots.copy_from_slice(snapshots);
+        SNAPSHOT_READY.signal(round);
     }
 }
 
-/// Feeds the accumulators from the sampler's blocks and acts on host commands.
+/// The hello frame of this build.
+pub fn hello() -> Frame {
+    DEVICE.hello()
+}
+
+/// Channels streamed raw from boot: all of them in QEMU (so a host can replay every code), none on the board.
+pub const RAW_AT_BOOT: u8 = if cfg!(feature = "qemu") { DEVICE.all_channels_mask() } else { 0 };
+
+/// The device core, built at compile time in its static (19 KiB: too big to build on the stack and move).
+static CORE: ConstStaticCell<Characterizer<'static, GYROS>> =
+    ConstStaticCell::new(Characterizer::new(DEVICE, RAW_AT_BOOT));
+
+/// The device core (once: the characterize task owns it; QEMU's benchmark borrows it first).
+pub fn core() -> &'static mut Characterizer<'static, GYROS> {
+    CORE.take()
+}
+
+/// Feeds the device core from the sampler's blocks and acts on host commands.
 #[embassy_executor::task]
-pub async fn characterize_task(mut blocks: BlockReceiver, raw_mask: u8) {
-    let mut c = Characterizer::new(raw_mask);
-    frames::send(&hello());
+pub async fn characterize_task(mut blocks: BlockReceiver, core: &'static mut Characterizer<'static, GYROS>) {
     loop {
         match select(blocks.receive(), COMMANDS.receive()).await {
             Either::First(block) => {
-                c.feed(block);
+                core.feed(block.first_index, &block.codes, &mut Queue);
                 blocks.receive_done();
+                BLOCKS_TAKEN.fetch_add(1, Ordering::Relaxed);
             }
-            Either::Second(cmd) => c.command(cmd),
+            Either::Second((seq, cmd)) => {
+                core.command(seq, cmd, &mut Queue);
+                defmt::info!("command {} ({}): raw mask {=u8:#x}", seq, cmd, core.raw_mask());
+            }
         }
     }
 }

@@ -2,21 +2,25 @@
 //!
 //! A frame gets its sequence number when it is encoded, so a frame dropped because the queue was full (the host
 //! is absent or slow) shows up at the host as a gap in the sequence numbers, and here in [`FRAMES_DROPPED`],
-//! which the status frame reports. Producers never wait: sampling must not stall on the link.
+//! which the status frame reports. Producers never wait without a bound: sampling must not stall on the link,
+//! and a read-out for a host that went away is abandoned.
 
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
+use embassy_time::{with_timeout, Duration};
 use octavar_shared::proto::{encode_to_vec, Frame, FrameBuf};
 
 /// Encoded frames waiting for the link (USB on the board, USART1 in QEMU).
 pub const FRAME_QUEUE: usize = 16;
 
-/// Encoded frames, from characterize, store and usb to the task that owns the link.
+/// Encoded frames, from characterize, store and the link task to the task that owns the link.
 pub static FRAMES_OUT: Channel<CriticalSectionRawMutex, FrameBuf, FRAME_QUEUE> = Channel::new();
-/// Frames dropped because [`FRAMES_OUT`] was full; reported in the status frame.
+/// Frames dropped because [`FRAMES_OUT`] was full or stale at a new connection; reported in the status frame.
 pub static FRAMES_DROPPED: AtomicU32 = AtomicU32::new(0);
+/// A host is connected and listening (DTR set on USB; always in QEMU).
+pub static LINK_UP: AtomicBool = AtomicBool::new(false);
 /// The next frame's sequence number.
 static NEXT_SEQ: AtomicU32 = AtomicU32::new(0);
 
@@ -41,12 +45,28 @@ pub fn send(frame: &Frame) {
     }
 }
 
-/// Queue a frame, waiting for room: for replies to the host (field-log read-out) from tasks that may wait.
-/// The frame is encoded (and dropped) before the wait, so only its bytes are kept across it.
-pub async fn send_wait(frame: Frame) {
-    let buf = encode(&frame);
+/// The link went away, or did not take a frame within the bound.
+#[derive(Debug, defmt::Format)]
+pub struct NotSent;
+
+/// Queue a frame, waiting at most `limit` for room and only while a host listens: for replies (the field-log
+/// read-out) from tasks that may wait. The frame is encoded (and dropped) before the wait.
+pub async fn send_within(frame: Frame, limit: Duration) -> Result<(), NotSent> {
+    let buf = encode(&frame).ok_or(NotSent)?;
     drop(frame);
-    if let Some(buf) = buf {
-        FRAMES_OUT.send(buf).await;
+    if !LINK_UP.load(Ordering::Relaxed) {
+        FRAMES_DROPPED.fetch_add(1, Ordering::Relaxed);
+        return Err(NotSent);
+    }
+    with_timeout(limit, FRAMES_OUT.send(buf)).await.map_err(|_| {
+        FRAMES_DROPPED.fetch_add(1, Ordering::Relaxed);
+        NotSent
+    })
+}
+
+/// A new host connected: drop what was queued for nobody (counted), so the hello comes first.
+pub fn flush_stale() {
+    while FRAMES_OUT.try_receive().is_ok() {
+        FRAMES_DROPPED.fetch_add(1, Ordering::Relaxed);
     }
 }

@@ -1,44 +1,55 @@
-//! The QEMU platform (feature `qemu`): what replaces embassy-stm32 on QEMU's netduinoplus2 (an STM32F405).
+//! The QEMU platform (feature `qemu`): what replaces the board's converter and USB on QEMU's netduinoplus2 (an
+//! STM32F405).
 //!
-//! embassy-stm32's `init` cannot run there (QEMU does not emulate RCC and PWR), its ADC model is a ramp and it
-//! has no DMA, so this module provides:
-//! - a simulated sampler: `shared::sim`'s virtual bench (the paper's four gyros plus the ADXRS300 temperature
-//!   output), in blocks paced by the time driver at 2 kS/s per channel, with raw streaming of all channels on
-//!   from the start (so a host can replay every code and check every snapshot);
-//! - the link: frames written byte by byte to USART1's data register (QEMU writes them to `-serial`);
+//! embassy-stm32's `init` cannot run there (QEMU does not emulate RCC and PWR), and QEMU's ADC is a ramp with no
+//! DMA, so this module provides:
+//! - a virtual converter: `shared::sim`'s virtual bench (the paper's four gyros plus the ADXRS300 temperature
+//!   output) written into the same sample ring the board's DMA fills, scan `j` into its slot, with a trigger
+//!   count that follows the free-running time base (`timebase.rs`, QEMU's TIM2) at 2 kS/s. The sampler task
+//!   (`sampler.rs`) is the board's: it reads this ring by the count, exactly as it reads the DMA's;
+//! - the link: frames written to USART1's data register, commands read from its receiver through the same
+//!   command decoder and router as USB's (QEMU connects USART1 to `-serial`);
+//! - stalls: with `OCTAVAR_QEMU_STALL_EVERY=S` and `OCTAVAR_QEMU_STALL_MS=M`, the CPU stops for M ms every S
+//!   seconds with interrupts masked, as a flash erase stops it, while the virtual converter's count runs on;
 //! - the field log in a RAM flash model (QEMU's flash is read-only);
-//! - an accumulator benchmark at start-up, printed through semihosting;
-//! - optionally, a host `Command::Reset` after [`RESET_AT_SECONDS`] of samples (at a block boundary), so a run
-//!   shows what a host sees at a reset;
-//! - a semihosting exit (code 0) after [`RUN_SECONDS`] of samples, once every frame has been written.
+//! - a benchmark at start-up of the characterizer's per-sample path, printed through semihosting;
+//! - a semihosting exit (code 0) after [`RUN_SECONDS`] of scans, once every frame has been written.
 //!
-//! The application (characterize, store, frames) is the same code as on the board.
+//! Raw streaming of every channel is on from the start, so a host can replay every code and check every
+//! snapshot. The application (sampler, characterize, store, frames, commands) is the same code as on the board.
 
+use core::cell::UnsafeCell;
 use core::sync::atomic::Ordering;
 
 use cortex_m_semihosting::{debug, hprintln};
-use embassy_time::{Duration, Ticker, Timer};
-use octavar_shared::acc::OctaveAllan;
+use embassy_time::{Duration, Timer};
+use octavar_shared::device::{Characterizer, FrameSink};
 use octavar_shared::fieldlog::{LogFlash, RamFlash, RamFlashError};
-use octavar_shared::proto::Command;
-use octavar_shared::sensor::{Channel, ADXRS300};
+use octavar_shared::proto::{encode_to_vec, Command, Decoder, Frame};
+use octavar_shared::sensor::temperature_code;
 use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim};
-use static_cell::StaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
-use crate::characterize::{BlockSender, COMMANDS};
+use crate::characterize::BlockSender;
 use crate::config::*;
-use crate::frames::FRAMES_OUT;
+use crate::frames::{FRAMES_OUT, LINK_UP};
+use crate::sampler::{self, ScanRing};
+use crate::timebase;
 
-/// Seconds of samples per run: `OCTAVAR_QEMU_SECONDS` at build time, 5 by default.
+/// Seconds of scans per run: `OCTAVAR_QEMU_SECONDS` at build time, 5 by default.
 pub const RUN_SECONDS: u64 = parse_u64(option_env!("OCTAVAR_QEMU_SECONDS"), 5);
 /// Seed of the simulated bench: `OCTAVAR_QEMU_SEED` at build time, 1 by default.
 pub const SEED: u64 = parse_u64(option_env!("OCTAVAR_QEMU_SEED"), 1);
-/// Seconds of samples after which the simulated host sends `Command::Reset`: `OCTAVAR_QEMU_RESET_AT` at build
-/// time, 0 (the default) for never. The reset comes at the first block boundary at or after that time, once
-/// characterize has taken every block before it, so the run stays deterministic.
-pub const RESET_AT_SECONDS: u64 = parse_u64(option_env!("OCTAVAR_QEMU_RESET_AT"), 0);
+/// A stall every this many seconds of the time base (`OCTAVAR_QEMU_STALL_EVERY`; 0, the default: none).
+pub const STALL_EVERY_S: u64 = parse_u64(option_env!("OCTAVAR_QEMU_STALL_EVERY"), 0);
+/// Each stall's length in ms (`OCTAVAR_QEMU_STALL_MS`, 1000 by default).
+pub const STALL_MS: u64 = parse_u64(option_env!("OCTAVAR_QEMU_STALL_MS"), 1000);
 /// The core clock QEMU's netduinoplus2 gives SysTick, Hz.
 pub const SYSCLK_HZ: u32 = 168_000_000;
+/// The kernel clock of QEMU's TIM2..TIM5 (its timer model counts at 1 GHz, not at the board's 84 MHz).
+pub const TIMER_CLOCK_HZ: u32 = 1_000_000_000;
+/// Scans of the run: whole blocks covering [`RUN_SECONDS`].
+pub const RUN_SCANS: u64 = (RUN_SECONDS * SAMPLE_RATE_HZ as u64).div_ceil(BLOCK_SCANS as u64) * BLOCK_SCANS as u64;
 
 const fn parse_u64(s: Option<&str>, default: u64) -> u64 {
     let Some(s) = s else { return default };
@@ -63,11 +74,13 @@ mod usart1 {
     pub const DR: *mut u32 = (BASE + 0x04) as *mut u32;
     pub const BRR: *mut u32 = (BASE + 0x08) as *mut u32;
     pub const CR1: *mut u32 = (BASE + 0x0C) as *mut u32;
-    /// SR: transmit data register empty.
+    /// SR: transmit data register empty; read data register not empty.
     pub const TXE: u32 = 1 << 7;
-    /// CR1: USART enable, transmitter enable.
+    pub const RXNE: u32 = 1 << 5;
+    /// CR1: USART enable, transmitter enable, receiver enable.
     pub const UE: u32 = 1 << 13;
     pub const TE: u32 = 1 << 3;
+    pub const RE: u32 = 1 << 2;
     /// RCC APB2ENR (RM0090 section 6.3.14) and its USART1EN bit.
     pub const RCC_APB2ENR: *mut u32 = 0x4002_3844 as *mut u32;
     pub const USART1EN: u32 = 1 << 4;
@@ -85,7 +98,7 @@ pub struct Parts {
 pub const SECTOR_WORDS: usize = 2048;
 
 /// The RAM flash, in a static so that tasks hold only a reference to it.
-static FLASH: StaticCell<RamFlash<SECTOR_WORDS>> = StaticCell::new();
+static FLASH: ConstStaticCell<RamFlash<SECTOR_WORDS>> = ConstStaticCell::new(RamFlash::new());
 
 /// The field log's flash in QEMU: a [`RamFlash`] in a static.
 pub struct QemuFlash(&'static mut RamFlash<SECTOR_WORDS>);
@@ -110,16 +123,63 @@ impl LogFlash for QemuFlash {
     }
 }
 
+/// The stack's low-water mark is found by painting the free RAM below the stack at start-up.
+const STACK_PAINT: u32 = 0x5AFE_57AC;
+
+extern "C" {
+    /// The lowest address of the stack (the start of CCM, `memory.x`).
+    static mut __stack_floor: u32;
+}
+
+/// Paint the stack's memory below the current stack pointer (less a margin), so that
+/// [`stack_unused`] can tell how deep the stack has ever grown.
+fn paint_stack() {
+    let floor = core::ptr::addr_of_mut!(__stack_floor);
+    let sp = cortex_m::register::msp::read() as *mut u32;
+    let mut p = floor;
+    // SAFETY: the words between the stack's floor and 256 bytes below the live stack are unused.
+    while (p as usize) + 256 < sp as usize {
+        unsafe { p.write_volatile(STACK_PAINT) };
+        p = unsafe { p.add(1) };
+    }
+}
+
+/// Bytes of stack never touched since [`paint_stack`].
+pub fn stack_unused() -> usize {
+    let mut p = core::ptr::addr_of_mut!(__stack_floor) as *const u32;
+    let mut n = 0;
+    // SAFETY: reads the painted region from its floor up to the first overwritten word.
+    while unsafe { p.read_volatile() } == STACK_PAINT {
+        p = unsafe { p.add(1) };
+        n += 4;
+    }
+    n
+}
+
+/// A hard fault in QEMU: say where, and how much stack was left, and exit with failure rather than hang.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    hprintln!(
+        "octavar-qemu: hard fault at pc {:#010x} (lr {:#010x}); stack never used: {} bytes",
+        frame.pc(),
+        frame.lr(),
+        stack_unused()
+    );
+    debug::exit(debug::EXIT_FAILURE);
+    loop {}
+}
+
 /// Enable USART1 (115200 Bd at 84 MHz, 8N1; QEMU ignores the rate) and hand out the parts.
 pub fn init() -> Parts {
+    paint_stack();
     let core = cortex_m::Peripherals::take().expect("core peripherals are taken once");
     // SAFETY: these are the documented USART1 and RCC registers of the STM32F405; nothing else uses them.
     unsafe {
         usart1::RCC_APB2ENR.write_volatile(usart1::RCC_APB2ENR.read_volatile() | usart1::USART1EN);
         usart1::BRR.write_volatile(84_000_000 / 115_200);
-        usart1::CR1.write_volatile(usart1::UE | usart1::TE);
+        usart1::CR1.write_volatile(usart1::UE | usart1::TE | usart1::RE);
     }
-    Parts { syst: core.SYST, flash: QemuFlash(FLASH.init(RamFlash::new())) }
+    Parts { syst: core.SYST, flash: QemuFlash(FLASH.take()) }
 }
 
 fn uart_write(bytes: &[u8]) {
@@ -132,12 +192,34 @@ fn uart_write(bytes: &[u8]) {
     }
 }
 
-/// The link: encoded frames to USART1.
+/// A received byte, if one is waiting.
+fn uart_read() -> Option<u8> {
+    // SAFETY: as in `uart_write`; reading DR clears RXNE.
+    unsafe { (usart1::SR.read_volatile() & usart1::RXNE != 0).then(|| usart1::DR.read_volatile() as u8) }
+}
+
+/// The link: the hello, then encoded frames to USART1; command frames from USART1 to the command router.
 #[embassy_executor::task]
 pub async fn uart_task() {
+    crate::frames::flush_stale();
+    crate::frames::send(&crate::characterize::hello());
+    LINK_UP.store(true, Ordering::Relaxed);
+    let mut decoder = Decoder::<Command>::new();
     loop {
-        let frame = FRAMES_OUT.receive().await;
-        uart_write(&frame);
+        while let Ok(frame) = FRAMES_OUT.try_receive() {
+            uart_write(&frame);
+        }
+        let mut byte = [0u8; 1];
+        while let Some(b) = uart_read() {
+            byte[0] = b;
+            for received in decoder.feed(&byte) {
+                match received {
+                    Ok(r) => crate::commands::route(r.seq, r.msg),
+                    Err(e) => defmt::warn!("uart: bad command frame: {}", defmt::Debug2Format(&e)),
+                }
+            }
+        }
+        Timer::after(Duration::from_micros(500)).await;
     }
 }
 
@@ -146,126 +228,175 @@ fn bench_model() -> BenchSim {
     let gyro = |n: f64, b: f64| GyroSim { n_deg_per_rt_s: n, b_dps: b, k_dps_per_rt_s: n * 1e-3, ..Default::default() };
     let mut channels = heapless::Vec::new();
     for (kind, g) in [
-        (CHANNEL_KINDS[0].0, gyro(3.2e-3, 14e-3)),
-        (CHANNEL_KINDS[1].0, gyro(3.0e-3, 13e-3)),
-        (CHANNEL_KINDS[2].0, gyro(46e-3, 26e-3)),
-        (CHANNEL_KINDS[3].0, gyro(4.0e-4, 9.5e-4)),
+        (DEVICE.channels[0].kind, gyro(3.2e-3, 14e-3)),
+        (DEVICE.channels[1].kind, gyro(3.0e-3, 13e-3)),
+        (DEVICE.channels[2].kind, gyro(46e-3, 26e-3)),
+        (DEVICE.channels[3].kind, gyro(4.0e-4, 9.5e-4)),
     ] {
         let _ = channels.push(ChannelSim { sensor: kind, channel: None, gyro: g });
     }
     BenchSim { fs_hz: f64::from(SAMPLE_RATE_HZ), seed: SEED, temperature: Default::default(), channels }
 }
 
-/// The code the ADXRS300 TEMP output gives at `temp_c` through its 2/3 divider.
-fn temperature_code(temp_c: f64) -> u16 {
-    let ch = Channel::bench(ADXRS300);
-    let t = ADXRS300.temp_output.expect("the ADXRS300 has a TEMP output");
-    ch.adc.quantize(ch.front.apply(t.mv_at_25c + t.mv_per_c * (temp_c - 25.0)))
+/// The ring the virtual converter writes, as the board's DMA writes its own.
+struct VirtualRing(UnsafeCell<[u16; RING_CODES]>);
+// SAFETY: only the sampler task touches it (the virtual converter writes from `started`, the copy reads).
+unsafe impl Sync for VirtualRing {}
+static RING: VirtualRing = VirtualRing(UnsafeCell::new([0; RING_CODES]));
+
+/// The virtual converter: the simulated bench, its scans written into the ring by trigger count.
+pub struct VirtualAdc {
+    bench: Bench,
+    /// Scans generated so far (each is written to its slot, or skipped if the ring has lapped it).
+    generated: u64,
+    /// The time base at the first trigger.
+    t0_us: u64,
 }
 
-/// Stands in for the ADC: blocks of simulated scans at 2 kS/s; exits QEMU after [`RUN_SECONDS`].
-#[embassy_executor::task]
-pub async fn sim_sampler_task(mut blocks: BlockSender) {
-    let mut bench = match Bench::new(&bench_model()) {
-        Ok(b) => b,
-        Err(e) => defmt::panic!("sim: {}", defmt::Debug2Format(&e)),
-    };
-    let total_blocks = (RUN_SECONDS * u64::from(SAMPLE_RATE_HZ)).div_ceil(BLOCK_SETS as u64);
-    let mut ticker = Ticker::every(Duration::from_micros(BLOCK_SETS as u64 * 1_000_000 / u64::from(SAMPLE_RATE_HZ)));
-    let reset_block = match RESET_AT_SECONDS {
-        0 => None,
-        s => Some((s * u64::from(SAMPLE_RATE_HZ)).div_ceil(BLOCK_SETS as u64)),
-    };
-    let mut next_index = 0u64;
-    for b in 0..total_blocks {
-        ticker.next().await;
-        if reset_block == Some(b) {
-            // As a host would: characterize takes every earlier block, then the reset, then the next block.
-            while !blocks.is_empty() {
-                Timer::after_millis(1).await;
-            }
-            COMMANDS.send(Command::Reset).await;
-            while !COMMANDS.is_empty() {
-                Timer::after_millis(1).await;
-            }
-            hprintln!("octavar-qemu: reset after {} samples", next_index);
-        }
-        // Wait rather than drop: the simulation may run slower than real time, and every code must arrive.
-        let block = blocks.send().await;
-        block.first_sample = next_index;
-        block.gap_before = false;
-        for set in block.codes.chunks_exact_mut(CHANNELS) {
-            let s = bench.next_sample();
-            set[..GYROS].copy_from_slice(&s.codes()[..GYROS]);
-            set[TEMP_CHANNEL] = temperature_code(s.temp_c);
-        }
-        blocks.send_done();
-        next_index += BLOCK_SETS as u64;
+impl VirtualAdc {
+    fn new() -> Self {
+        let bench = match Bench::new(&bench_model()) {
+            Ok(b) => b,
+            Err(e) => panic!("sim: {:?}", e),
+        };
+        VirtualAdc { bench, generated: 0, t0_us: timebase::now_us() }
     }
-    // Let characterize finish the last block and the link write every frame, then stop QEMU.
-    while !blocks.is_empty() || !FRAMES_OUT.is_empty() {
+}
+
+impl ScanRing for VirtualAdc {
+    fn started(&mut self) -> u64 {
+        let elapsed = timebase::now_us() - self.t0_us;
+        // The run stops triggering after its last scan (plus the one that completes it).
+        let started = (elapsed * u64::from(SAMPLE_RATE_HZ) / 1_000_000).min(RUN_SCANS + 1);
+        // The converter ran on while the CPU did other things (or stood still): produce those scans now, in
+        // order, into their slots; the ones the ring has already lapped are generated and lost.
+        let ring = RING.0.get() as *mut u16;
+        while self.generated < started {
+            let s = self.bench.next_sample();
+            let j = self.generated;
+            if j + RING_SCANS as u64 >= started {
+                let slot = (j % RING_SCANS as u64) as usize * CHANNELS;
+                let codes = s.codes();
+                for g in 0..GYROS {
+                    // SAFETY: slot + CHANNELS <= RING_CODES; only this task writes the ring.
+                    unsafe { ring.add(slot + g).write_volatile(codes[g]) };
+                }
+                unsafe { ring.add(slot + GYROS).write_volatile(temperature_code(s.temp_c)) };
+            }
+            self.generated += 1;
+        }
+        started
+    }
+
+    fn copy_block(&self, slot: usize, out: &mut [u16; BLOCK_CODES]) {
+        let base = RING.0.get() as *const u16;
+        for (i, code) in out.iter_mut().enumerate() {
+            // SAFETY: blocks tile the ring, so the index is in bounds.
+            *code = unsafe { base.add(slot * CHANNELS + i).read_volatile() };
+        }
+    }
+
+    fn check(&mut self) -> Option<u64> {
+        None
+    }
+}
+
+/// The sampler on the virtual converter (10 KiB of simulator state, built in its static).
+#[embassy_executor::task]
+pub async fn sampler_task(blocks: BlockSender) {
+    static ADC: StaticCell<VirtualAdc> = StaticCell::new();
+    sampler::run(ADC.init_with(VirtualAdc::new), blocks).await
+}
+
+/// Stalls the CPU for [`STALL_MS`] every [`STALL_EVERY_S`] seconds, interrupts masked, as a flash erase does
+/// (then every fetch waits, interrupt vectors included). The time base and the virtual converter run on.
+#[embassy_executor::task]
+pub async fn stall_task() {
+    if STALL_EVERY_S == 0 {
+        return;
+    }
+    let mut next = timebase::now_us() + STALL_EVERY_S * 1_000_000;
+    loop {
+        Timer::at(embassy_time::Instant::from_micros(next)).await;
+        let until = timebase::now_us() + STALL_MS * 1000;
+        critical_section::with(|_| {
+            while timebase::now_us() < until {
+                // Sleep to the next SysTick rather than spin; its interrupt stays masked (a stall loses them).
+                cortex_m::peripheral::SCB::clear_pendst();
+                cortex_m::asm::wfi();
+            }
+        });
+        hprintln!("octavar-qemu: stalled {} ms", STALL_MS);
+        next += STALL_EVERY_S * 1_000_000;
+    }
+}
+
+/// Ends the run: once the sampler has passed [`RUN_SCANS`] and characterize and the link are idle, prints the
+/// counts and exits QEMU.
+#[embassy_executor::task]
+pub async fn finish_task() {
+    while u64::from(sampler::NEXT_SCAN.load(Ordering::Relaxed)) < RUN_SCANS {
+        Timer::after_millis(10).await;
+    }
+    // Let characterize take the last block and the link write every frame.
+    Timer::after_millis(50).await;
+    while !FRAMES_OUT.is_empty() {
         Timer::after_millis(1).await;
     }
     Timer::after_millis(5).await;
     hprintln!(
-        "octavar-qemu: {} samples per channel, {} frames dropped, {} ADC overruns",
-        next_index,
+        "octavar-qemu: {} scans, {} lost, {} frames dropped; stack never used: {} bytes",
+        RUN_SCANS,
+        sampler::SCANS_LOST.load(Ordering::Relaxed),
         crate::frames::FRAMES_DROPPED.load(Ordering::Relaxed),
-        crate::ADC_OVERRUNS.load(Ordering::Relaxed)
+        stack_unused()
     );
     debug::exit(debug::EXIT_SUCCESS);
 }
 
-/// Time `OctaveAllan<8>::push` on this core and print it through semihosting.
+/// A sink that encodes every frame, as the firmware's queue does, and keeps none.
+struct EncodeOnly;
+
+impl FrameSink for EncodeOnly {
+    fn send(&mut self, frame: &Frame) {
+        core::hint::black_box(encode_to_vec(0, frame).ok());
+    }
+    fn frames_dropped(&self) -> u32 {
+        0
+    }
+}
+
+/// Time the characterizer's real per-sample path and print it through semihosting: `Characterizer::feed` on
+/// blocks of interleaved scans (four gyros and the temperature), snapshot rounds, estimates and frame encoding
+/// included, raw streaming off.
 ///
 /// QEMU counts no cycles, but with `-icount shift=0` each instruction advances virtual time by exactly 1 ns, and
-/// SysTick counts virtual time at 168 MHz: so virtual nanoseconds per sample are instructions per sample. The DWT
-/// cycle counter is read too, to show whether this QEMU emulates it.
-pub fn bench_accumulator() {
-    const CODES: usize = 1024;
-    const ROUNDS: usize = 256;
-    static mut CODES_BUF: [u16; CODES] = [0; CODES];
-    // SAFETY: used only here, before the executor starts.
-    let codes = unsafe { &mut *core::ptr::addr_of_mut!(CODES_BUF) };
+/// the time base counts virtual time: so virtual nanoseconds per sample are instructions per sample.
+pub fn bench_characterizer(core: &mut Characterizer<'static, GYROS>) {
+    const BLOCKS: u64 = 250; // 32 000 scans: 16 snapshot rounds
+    static BLOCK: StaticCell<[u16; BLOCK_CODES]> = StaticCell::new();
+    let block = BLOCK.init([0; BLOCK_CODES]);
     let mut s = 12345u32;
-    for c in codes.iter_mut() {
+    for (i, c) in block.iter_mut().enumerate() {
         s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        *c = 2048 + (s >> 26) as u16; // 64 codes of noise around mid-scale
+        // 64 codes of noise around mid-scale on the gyros, a steady temperature code.
+        *c = if i % CHANNELS == GYROS { 1900 } else { 2048 + (s >> 26) as u16 };
     }
-    let mut acc = OctaveAllan::<8>::new();
-    // Warm up (and fill the rings), then time.
-    acc.push_slice(codes);
-    let mut core = unsafe { cortex_m::Peripherals::steal() };
-    core.DCB.enable_trace();
-    core.DWT.enable_cycle_counter();
-    let dwt0 = cortex_m::peripheral::DWT::cycle_count();
-    let t0 = crate::systick::cycles();
-    for _ in 0..ROUNDS {
-        acc.push_slice(core::hint::black_box(&codes[..]));
+    core.restart(0);
+    // Warm up (fill the accumulators' rings), then time.
+    core.feed(0, block, &mut EncodeOnly);
+    let t0 = timebase::now_us();
+    for b in 1..=BLOCKS {
+        core.feed(b * BLOCK_SCANS as u64, core::hint::black_box(&block[..]), &mut EncodeOnly);
     }
-    let t1 = crate::systick::cycles();
-    let dwt1 = cortex_m::peripheral::DWT::cycle_count();
-    // The same loop with a trivial body: the cost of reading the codes.
-    let t2 = crate::systick::cycles();
-    let mut sum = 0u32;
-    for _ in 0..ROUNDS {
-        for &c in core::hint::black_box(&codes[..]) {
-            sum = sum.wrapping_add(u32::from(c));
-        }
-    }
-    let t3 = crate::systick::cycles();
-    core::hint::black_box((sum, acc.count()));
-    let samples = (CODES * ROUNDS) as u64;
-    let ns = |cycles: u64| cycles * 1_000_000_000 / u64::from(SYSCLK_HZ);
-    let per_sample_milli = ns(t1 - t0) * 1000 / samples;
-    let loop_milli = ns(t3 - t2) * 1000 / samples;
+    let t1 = timebase::now_us();
+    let samples = BLOCKS * (BLOCK_SCANS * GYROS) as u64;
+    let per_milli = (t1 - t0) * 1_000_000 / samples;
     hprintln!(
-        "octavar-bench: OctaveAllan<8>::push: {}.{:03} instructions/sample/channel (virtual ns; exact with -icount shift=0), read loop alone {}.{:03}; {} samples; DWT CYCCNT delta {}",
-        per_sample_milli / 1000,
-        per_sample_milli % 1000,
-        loop_milli / 1000,
-        loop_milli % 1000,
-        samples,
-        dwt1.wrapping_sub(dwt0)
+        "octavar-bench: Characterizer::feed: {}.{:03} instructions/sample/channel (virtual ns with -icount shift=0; {} scans of {} gyros and a temperature, rounds and frame encoding included)",
+        per_milli / 1000,
+        per_milli % 1000,
+        BLOCKS * BLOCK_SCANS as u64,
+        GYROS
     );
 }

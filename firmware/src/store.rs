@@ -9,15 +9,20 @@
 //!
 //! On the board the log lives in flash sectors 10 and 11 (0x080C_0000 and 0x080E_0000, 128 KiB each), which the
 //! root `memory.x` keeps out of the program's FLASH region. The STM32F405 has one flash bank: while a sector is
-//! erased (about 1 s, at most 2 s; DS8626 table "Flash memory characteristics") the CPU cannot fetch from flash,
-//! the DMA ring overflows and the sampler reports a gap. Sectors are erased only when one is full (every 32
-//! checkpoints: about five hours), so that costs a second or two every five hours, counted as an ADC overrun.
+//! erased (about 1 s, at most 2 s; DS8626 table 44) the CPU cannot fetch from flash, interrupts included. The
+//! ADC, its DMA and the trigger counter run on: the sample ring holds 1.024 s, and whatever an erase costs beyond
+//! it is an exact gap in the hardware sample index, pooled across (`sampler.rs`). Sectors are erased only when
+//! one is full (every 32 checkpoints: about five hours).
+//!
+//! A read-out never blocks the log: each frame waits at most [`READ_OUT_FRAME_WAIT`] for room, and only while a
+//! host listens; a host that goes away mid read-out ends it, and checkpoints go on.
 
 use embassy_futures::select::{select, Either};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::signal::Signal;
+use embassy_time::Duration;
 use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogFlash, Recorded, Recorder};
-use octavar_shared::proto::{FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
+use octavar_shared::proto::{Ack, FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
 
 use crate::characterize::SNAPSHOT_READY;
 use crate::config::*;
@@ -28,8 +33,21 @@ pub type GyroCheckpoint = Checkpoint<GYROS>;
 /// Payload words of one checkpoint.
 pub const CHECKPOINT_WORDS: usize = GyroCheckpoint::WORDS;
 
-/// A host asked for the field log from this checkpoint on (link task -> store).
-pub static LOG_READ: Signal<CriticalSectionRawMutex, u32> = Signal::new();
+/// A host asked for the field log from this checkpoint on, in the command frame with this sequence number
+/// (link task -> store).
+pub static LOG_READ: Signal<CriticalSectionRawMutex, LogRead> = Signal::new();
+
+/// A field-log read request.
+#[derive(Clone, Copy)]
+pub struct LogRead {
+    /// The command frame's sequence number (acknowledged before the read-out).
+    pub seq: u32,
+    /// The first checkpoint wanted.
+    pub from: u32,
+}
+
+/// The longest a read-out waits for room in the frame queue, per frame.
+pub const READ_OUT_FRAME_WAIT: Duration = Duration::from_secs(2);
 
 /// Checkpoints snapshot rounds and answers field-log reads; generic over the flash (real or RAM).
 ///
@@ -39,9 +57,9 @@ pub async fn run<F: LogFlash>(flash: F) -> ! {
     let mut words = [0u32; CHECKPOINT_WORDS];
     let mut log = match FieldLog::open(flash, CHECKPOINT_WORDS) {
         Ok(log) => log,
-        Err(e) => defmt::panic!("field log: {}", defmt::Debug2Format(&e)),
+        Err(e) => panic!("field log: {:?}", e),
     };
-    let (mut recorder, boot) = Recorder::<GYROS>::open(&mut log, &mut words, CHECKPOINT_EVERY_SETS);
+    let (mut recorder, boot) = Recorder::<GYROS>::open(&mut log, &mut words, CHECKPOINT_EVERY_SCANS);
     match (boot, recorder.base()) {
         (Ok(Some(seq)), Some(cp)) => {
             defmt::info!(
@@ -73,18 +91,31 @@ pub async fn run<F: LogFlash>(flash: F) -> ! {
             }
             Either::Second(from) => Some(from),
         };
-        if let Some(from) = read_from {
-            // One frame at a time: decode the newest record, send its i-th part, until there are no more.
-            let mut sent = 0;
-            let mut i = 0;
-            while let Some(frame) = log_frame(&mut log, from, &mut words, i) {
-                frames::send_wait(frame).await;
-                sent = 1;
-                i += 1;
+        if let Some(read) = read_from {
+            match read_out(&mut log, read, &mut words).await {
+                Ok(()) => defmt::info!("field log: read out"),
+                Err(_) => defmt::warn!("field log: read-out abandoned (the host went away or stopped reading)"),
             }
-            frames::send_wait(Frame::FieldLogEnd(FieldLogEnd { checkpoints: sent })).await;
         }
     }
+}
+
+/// Acknowledge the request, then send the newest checkpoint one frame at a time (decode the record, send its
+/// i-th part, until there are no more), then the end frame. Any frame not taken within the bound ends it.
+async fn read_out<F: LogFlash>(
+    log: &mut FieldLog<F>,
+    read: LogRead,
+    words: &mut [u32; CHECKPOINT_WORDS],
+) -> Result<(), frames::NotSent> {
+    frames::send_within(Frame::Ack(Ack { seq: read.seq }), READ_OUT_FRAME_WAIT).await?;
+    let mut sent = 0;
+    let mut i = 0;
+    while let Some(frame) = log_frame(log, read.from, words, i) {
+        frames::send_within(frame, READ_OUT_FRAME_WAIT).await?;
+        sent = 1;
+        i += 1;
+    }
+    frames::send_within(Frame::FieldLogEnd(FieldLogEnd { checkpoints: sent }), READ_OUT_FRAME_WAIT).await
 }
 
 /// The `i`-th field-log frame of the newest checkpoint, if its number is at least `from`.
@@ -149,7 +180,9 @@ impl LogFlash for BoardFlash {
         let from = Self::offset(sector, 0);
         let to = from + octavar_shared::fieldlog::STM32F405_LOG_SECTORS[sector].bytes;
         defmt::info!("field log: erasing sector {}", octavar_shared::fieldlog::STM32F405_LOG_SECTORS[sector].index);
-        self.flash.blocking_erase(from, to)
+        let result = self.flash.blocking_erase(from, to);
+        crate::board::flash_caches_reset();
+        result
     }
 
     fn write(&mut self, sector: usize, offset: usize, words: &[u32]) -> Result<(), Self::Error> {
@@ -158,7 +191,9 @@ impl LogFlash for BoardFlash {
             for (b, w) in bytes.chunks_exact_mut(4).zip(chunk) {
                 b.copy_from_slice(&w.to_le_bytes());
             }
-            self.flash.blocking_write(Self::offset(sector, offset + 16 * i), &bytes[..4 * chunk.len()])?;
+            let written = self.flash.blocking_write(Self::offset(sector, offset + 16 * i), &bytes[..4 * chunk.len()]);
+            crate::board::flash_caches_reset();
+            written?;
         }
         Ok(())
     }

@@ -1,27 +1,36 @@
 //! The USB task: a CDC-ACM serial port. Frames out (from [`crate::frames::FRAMES_OUT`]), commands in.
 //!
-//! Nothing here can stall sampling: producers queue frames with `try_send` and count what does not fit; a host
-//! that is absent or reads slowly only fills that queue. On each connection the hello frame goes out first.
+//! Nothing here can stall sampling: producers queue frames with `try_send` and count what does not fit. Frames
+//! go out only while the host holds DTR (a terminal program or `octavar record` has the port open). On each
+//! such connection the frames queued for nobody are dropped (counted) and the hello goes out first, so the host
+//! always starts with a hello. A host that stops reading with DTR still set costs at most [`WRITE_WAIT`] per
+//! packet before the frame is dropped, and the queue's producers never wait on it. Each board reports its chip's
+//! unique ID as its USB serial number.
+
+use core::sync::atomic::Ordering;
 
 use embassy_futures::join::join3;
+use embassy_futures::select::select;
 use embassy_stm32::peripherals::USB_OTG_FS;
 use embassy_stm32::usb::Driver;
-use embassy_usb::class::cdc_acm::{CdcAcmClass, Receiver, Sender, State};
+use embassy_time::{with_timeout, Duration};
+use embassy_usb::class::cdc_acm::{CdcAcmClass, ControlChanged, Receiver, Sender, State};
 use embassy_usb::driver::EndpointError;
 use embassy_usb::Builder;
-use octavar_shared::proto::{Command, Decoder};
+use octavar_shared::proto::Decoder;
 use static_cell::StaticCell;
 
 use crate::board::{Irqs, UsbParts};
-use crate::characterize::{hello, COMMANDS};
-use crate::frames::{self, FRAMES_OUT};
-use crate::store::LOG_READ;
+use crate::characterize::hello;
+use crate::frames::{self, FRAMES_OUT, LINK_UP};
 
 /// The USB driver of this board.
 pub type UsbDriver = Driver<'static, USB_OTG_FS>;
 
 /// Full-speed bulk packets, bytes.
 const PACKET: usize = 64;
+/// The longest one packet may wait for the host before its frame is dropped.
+const WRITE_WAIT: Duration = Duration::from_millis(500);
 
 /// The host went away (or the endpoint was disabled): a normal end of a session.
 struct Disconnected;
@@ -49,7 +58,7 @@ pub async fn usb_task(parts: UsbParts) {
     let mut usb_config = embassy_usb::Config::new(0x1209, 0x0001);
     usb_config.manufacturer = Some("octavar");
     usb_config.product = Some("octavar gyro characteriser");
-    usb_config.serial_number = Some(env!("CARGO_PKG_VERSION"));
+    usb_config.serial_number = Some(crate::board::serial_number());
 
     let mut builder = Builder::new(
         driver,
@@ -61,15 +70,21 @@ pub async fn usb_task(parts: UsbParts) {
     );
     let class = CdcAcmClass::new(&mut builder, STATE.init(State::new()), PACKET as u16);
     let mut device = builder.build();
-    let (mut tx, mut rx) = class.split();
+    let (mut tx, mut rx, control) = class.split_with_control();
 
     let send = async {
         loop {
             tx.wait_connection().await;
-            defmt::info!("usb: connected");
+            while !control.dtr() {
+                control.control_changed().await;
+            }
+            defmt::info!("usb: host connected");
+            frames::flush_stale();
             frames::send(&hello());
-            let _ = pump(&mut tx).await;
-            defmt::info!("usb: disconnected");
+            LINK_UP.store(true, Ordering::Relaxed);
+            let _ = select(pump(&mut tx), dtr_dropped(&control)).await;
+            LINK_UP.store(false, Ordering::Relaxed);
+            defmt::info!("usb: host gone");
         }
     };
     let receive = async {
@@ -81,42 +96,42 @@ pub async fn usb_task(parts: UsbParts) {
     join3(device.run(), send, receive).await;
 }
 
-/// Send queued frames in full-speed packets; a frame that is a multiple of 64 bytes ends with a zero-length
-/// packet so the host's read completes.
-async fn pump(tx: &mut Sender<'static, UsbDriver>) -> Result<(), Disconnected> {
-    loop {
-        let frame = FRAMES_OUT.receive().await;
-        for chunk in frame.chunks(PACKET) {
-            tx.write_packet(chunk).await?;
-        }
-        if frame.len() % PACKET == 0 {
-            tx.write_packet(&[]).await?;
-        }
+/// Wait until the host drops DTR (closes the port).
+async fn dtr_dropped(control: &ControlChanged<'static>) {
+    while control.dtr() {
+        control.control_changed().await;
     }
 }
 
-/// Decode commands and route them: field-log reads to the store task, the rest to characterize.
-async fn listen(rx: &mut Receiver<'static, UsbDriver>) -> Result<(), Disconnected> {
-    let mut decoder = Decoder::<Command>::new();
-    let mut buf = [0u8; PACKET];
+/// Send queued frames in full-speed packets; a frame that is a multiple of 64 bytes ends with a zero-length
+/// packet so the host's read completes. A packet the host does not take within [`WRITE_WAIT`] drops its frame.
+async fn pump(tx: &mut Sender<'static, UsbDriver>) -> Result<(), Disconnected> {
     loop {
-        let n = rx.read_packet(&mut buf).await?;
-        for received in decoder.feed(&buf[..n]) {
-            match received {
-                Ok(r) => route(r.msg),
-                Err(e) => defmt::warn!("usb: bad command frame: {}", defmt::Debug2Format(&e)),
+        let frame = FRAMES_OUT.receive().await;
+        let zlp = frame.len() % PACKET == 0;
+        let packets = frame.chunks(PACKET).chain(zlp.then_some(&[][..]));
+        for chunk in packets {
+            match with_timeout(WRITE_WAIT, tx.write_packet(chunk)).await {
+                Ok(r) => r?,
+                Err(_) => {
+                    frames::FRAMES_DROPPED.fetch_add(1, Ordering::Relaxed);
+                    break;
+                }
             }
         }
     }
 }
 
-/// Hand a command to the task that acts on it.
-pub fn route(cmd: Command) {
-    match cmd {
-        Command::ReadFieldLog { from_checkpoint } => LOG_READ.signal(from_checkpoint),
-        other => {
-            if COMMANDS.try_send(other).is_err() {
-                defmt::warn!("usb: command queue full, {} dropped", other);
+/// Decode commands and route them with their sequence numbers.
+async fn listen(rx: &mut Receiver<'static, UsbDriver>) -> Result<(), Disconnected> {
+    let mut decoder = Decoder::<octavar_shared::proto::Command>::new();
+    let mut buf = [0u8; PACKET];
+    loop {
+        let n = rx.read_packet(&mut buf).await?;
+        for received in decoder.feed(&buf[..n]) {
+            match received {
+                Ok(r) => crate::commands::route(r.seq, r.msg),
+                Err(e) => defmt::warn!("usb: bad command frame: {}", defmt::Debug2Format(&e)),
             }
         }
     }

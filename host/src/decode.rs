@@ -35,8 +35,8 @@ use std::path::{Path, PathBuf};
 
 use octavar_shared::acc::{Snapshot, LEVELS};
 use octavar_shared::proto::{
-    self, Ack, Decoder, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotError, SnapshotPart, Status,
-    LEVELS_PER_PART, PROTOCOL_VERSION,
+    self, Ack, Decoder, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotError, SnapshotPart,
+    Status, LEVELS_PER_PART, PROTOCOL_VERSION,
 };
 use serde::Serialize;
 

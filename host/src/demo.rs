@@ -218,8 +218,8 @@ fn accumulate_group(
 /// sample rate and the firmware's stride), then, round after round, each channel's snapshot parts, as the
 /// device core sends them. This is the capture the host would have recorded.
 pub fn snapshot_capture(snapshots: &[Vec<Snapshot>]) -> Vec<u8> {
-    use octavar_shared::proto::{Encoder, Frame, SnapshotPart};
     use octavar_shared::device::{ChannelSpec, DeviceConfig};
+    use octavar_shared::proto::{Encoder, Frame, SnapshotPart};
     const CHANNELS: [ChannelSpec<'static>; TABLE1.len()] = {
         let mut out = [ChannelSpec { kind: SensorKind::Generic, name: "" }; TABLE1.len()];
         let mut i = 0;

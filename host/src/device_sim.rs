@@ -27,8 +27,8 @@
 //! ```
 
 use octavar_shared::acc::Snapshot;
-use octavar_shared::device::{Characterizer, FrameSink};
 pub use octavar_shared::device::{ChannelSpec, DeviceConfig, STRIDE};
+use octavar_shared::device::{Characterizer, FrameSink};
 use octavar_shared::proto::{Command, Encoder, Frame};
 
 /// Gyro channels of the simulated device (the board's four).

@@ -386,6 +386,12 @@ pub struct Snapshot {
 }
 
 impl Snapshot {
+    /// An empty snapshot of an accumulator with stride `S` (a power of two in 1..=64, checked when it builds).
+    pub const fn empty_for<const S: usize>() -> Self {
+        assert!(S.is_power_of_two() && S <= MAX_STRIDE, "the stride is a power of two in 1..=64");
+        Self { stride: S as u8, samples: 0, levels: [LevelSum { n: 0, sum_sq: 0 }; LEVELS] }
+    }
+
     /// An empty snapshot for stride `stride`.
     ///
     /// # Errors

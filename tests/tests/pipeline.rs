@@ -8,11 +8,11 @@ use std::time::Duration;
 use octavar::capture::CaptureWriter;
 use octavar::decode::{CaptureReader, Record, StreamDecoder};
 use octavar::device_sim::{DeviceConfig, DeviceSim};
-use octavar_shared::sensor::temperature_code;
 use octavar::record::{record, ReaderSource, RecordOptions};
 use octavar::verify::{verify, verify_path};
 use octavar_shared::acc::{OctaveAllan, Snapshot};
 use octavar_shared::proto::Command;
+use octavar_shared::sensor::temperature_code;
 use octavar_shared::sensor::SensorKind;
 use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim, TemperatureProfile};
 

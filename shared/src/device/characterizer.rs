@@ -25,6 +25,9 @@ use crate::estimate::{estimate, EstimateConfig};
 use crate::proto::{Ack, ChannelEstimate, Command, Estimate, Frame, Samples, SnapshotPart, Status};
 use crate::sensor;
 
+/// Scans gathered per channel before they are pushed into its accumulator.
+const GATHER: usize = 64;
+
 /// Where the characterizer's frames go: the firmware's frame queue, or the host simulator's byte vector.
 ///
 /// Sending never blocks: a sink that cannot take a frame drops it and counts the drop.
@@ -70,9 +73,12 @@ pub struct Characterizer<'a, const G: usize> {
 impl<'a, const G: usize> Characterizer<'a, G> {
     /// A device just booted: empty accumulators, raw streaming of the channels in `raw_mask` (0: none).
     ///
+    /// A `const fn`, so the firmware can place its characterizer (19 KiB) in a static at build time rather than
+    /// build it on the stack.
+    ///
     /// # Panics
     /// If `cfg` is not [`DeviceConfig::is_valid`] or does not have `G` gyros (a build-time mistake).
-    pub fn new(cfg: DeviceConfig<'a>, raw_mask: u8) -> Self {
+    pub const fn new(cfg: DeviceConfig<'a>, raw_mask: u8) -> Self {
         assert!(cfg.is_valid() && cfg.gyros == G, "a device configuration with G gyros");
         let empty = DeviceConfig::empty_snapshot();
         Self {
@@ -147,11 +153,19 @@ impl<'a, const G: usize> Characterizer<'a, G> {
         sink.send(&Frame::Ack(Ack { seq }));
     }
 
+    /// Back to the state of [`Characterizer::new`] with raw streaming of `raw_mask`, in place.
+    pub fn restart(&mut self, raw_mask: u8) {
+        self.reset();
+        self.next_index = None;
+        self.losses = 0;
+        self.raw_mask = raw_mask & self.cfg.all_channels_mask();
+    }
+
     /// Start a new session (see the module docs); raw streaming and the loss count since boot carry on.
     pub fn reset(&mut self) {
         let empty = DeviceConfig::empty_snapshot();
         self.accs.iter_mut().for_each(OctaveAllan::reset);
-        self.base = [empty; G];
+        self.base.iter_mut().for_each(|b| *b = empty);
         self.samples = 0;
         self.origin = None;
         self.until_round = self.cfg.snapshot_every;
@@ -190,9 +204,16 @@ impl<'a, const G: usize> Characterizer<'a, G> {
         while at < scans {
             let n = (scans - at).min(self.until_round as usize);
             let chunk = &codes[at * width..(at + n) * width];
+            // Each gyro's codes gathered out of the interleaved scans, then pushed as a slice: the accumulator
+            // keeps its every-sample state in registers across a slice, not across single pushes.
+            let mut gathered = [0u16; GATHER];
             for (g, acc) in self.accs.iter_mut().enumerate() {
-                for scan in chunk.chunks_exact(width) {
-                    acc.push(scan[g]);
+                for part in chunk.chunks(GATHER * width) {
+                    let k = part.len() / width;
+                    for (code, scan) in gathered.iter_mut().zip(part.chunks_exact(width)) {
+                        *code = scan[g];
+                    }
+                    acc.push_slice(&gathered[..k]);
                 }
             }
             if let Some(t) = self.cfg.temp_channel {

@@ -117,7 +117,8 @@ impl<'a> DeviceConfig<'a> {
 
     /// The hello frame: versions, board, rates and the channel list.
     pub fn hello(&self) -> Frame {
-        let mut h = Hello::new(self.firmware, self.board, self.sample_rate_hz, self.adc_bits, self.vref_mv, STRIDE as u8);
+        let mut h =
+            Hello::new(self.firmware, self.board, self.sample_rate_hz, self.adc_bits, self.vref_mv, STRIDE as u8);
         for c in self.channels {
             let _ = h.channels.push(ChannelInfo::new(c.kind, c.name));
         }
@@ -125,8 +126,8 @@ impl<'a> DeviceConfig<'a> {
     }
 
     /// An empty snapshot of this device's accumulators.
-    pub fn empty_snapshot() -> Snapshot {
-        Snapshot::empty(STRIDE).expect("STRIDE is a power of two")
+    pub const fn empty_snapshot() -> Snapshot {
+        Snapshot::empty_for::<STRIDE>()
     }
 }
 

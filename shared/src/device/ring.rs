@@ -1,7 +1,8 @@
 //! The sample ring: which block of a hardware-indexed DMA ring can be taken, and exactly what was lost.
 //!
-//! The sampler's DMA writes scans in circular mode into a ring of `ring_scans` scans, scan `j` into slot
-//! `j mod ring_scans`, and a hardware counter counts the scans *started* (triggered) since boot. Scan `j` is
+//! The sampler's DMA writes scans in circular mode into a ring of `ring_scans` scans, and a hardware counter
+//! counts the scans *started* (triggered) since boot. The DMA was armed at slot 0 for scan `base` (0 at boot, the
+//! first scan after an overrun recovery later), so scan `j` lands in slot `(j - base) mod ring_scans`. Scan `j` is
 //! complete once scan `j + 1` has started (a scan converts in a fraction of the trigger period), and its slot is
 //! overwritten only after scan `j + ring_scans` has started. So from the counter alone the reader knows which
 //! blocks are ready, which were overwritten while the CPU was away (a flash erase stalls every fetch, interrupts
@@ -41,7 +42,9 @@ pub struct ReadyBlock {
 pub struct RingReader {
     ring_scans: u64,
     block_scans: u64,
-    /// Hardware index of the next scan to take (always a multiple of the block).
+    /// Hardware index of the scan the DMA wrote to slot 0 first.
+    base: u64,
+    /// Hardware index of the next scan to take (always `base` plus a multiple of the block).
     next: u64,
     /// Scans skipped since the last block handed out.
     skipped: u64,
@@ -56,7 +59,14 @@ impl RingReader {
     /// If the ring is not a whole number of blocks, at least two.
     pub const fn new(ring_scans: usize, block_scans: usize) -> Self {
         assert!(block_scans > 0 && ring_scans % block_scans == 0 && ring_scans >= 2 * block_scans);
-        RingReader { ring_scans: ring_scans as u64, block_scans: block_scans as u64, next: 0, skipped: 0, lost: 0 }
+        RingReader {
+            ring_scans: ring_scans as u64,
+            block_scans: block_scans as u64,
+            base: 0,
+            next: 0,
+            skipped: 0,
+            lost: 0,
+        }
     }
 
     /// Hardware index of the next scan the reader will take.
@@ -75,7 +85,7 @@ impl RingReader {
         // margin for the copy itself.
         if self.next + self.ring_scans < started + self.block_scans {
             let oldest = started + self.block_scans - self.ring_scans;
-            let to = oldest.div_ceil(self.block_scans) * self.block_scans;
+            let to = self.base + (oldest - self.base).div_ceil(self.block_scans) * self.block_scans;
             self.skipped += to - self.next;
             self.lost += to - self.next;
             self.next = to;
@@ -88,7 +98,7 @@ impl RingReader {
         // The block's last scan, `next + block - 1`, is complete once the scan after it has started.
         (started > self.next + self.block_scans).then(|| ReadyBlock {
             first_index: self.next,
-            slot: (self.next % self.ring_scans) as usize,
+            slot: ((self.next - self.base) % self.ring_scans) as usize,
             skipped: self.skipped,
         })
     }
@@ -107,13 +117,13 @@ impl RingReader {
         }
     }
 
-    /// The sampler restarted the ADC and the DMA at ring slot 0 (overrun recovery): its next scan is the one
-    /// with hardware index `first` (a multiple of the ring). Everything between is lost.
+    /// The sampler re-armed the DMA at ring slot 0 (overrun recovery), and the first scan it will write there
+    /// has hardware index `first`. Every scan not yet taken before it is lost.
     pub fn restart_at(&mut self, first: u64) {
-        debug_assert!(first % self.ring_scans == 0 && first >= self.next);
         let first = first.max(self.next);
         self.skipped += first - self.next;
         self.lost += first - self.next;
+        self.base = first;
         self.next = first;
     }
 }
@@ -212,9 +222,15 @@ mod tests {
         let mut r = RingReader::new(RING, BLOCK);
         r.poll(BLOCK as u64 + 1).unwrap();
         assert!(r.confirm(BLOCK as u64 + 1));
-        r.restart_at(3 * RING as u64);
-        assert_eq!(r.lost(), 3 * RING as u64 - BLOCK as u64);
-        let b = r.poll(3 * RING as u64 + BLOCK as u64 + 1).unwrap();
-        assert_eq!((b.first_index, b.slot, b.skipped), (3 * RING as u64, 0, r.lost()));
+        let first = 3 * RING as u64 + 5;
+        r.restart_at(first);
+        assert_eq!(r.lost(), first - BLOCK as u64);
+        let b = r.poll(first + BLOCK as u64 + 1).unwrap();
+        assert_eq!((b.first_index, b.slot, b.skipped), (first, 0, r.lost()));
+        assert!(r.confirm(first + BLOCK as u64 + 1));
+        // A later lap resumes on the new grid of blocks.
+        let b = r.poll(first + 10 * RING as u64).unwrap();
+        assert_eq!((b.first_index - first) % BLOCK as u64, 0);
+        assert_eq!(b.slot as u64, (b.first_index - first) % RING as u64);
     }
 }

@@ -84,7 +84,9 @@ mod tests;
 
 pub use command::Command;
 pub use decoder::{DecodeError, Decoder, DecoderStats, Feed, Received};
-pub use frame::{Ack, ChannelEstimate, ChannelInfo, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, Status};
+pub use frame::{
+    Ack, ChannelEstimate, ChannelInfo, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, Status,
+};
 pub use framing::{crc32, encode_frame, encode_to_vec, EncodeError, Encoder, FrameBuf};
 pub use size::{varint_max, MaxSize};
 pub use snapshot::{SnapshotError, SnapshotPart, SnapshotParts};

@@ -15,8 +15,8 @@
 use heapless::{String, Vec};
 
 use super::{
-    ChannelEstimate, ChannelInfo, Command, Ack, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotPart,
-    Status, MAX_BODY,
+    Ack, ChannelEstimate, ChannelInfo, Command, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples,
+    SnapshotPart, Status, MAX_BODY,
 };
 use crate::acc::LevelSum;
 use crate::sensor::SensorKind;
