@@ -26,6 +26,7 @@ use crate::board::{SamplerParts, TIM3_HZ};
 use crate::board_config::BOARD;
 use crate::config::*;
 use crate::sampler::ScanRing;
+use octavar_shared::device::ReadyBlock;
 
 /// The ADC's regular-group trigger selection for TIM3's TRGO (RM0090 section 13.13.3, EXTSEL = 1000).
 const EXTSEL_TIM3_TRGO: u8 = 0b1000;
@@ -210,7 +211,8 @@ impl ScanRing for HwRing {
         self.extend(low)
     }
 
-    fn copy_block(&self, slot: usize, out: &mut [u16; BLOCK_CODES]) {
+    fn copy_block(&mut self, block: &ReadyBlock, out: &mut [u16; BLOCK_CODES]) {
+        let slot = block.slot;
         let base = RING.0.get() as *const u16;
         for (i, code) in out.iter_mut().enumerate() {
             // SAFETY: slot + BLOCK_SCANS <= RING_SCANS (blocks tile the ring), so the index is in bounds; the

@@ -4,9 +4,9 @@
 //! embassy-stm32's `init` cannot run there (QEMU does not emulate RCC and PWR), and QEMU's ADC is a ramp with no
 //! DMA, so this module provides:
 //! - a virtual converter: `shared::sim`'s virtual bench (the paper's four gyros plus the ADXRS300 temperature
-//!   output) written into the same sample ring the board's DMA fills, scan `j` into its slot, with a trigger
-//!   count that follows the free-running time base (`timebase.rs`, QEMU's TIM2) at 2 kS/s. The sampler task
-//!   (`sampler.rs`) is the board's: it reads this ring by the count, exactly as it reads the DMA's;
+//!   output) behind a trigger count that follows the free-running time base (`timebase.rs`, QEMU's TIM2) at
+//!   2 kS/s. The sampler task (`sampler.rs`) is the board's: it decides by the count, exactly as on the board,
+//!   which blocks of the 1.024 s ring it can take and which a stall has cost;
 //! - the link: frames written to USART1's data register, commands read from its receiver through the same
 //!   command decoder and router as USB's (QEMU connects USART1 to `-serial`);
 //! - stalls: with `OCTAVAR_QEMU_STALL_EVERY=S` and `OCTAVAR_QEMU_STALL_MS=M`, the CPU stops for M ms every S
@@ -18,12 +18,11 @@
 //! Raw streaming of every channel is on from the start, so a host can replay every code and check every
 //! snapshot. The application (sampler, characterize, store, frames, commands) is the same code as on the board.
 
-use core::cell::UnsafeCell;
 use core::sync::atomic::Ordering;
 
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_time::{Duration, Timer};
-use octavar_shared::device::{Characterizer, FrameSink};
+use octavar_shared::device::{Characterizer, FrameSink, ReadyBlock};
 use octavar_shared::fieldlog::{LogFlash, RamFlash, RamFlashError};
 use octavar_shared::proto::{encode_to_vec, Command, Decoder, Frame};
 use octavar_shared::sensor::temperature_code;
@@ -238,17 +237,16 @@ fn bench_model() -> BenchSim {
     BenchSim { fs_hz: f64::from(SAMPLE_RATE_HZ), seed: SEED, temperature: Default::default(), channels }
 }
 
-/// The ring the virtual converter writes, as the board's DMA writes its own.
-struct VirtualRing(UnsafeCell<[u16; RING_CODES]>);
-// SAFETY: only the sampler task touches it (the virtual converter writes from `started`, the copy reads).
-unsafe impl Sync for VirtualRing {}
-static RING: VirtualRing = VirtualRing(UnsafeCell::new([0; RING_CODES]));
-
-/// The virtual converter: the simulated bench, its scans written into the ring by trigger count.
+/// The virtual converter: the simulated bench behind a trigger count that follows the time base.
+///
+/// The board's DMA writes every scan into the ring as it is converted, at no cost to the CPU. Here a scan's
+/// codes are simulated when the sampler copies its block: the same codes (the bench is one deterministic
+/// sequence), without spending the CPU time of scans that the ring has already lost. Those are not simulated
+/// at all: nobody can see them, and the bench's noise simply goes on from where it was.
 pub struct VirtualAdc {
     bench: Bench,
-    /// Scans generated so far (each is written to its slot, or skipped if the ring has lapped it).
-    generated: u64,
+    /// Hardware index of the scan the bench simulates next.
+    next: u64,
     /// The time base at the first trigger.
     t0_us: u64,
 }
@@ -259,7 +257,7 @@ impl VirtualAdc {
             Ok(b) => b,
             Err(e) => panic!("sim: {:?}", e),
         };
-        VirtualAdc { bench, generated: 0, t0_us: timebase::now_us() }
+        VirtualAdc { bench, next: 0, t0_us: timebase::now_us() }
     }
 }
 
@@ -267,33 +265,17 @@ impl ScanRing for VirtualAdc {
     fn started(&mut self) -> u64 {
         let elapsed = timebase::now_us() - self.t0_us;
         // The run stops triggering after its last scan (plus the one that completes it).
-        let started = (elapsed * u64::from(SAMPLE_RATE_HZ) / 1_000_000).min(RUN_SCANS + 1);
-        // The converter ran on while the CPU did other things (or stood still): produce those scans now, in
-        // order, into their slots; the ones the ring has already lapped are generated and lost.
-        let ring = RING.0.get() as *mut u16;
-        while self.generated < started {
-            let s = self.bench.next_sample();
-            let j = self.generated;
-            if j + RING_SCANS as u64 >= started {
-                let slot = (j % RING_SCANS as u64) as usize * CHANNELS;
-                let codes = s.codes();
-                for g in 0..GYROS {
-                    // SAFETY: slot + CHANNELS <= RING_CODES; only this task writes the ring.
-                    unsafe { ring.add(slot + g).write_volatile(codes[g]) };
-                }
-                unsafe { ring.add(slot + GYROS).write_volatile(temperature_code(s.temp_c)) };
-            }
-            self.generated += 1;
-        }
-        started
+        (elapsed * u64::from(SAMPLE_RATE_HZ) / 1_000_000).min(RUN_SCANS + 1)
     }
 
-    fn copy_block(&self, slot: usize, out: &mut [u16; BLOCK_CODES]) {
-        let base = RING.0.get() as *const u16;
-        for (i, code) in out.iter_mut().enumerate() {
-            // SAFETY: blocks tile the ring, so the index is in bounds.
-            *code = unsafe { base.add(slot * CHANNELS + i).read_volatile() };
+    fn copy_block(&mut self, block: &ReadyBlock, out: &mut [u16; BLOCK_CODES]) {
+        self.next = self.next.max(block.first_index);
+        for scan in out.chunks_exact_mut(CHANNELS) {
+            let s = self.bench.next_sample();
+            scan[..GYROS].copy_from_slice(&s.codes()[..GYROS]);
+            scan[GYROS] = temperature_code(s.temp_c);
         }
+        self.next += BLOCK_SCANS as u64;
     }
 
     fn check(&mut self) -> Option<u64> {

@@ -11,7 +11,7 @@
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_time::Ticker;
-use octavar_shared::device::RingReader;
+use octavar_shared::device::{ReadyBlock, RingReader};
 
 use crate::characterize::BlockSender;
 use crate::config::*;
@@ -26,8 +26,8 @@ pub static SCANS_LOST: AtomicU32 = AtomicU32::new(0);
 pub trait ScanRing {
     /// Scans started since boot: the hardware trigger count, extended to 64 bits.
     fn started(&mut self) -> u64;
-    /// Copy [`BLOCK_SCANS`] scans from ring slot `slot` on (contiguous) into `out`.
-    fn copy_block(&self, slot: usize, out: &mut [u16; BLOCK_CODES]);
+    /// Copy the block's [`BLOCK_SCANS`] scans (from ring slot `block.slot` on, contiguous) into `out`.
+    fn copy_block(&mut self, block: &ReadyBlock, out: &mut [u16; BLOCK_CODES]);
     /// Check the converter and recover it if it failed: `Some(first)` when the DMA was re-armed at slot 0 and
     /// its first scan there will be the one with hardware index `first`.
     fn check(&mut self) -> Option<u64>;
@@ -46,7 +46,7 @@ pub async fn run<R: ScanRing>(ring: &mut R, mut blocks: BlockSender) -> ! {
         while let Some(ready) = reader.poll(ring.started()) {
             // Characterize is behind: the scans wait in the ring.
             let Some(block) = blocks.try_send() else { break };
-            ring.copy_block(ready.slot, &mut block.codes);
+            ring.copy_block(&ready, &mut block.codes);
             if !reader.confirm(ring.started()) {
                 defmt::warn!("sampler: the DMA overtook the copy of scan {}", ready.first_index);
                 continue;

@@ -259,8 +259,25 @@ pub struct VerifyReport {
     pub mismatch_count: u64,
     /// Per channel.
     pub channels: Vec<ChannelVerify>,
+    /// Samples the device lost, as jumps in the raw index that it pooled across (each confirmed or still to be
+    /// confirmed by the next snapshot), in the order they came.
+    pub device_gaps: Vec<DeviceGap>,
+    /// Samples lost in all those gaps.
+    pub device_samples_lost: u64,
+    /// What the device's last status frame said it lost this session (`samples_lost`), to set beside
+    /// [`VerifyReport::device_samples_lost`].
+    pub status_samples_lost: Option<u64>,
     /// What the decoder counted.
     pub decode: DecodeStats,
+}
+
+/// A device-side gap: the raw samples jump, no frame was lost, and the device pooled its accumulators there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct DeviceGap {
+    /// The raw index (since the session began) of the first sample lost.
+    pub at_sample: u64,
+    /// Samples lost.
+    pub lost: u64,
 }
 
 impl VerifyReport {
@@ -419,6 +436,7 @@ impl Verifier {
                 self.names = h.channels.iter().map(|c| c.name.to_string()).collect();
             }
             Record::Samples(s) => self.samples(&s),
+            Record::Status(s) => self.report.status_samples_lost = Some(s.samples_lost),
             Record::Snapshot(c) => self.snapshot(d.meta, c.channel, c.snapshot),
             _ => {}
         }
@@ -458,6 +476,10 @@ impl Verifier {
                         }
                     } else if r.accepting() {
                         r.pools.push_back(Pool { at, raw_at: e, missing: first - e });
+                        if slot == 0 {
+                            self.report.device_gaps.push(DeviceGap { at_sample: e, lost: first - e });
+                            self.report.device_samples_lost += first - e;
+                        }
                     }
                 }
                 Some(e) => {
@@ -666,6 +688,9 @@ mod tests {
         let r = check(&out);
         assert_eq!((r.checked, r.matched, r.unchecked), (12, 12, 0), "{r:#?}");
         assert!(r.passed());
+        // The gap is reported where the device lost the samples, and the device's own count agrees.
+        assert_eq!(r.device_gaps, [DeviceGap { at_sample: 3000, lost: 77 }]);
+        assert_eq!((r.device_samples_lost, r.status_samples_lost), (77, Some(77)));
     }
 
     #[test]

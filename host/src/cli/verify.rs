@@ -72,6 +72,18 @@ fn print_report(out: &mut dyn Write, r: &VerifyReport) -> std::io::Result<()> {
             c.unchecked
         )?;
     }
+    if !r.device_gaps.is_empty() || r.status_samples_lost.is_some_and(|n| n > 0) {
+        writeln!(
+            out,
+            "device gaps: {} ({} samples lost{}), pooled across as the device does",
+            r.device_gaps.len(),
+            r.device_samples_lost,
+            r.status_samples_lost.map_or(String::new(), |n| format!("; its last status says {n} this session"))
+        )?;
+        for g in r.device_gaps.iter().take(20) {
+            writeln!(out, "  {} samples lost at raw sample {}", g.lost, g.at_sample)?;
+        }
+    }
     for g in &r.unchecked_why {
         writeln!(
             out,
