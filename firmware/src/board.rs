@@ -60,9 +60,10 @@ const _: () = assert!(APB1_HZ <= 42_000_000 && APB2_HZ <= 84_000_000);
 // TIM3 divides exactly down to the sample rate: 84 MHz / 2 kHz = 42 000 counts, in 16 bits.
 const _: () =
     assert!(TIM3_HZ.is_multiple_of(crate::config::SAMPLE_RATE_HZ) && TIM3_HZ / crate::config::SAMPLE_RATE_HZ <= 65_536);
-// The field log's sectors are the ones memory.x reserves.
-const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[0].address == 0x080C_0000);
-const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[1].address == 0x080E_0000);
+// The field log's sectors are the ones memory.x reserves (sectors 1 and 2, before the program's `_stext`).
+const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[0].address == 0x0800_4000);
+const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[1].address == 0x0800_8000);
+const _: () = assert!(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[1].bytes == 16 * 1024);
 
 /// What the sampler owns: ADC1, its DMA stream, the trigger timer and the trigger counter (`adc.rs`). `adc.rs`
 /// drives them through the PAC; holding them here keeps every other driver off them.

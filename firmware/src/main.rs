@@ -12,7 +12,7 @@
 //!                 v                                                          v
 //!            usb_task ──COMMANDS (seq, Command)──────────────────────> characterize_task
 //!          (CDC-ACM)  ──LOG_READ (seq, from)──> store_task <──SNAPSHOT_READY (Signal<Round>)──┘
-//!                                              (field log in flash sectors 10 + 11)
+//!                                              (field log in flash sectors 1 + 2)
 //!  watchdog_task: feeds the IWDG while characterize takes blocks
 //! ```
 //!

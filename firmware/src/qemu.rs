@@ -89,7 +89,7 @@ mod usart1 {
 pub struct Parts {
     /// SysTick, for the time driver.
     pub syst: cortex_m::peripheral::SYST,
-    /// The RAM flash standing in for sectors 10 and 11.
+    /// The RAM flash standing in for sectors 1 and 2.
     pub flash: QemuFlash,
 }
 

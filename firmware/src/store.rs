@@ -7,12 +7,13 @@
 //! (`Checkpoint::merge_session`), so the log always covers the whole deployment, and a power cut or a reset loses
 //! at most the samples since the last checkpoint. Here: the flash driver behind its `LogFlash` trait.
 //!
-//! On the board the log lives in flash sectors 10 and 11 (0x080C_0000 and 0x080E_0000, 128 KiB each), which the
-//! root `memory.x` keeps out of the program's FLASH region. The STM32F405 has one flash bank: while a sector is
-//! erased (about 1 s, at most 2 s; DS8626 table 44) the CPU cannot fetch from flash, interrupts included. The
-//! ADC, its DMA and the trigger counter run on: the sample ring holds 1.024 s, and whatever an erase costs beyond
-//! it is an exact gap in the hardware sample index, pooled across (`sampler.rs`). Sectors are erased only when
-//! one is full (every 32 checkpoints: about five hours).
+//! On the board the log lives in flash sectors 1 and 2 (0x0800_4000 and 0x0800_8000, 16 KiB each), between the
+//! vector table in sector 0 and the program, which the root `memory.x` starts at sector 4. The STM32F405 has one
+//! flash bank: while a sector is erased the CPU cannot fetch from flash, interrupts included, but the ADC, its
+//! DMA and the trigger counter run on. A 16 KiB sector erases in at most 0.5 s (DS8626 table 44) and the sample
+//! ring holds 1.024 s, so an erase loses no sample; should one ever take longer, the loss is an exact gap in the
+//! hardware sample index, pooled across (`sampler.rs`). A sector holds five checkpoints, so an erase comes every
+//! five checkpoints (50 minutes).
 //!
 //! A read-out never blocks the log: each frame waits at most [`READ_OUT_FRAME_WAIT`] for room, and only while a
 //! host listens; a host that goes away mid read-out ends it, and checkpoints go on.
@@ -148,7 +149,7 @@ fn log_frame<F: LogFlash>(
     None
 }
 
-/// The field log's flash on the board: sectors 10 and 11 through embassy-stm32's blocking flash driver.
+/// The field log's flash on the board: sectors 1 and 2 through embassy-stm32's blocking flash driver.
 #[cfg(not(feature = "qemu"))]
 pub struct BoardFlash {
     flash: embassy_stm32::flash::Flash<'static, embassy_stm32::flash::Blocking>,

@@ -117,7 +117,13 @@ impl Source for SerialSource {
     }
 
     fn connect(&mut self) -> io::Result<SerialLink> {
-        let port = serialport::new(&self.path, self.baud).timeout(self.timeout).open().map_err(io::Error::from)?;
+        // DTR on: the firmware sends frames only while the host holds DTR (Linux sets it on open; other systems
+        // are told).
+        let port = serialport::new(&self.path, self.baud)
+            .timeout(self.timeout)
+            .dtr_on_open(true)
+            .open()
+            .map_err(io::Error::from)?;
         Ok(SerialLink(port))
     }
 

@@ -4,7 +4,7 @@
 //! [`Checkpoint`] (the snapshots of every gyro channel) at most every ten minutes; after a power cycle the host
 //! asks for it and gets the last one that was completely written. This module is the part of that which can be
 //! tested on the host: the record format, the recovery scan and the write order. The flash itself is behind the
-//! [`LogFlash`] trait: the firmware implements it with embassy-stm32's flash driver on sectors 10 and 11 of the
+//! [`LogFlash`] trait: the firmware implements it with embassy-stm32's flash driver on sectors 1 and 2 of the
 //! STM32F405 (see [`STM32F405_LOG_SECTORS`] and the root `memory.x`), the tests with [`RamFlash`], a NOR flash
 //! model that can lose power at any word write or erase.
 //!
@@ -30,7 +30,7 @@
 //! the other sector (which holds only older records) is erased and written from slot 0. So the newest complete
 //! record is never erased or overwritten: a cut during an append recovers the checkpoint being written (if its
 //! commit word made it) or the one before; a cut during the erase recovers the one before. Erases are rare (one
-//! per sector-full of records: with 128 KiB sectors and 4 gyro channels, every 32 checkpoints).
+//! per sector-full of records: with the STM32F405's 16 KiB sectors and 4 gyro channels, every 5 checkpoints).
 //!
 //! # Examples
 //! ```
@@ -57,12 +57,14 @@ pub const OVERHEAD_WORDS: usize = 5;
 /// The erased state of a flash word.
 pub const ERASED: u32 = 0xFFFF_FFFF;
 
-/// Where the field log lives on the STM32F405RG: sectors 10 and 11, 128 KiB each (RM0090 section 3.3, table 5).
-/// The root `memory.x` ends the program's FLASH region before the first of them and exports the same numbers as
-/// the linker symbols `__fieldlog_start` / `__fieldlog_end`; the firmware checks they agree.
+/// Where the field log lives on the STM32F405RG: sectors 1 and 2, 16 KiB each (RM0090 section 3.3, table 5). Small
+/// sectors, because erasing one stalls the single-bank flash, and the CPU with it, for at most 0.5 s (a 128 KiB
+/// sector: 2 s), which the firmware's 1.024 s sample ring outlives.
+/// The root `memory.x` starts the program after them (`_stext` at sector 4) and exports the same numbers as the
+/// linker symbols `__fieldlog_start` / `__fieldlog_end`; the firmware checks they agree.
 pub const STM32F405_LOG_SECTORS: [LogSector; 2] = [
-    LogSector { index: 10, address: 0x080C_0000, bytes: 128 * 1024 },
-    LogSector { index: 11, address: 0x080E_0000, bytes: 128 * 1024 },
+    LogSector { index: 1, address: 0x0800_4000, bytes: 16 * 1024 },
+    LogSector { index: 2, address: 0x0800_8000, bytes: 16 * 1024 },
 ];
 
 /// One flash sector of the log, as the MCU numbers it.
@@ -761,7 +763,8 @@ mod tests {
     fn four_gyro_checkpoints_fit_the_f405_sectors() {
         let slot_bytes = (Checkpoint::<4>::WORDS + OVERHEAD_WORDS) * 4;
         let per_sector = STM32F405_LOG_SECTORS[0].bytes as usize / slot_bytes;
-        assert!(per_sector >= 32, "{per_sector} checkpoints per 128 KiB sector");
+        // A sector holds several checkpoints, so an erase (and its stall) comes once per few checkpoints.
+        assert!(per_sector >= 4, "{per_sector} checkpoints per 16 KiB sector");
         assert_eq!(STM32F405_LOG_SECTORS[0].address + STM32F405_LOG_SECTORS[0].bytes, STM32F405_LOG_SECTORS[1].address);
     }
 }
