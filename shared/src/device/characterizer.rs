@@ -275,3 +275,103 @@ impl<'a, const G: usize> Characterizer<'a, G> {
         sink.round(&snapshots, self.losses, self.samples);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proto::{Frame, Status};
+    use std::vec::Vec;
+
+    /// A sink that keeps the frames.
+    #[derive(Default)]
+    struct Kept(Vec<Frame>);
+
+    impl FrameSink for Kept {
+        fn send(&mut self, frame: &Frame) {
+            self.0.push(frame.clone());
+        }
+        fn frames_dropped(&self) -> u32 {
+            0
+        }
+    }
+
+    fn scan(i: u64) -> [u16; 5] {
+        let x = (i.wrapping_mul(2_654_435_761) >> 7) as u16;
+        [2000 + x % 97, 2000 + x % 13, 1900 + x % 31, 2048 + x % 5, 1950]
+    }
+
+    fn block(first: u64, scans: u64) -> Vec<u16> {
+        (first..first + scans).flat_map(scan).collect()
+    }
+
+    fn statuses(k: &Kept) -> Vec<Status> {
+        k.0.iter().filter_map(|f| if let Frame::Status(s) = f { Some(s.clone()) } else { None }).collect()
+    }
+
+    #[test]
+    fn interleaved_blocks_accumulate_as_one_push_per_sample() {
+        // Blocks of odd sizes, gathered per gyro and pushed as slices, against an independent per-sample push.
+        let mut core = Characterizer::<4>::new(DeviceConfig::F405, 0);
+        let mut refs = [const { OctaveAllan::<STRIDE>::new() }; 4];
+        let mut sink = Kept::default();
+        let mut at = 0;
+        for len in [1u64, 63, 64, 65, 128, 200, 3, 4000] {
+            core.feed(at, &block(at, len), &mut sink);
+            for i in at..at + len {
+                for (g, r) in refs.iter_mut().enumerate() {
+                    r.push(scan(i)[g]);
+                }
+            }
+            at += len;
+        }
+        for (g, r) in refs.iter().enumerate() {
+            assert_eq!(core.snapshot(g), r.snapshot(), "gyro {g}");
+        }
+        // A round every 2000 scans, the uptime from the hardware index.
+        let s = statuses(&sink);
+        assert_eq!(s.len() as u64, at / 2000);
+        assert_eq!((s[0].uptime_ms, s[0].samples_per_channel, s[0].samples_lost), (1000, 2000, 0));
+    }
+
+    #[test]
+    fn a_jump_in_the_index_is_a_pooled_gap_of_exactly_that_size() {
+        let mut core = Characterizer::<4>::new(DeviceConfig::F405, 0);
+        let mut sink = Kept::default();
+        core.feed(0, &block(0, 1500), &mut sink);
+        core.feed(1500 + 777, &block(1500 + 777, 1000), &mut sink);
+        assert_eq!((core.samples(), core.samples_lost(), core.losses()), (2500, 777, 1));
+        // The pooled snapshot: the two parts merged, no difference across the gap.
+        let mut a = OctaveAllan::<STRIDE>::new();
+        let mut b = OctaveAllan::<STRIDE>::new();
+        (0..1500).for_each(|i| a.push(scan(i)[2]));
+        (2277..3277).for_each(|i| b.push(scan(i)[2]));
+        let mut want = a.snapshot();
+        want.merge(&b.snapshot()).unwrap();
+        assert_eq!(core.snapshot(2), want);
+        let s = statuses(&sink);
+        assert_eq!((s[0].samples_lost, s[0].adc_overruns, s[0].uptime_ms), (777, 1, (2000 + 777) / 2));
+    }
+
+    #[test]
+    fn commands_take_effect_and_are_acknowledged_with_their_number() {
+        let mut core = Characterizer::<4>::new(DeviceConfig::F405, 0);
+        let mut sink = Kept::default();
+        core.feed(0, &block(0, 640), &mut sink);
+        core.command(41, Command::StartRaw { channel_mask: 0xff }, &mut sink);
+        assert_eq!(core.raw_mask(), 0x1f, "the mask is cut to the channels there are");
+        assert_eq!(sink.0.last(), Some(&Frame::Ack(Ack { seq: 41 })));
+        core.command(42, Command::Reset, &mut sink);
+        assert_eq!(sink.0.last(), Some(&Frame::Ack(Ack { seq: 42 })));
+        // After the reset, scans lost before the session's first block are not the session's gap, and the raw
+        // index starts at 0 again.
+        core.feed(1000, &block(1000, 64), &mut sink);
+        assert_eq!((core.samples(), core.samples_lost(), core.losses()), (64, 0, 1));
+        let raw: Vec<u64> =
+            sink.0.iter().filter_map(|f| if let Frame::Samples(s) = f { Some(s.first_sample) } else { None }).collect();
+        assert_eq!(raw, [0, 32]);
+        // A field-log read is the store's: no ack from here.
+        let n = sink.0.len();
+        core.command(43, Command::ReadFieldLog { from_checkpoint: 0 }, &mut sink);
+        assert_eq!(sink.0.len(), n);
+    }
+}
