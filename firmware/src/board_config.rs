@@ -55,7 +55,6 @@ const fn eq(a: &str, b: &str) -> bool {
     true
 }
 
-const _: () = assert!(BOARD.adc_pins.len() == crate::config::CHANNELS);
 const _: () = {
     let mut i = 0;
     while i < BOARD.adc_pins.len() {

@@ -41,6 +41,7 @@ pub const CHECKPOINT_EVERY_SCANS: u64 = 10 * 60 * SAMPLE_RATE_HZ as u64;
 pub const CHECKPOINT_EVERY_SCANS: u64 = 2 * SAMPLE_RATE_HZ as u64;
 
 const _: () = assert!(DEVICE.is_valid() && DEVICE.gyros == GYROS);
+const _: () = assert!(crate::board_config::BOARD.adc_pins.len() == CHANNELS, "one ADC pin per channel");
 const _: () = assert!(RING_CODES <= u16::MAX as usize, "the DMA counts at most 65535 transfers");
 // The sampler looks at the ring many times per lap.
 const _: () = assert!(SAMPLER_POLL.as_micros() * 16 < RING_SCANS as u64 * 1_000_000 / SAMPLE_RATE_HZ as u64);
