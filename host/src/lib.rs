@@ -11,6 +11,7 @@
 pub mod accumulate;
 pub mod analyze;
 pub mod capture;
+pub mod csv_rows;
 pub mod decode;
 pub mod demo;
 pub mod device_sim;

@@ -1,6 +1,7 @@
 //! The recording flags `analyze` and `gap` share: the sample rate or a time column, the unit, skipped rows and
 //! row filters, and the CSV options they make.
 
+use octavar::csv_rows::Delimiter;
 use octavar::recording::{CsvOptions, RateUnit, RowFilter};
 
 /// How to read a rate recording.
@@ -21,6 +22,15 @@ pub struct CsvArgs {
     /// Keep only rows where COLUMN equals VALUE (repeatable), e.g. --where period=1.
     #[arg(long = "where", value_name = "COLUMN=VALUE")]
     pub filters: Vec<String>,
+    /// The cell delimiter: `,` `;` `tab` `whitespace` `|` (default: detected from the header line).
+    #[arg(long, value_name = "DELIM")]
+    pub delimiter: Option<String>,
+    /// Numbers are written with a decimal comma (`1,25`); detected where the delimiter is not a comma.
+    #[arg(long)]
+    pub decimal_comma: bool,
+    /// Accept rows with more or fewer fields than the header (otherwise such a row is an error).
+    #[arg(long)]
+    pub flexible: bool,
 }
 
 impl CsvArgs {
@@ -45,6 +55,9 @@ impl CsvArgs {
             unit: self.rate_unit()?,
             skip_rows: self.skip_rows,
             filters: filters.iter().map(|f| RowFilter::parse(f)).collect::<Result<Vec<_>, _>>()?,
+            delimiter: self.delimiter.as_deref().map(Delimiter::parse).transpose().map_err(anyhow::Error::msg)?,
+            decimal_comma: self.decimal_comma.then_some(true),
+            flexible: self.flexible,
         })
     }
 }

@@ -1,0 +1,246 @@
+//! CSV rows without silent misreads: the dialect (delimiter, decimal comma) detected from the file or given, a
+//! byte-order mark and CRLF line ends accepted, each line split into its cells, and numbers parsed with
+//! `fast-float2` (a decimal comma read as a point where the dialect has one).
+//!
+//! The reader in [`crate::recording`] hands whole blocks of lines to [`split`] and [`parse_number`] on every core;
+//! this module only knows one line at a time. Quoted cells (`"a,b"`, with `""` for a quote) are understood; a
+//! quoted cell that runs over a line end is not (a numeric recording has none), and is reported as an error.
+
+use std::fmt;
+
+/// What separates the cells of a line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Delimiter {
+    /// One byte: `,` `;` or a tab.
+    Byte(u8),
+    /// Any run of spaces and tabs (and none at the ends), as in many loggers' text exports.
+    Whitespace,
+}
+
+impl Delimiter {
+    /// Parse a `--delimiter` value: `,` `;` `tab` (or a tab character, or `\t`), `whitespace` (or `space`).
+    ///
+    /// # Errors
+    /// A message listing the accepted values.
+    pub fn parse(text: &str) -> Result<Delimiter, String> {
+        match text {
+            "," | "comma" => Ok(Delimiter::Byte(b',')),
+            ";" | "semicolon" => Ok(Delimiter::Byte(b';')),
+            "\t" | "\\t" | "tab" => Ok(Delimiter::Byte(b'\t')),
+            " " | "space" | "whitespace" => Ok(Delimiter::Whitespace),
+            "|" | "pipe" => Ok(Delimiter::Byte(b'|')),
+            other => Err(format!("delimiter {other:?} is not one of , ; tab whitespace |")),
+        }
+    }
+}
+
+impl fmt::Display for Delimiter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Delimiter::Byte(b'\t') => f.write_str("tab"),
+            Delimiter::Byte(b) => write!(f, "'{}'", char::from(*b)),
+            Delimiter::Whitespace => f.write_str("whitespace"),
+        }
+    }
+}
+
+/// How a file writes its rows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Dialect {
+    /// Between cells.
+    pub delimiter: Delimiter,
+    /// Numbers are written `1,25` rather than `1.25`.
+    pub decimal_comma: bool,
+}
+
+impl Dialect {
+    /// The delimiter of a header line: the most frequent of `,` `;` tab (counting only outside quotes), else
+    /// whitespace if the line has several words, else `,` (a one-column file).
+    pub fn detect_delimiter(header: &str) -> Delimiter {
+        let mut counts = [(b',', 0usize), (b';', 0), (b'\t', 0)];
+        let mut quoted = false;
+        for b in header.bytes() {
+            if b == b'"' {
+                quoted = !quoted;
+            } else if !quoted {
+                for (d, n) in counts.iter_mut() {
+                    if b == *d {
+                        *n += 1;
+                    }
+                }
+            }
+        }
+        // Ties go to the earlier of , ; tab.
+        let (best, n) = counts.iter().fold((b',', 0), |acc, &(d, n)| if n > acc.1 { (d, n) } else { acc });
+        if n > 0 {
+            Delimiter::Byte(best)
+        } else if header.split_whitespace().nth(1).is_some() {
+            Delimiter::Whitespace
+        } else {
+            Delimiter::Byte(b',')
+        }
+    }
+
+    /// Whether data rows written with `delimiter` use a decimal comma: the delimiter is not a comma, and every
+    /// non-empty cell of the first rows that holds a comma holds exactly one and reads as a number with it taken
+    /// for a point, with at least one such cell.
+    pub fn detect_decimal_comma(delimiter: Delimiter, rows: &[&str]) -> bool {
+        if delimiter == Delimiter::Byte(b',') {
+            return false;
+        }
+        let mut cells = Vec::new();
+        let mut seen = 0;
+        for row in rows {
+            if split(row, delimiter, &mut cells).is_err() {
+                return false;
+            }
+            for cell in &cells {
+                match cell.bytes().filter(|&b| b == b',').count() {
+                    0 => {}
+                    1 if parse_number(cell, true).is_some() => seen += 1,
+                    _ => return false,
+                }
+            }
+        }
+        seen > 0
+    }
+}
+
+/// Why a line could not be split.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplitError {
+    /// A quote opened and not closed on this line.
+    UnclosedQuote,
+}
+
+impl fmt::Display for SplitError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SplitError::UnclosedQuote => f.write_str("a quoted cell is not closed on its line"),
+        }
+    }
+}
+
+/// Split `line` (no line end) into its cells, trimmed of spaces; quotes around a cell are removed (a cell with an
+/// escaped `""` keeps one `"` per pair, as far as a numeric reader cares: it is then not a number).
+///
+/// # Errors
+/// [`SplitError::UnclosedQuote`].
+pub fn split<'a>(line: &'a str, delimiter: Delimiter, out: &mut Vec<&'a str>) -> Result<(), SplitError> {
+    out.clear();
+    match delimiter {
+        Delimiter::Whitespace => out.extend(line.split_ascii_whitespace()),
+        Delimiter::Byte(d) if !line.as_bytes().contains(&b'"') => {
+            out.extend(line.split(char::from(d)).map(str::trim));
+        }
+        Delimiter::Byte(d) => {
+            let bytes = line.as_bytes();
+            let mut start = 0;
+            let mut quoted = false;
+            for (i, &b) in bytes.iter().enumerate() {
+                if b == b'"' {
+                    quoted = !quoted;
+                } else if b == d && !quoted {
+                    out.push(unquote(&line[start..i]));
+                    start = i + 1;
+                }
+            }
+            if quoted {
+                return Err(SplitError::UnclosedQuote);
+            }
+            out.push(unquote(&line[start..]));
+        }
+    }
+    Ok(())
+}
+
+fn unquote(cell: &str) -> &str {
+    let t = cell.trim();
+    t.strip_prefix('"').and_then(|s| s.strip_suffix('"')).map_or(t, str::trim)
+}
+
+/// A cell as a number: `None` if it is not one. With `decimal_comma`, one comma stands for the point (and a point
+/// is then not accepted, so `1.234,5` is not silently read as 1.2345).
+pub fn parse_number(cell: &str, decimal_comma: bool) -> Option<f64> {
+    if !decimal_comma {
+        return fast_float2::parse::<f64, _>(cell).ok();
+    }
+    let bytes = cell.as_bytes();
+    if bytes.len() > 64 || bytes.contains(&b'.') {
+        return None;
+    }
+    let mut buf = [0u8; 64];
+    for (o, &b) in buf.iter_mut().zip(bytes) {
+        *o = if b == b',' { b'.' } else { b };
+    }
+    fast_float2::parse::<f64, _>(&buf[..bytes.len()]).ok()
+}
+
+/// The header line's text: a UTF-8 byte-order mark and a line end removed.
+pub fn clean_header(line: &str) -> &str {
+    trim_line_end(line.strip_prefix('\u{feff}').unwrap_or(line))
+}
+
+/// A line without its `\n` or `\r\n`.
+pub fn trim_line_end(line: &str) -> &str {
+    let line = line.strip_suffix('\n').unwrap_or(line);
+    line.strip_suffix('\r').unwrap_or(line)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn delimiters_are_detected_from_the_header() {
+        assert_eq!(Dialect::detect_delimiter("t,rate"), Delimiter::Byte(b','));
+        assert_eq!(Dialect::detect_delimiter("t;rate;temp"), Delimiter::Byte(b';'));
+        assert_eq!(Dialect::detect_delimiter("t\trate"), Delimiter::Byte(b'\t'));
+        assert_eq!(Dialect::detect_delimiter("time   rate  temp"), Delimiter::Whitespace);
+        assert_eq!(Dialect::detect_delimiter("rate"), Delimiter::Byte(b','));
+        // A comma inside a quoted name does not count.
+        assert_eq!(Dialect::detect_delimiter("\"rate, x\";t"), Delimiter::Byte(b';'));
+    }
+
+    #[test]
+    fn a_decimal_comma_is_detected_only_where_it_is_unambiguous() {
+        let semi = Delimiter::Byte(b';');
+        assert!(Dialect::detect_decimal_comma(semi, &["0,001;1,25", "0,002;-3,5e-3"]));
+        assert!(!Dialect::detect_decimal_comma(semi, &["0.001;1.25"]));
+        assert!(!Dialect::detect_decimal_comma(semi, &["1,234,5;2"]), "two commas in a cell");
+        assert!(!Dialect::detect_decimal_comma(Delimiter::Byte(b','), &["1,25"]), "a comma delimiter");
+        assert!(Dialect::detect_decimal_comma(Delimiter::Whitespace, &["0,5 1,25"]));
+    }
+
+    #[test]
+    fn cells_split_trimmed_and_unquoted() {
+        let mut out = Vec::new();
+        split(" 1 , 2,,\"3\" ", Delimiter::Byte(b','), &mut out).unwrap();
+        assert_eq!(out, ["1", "2", "", "3"]);
+        split("\"a,b\";2", Delimiter::Byte(b';'), &mut out).unwrap();
+        assert_eq!(out, ["a,b", "2"]);
+        split("\"a,b\",2", Delimiter::Byte(b','), &mut out).unwrap();
+        assert_eq!(out, ["a,b", "2"]);
+        split("  0.1 \t 2  ", Delimiter::Whitespace, &mut out).unwrap();
+        assert_eq!(out, ["0.1", "2"]);
+        assert_eq!(split("\"a,2", Delimiter::Byte(b','), &mut out), Err(SplitError::UnclosedQuote));
+    }
+
+    #[test]
+    fn numbers_with_a_point_or_a_decimal_comma() {
+        assert_eq!(parse_number("1.2881847531554629", false), Some(1.2881847531554629));
+        assert_eq!(parse_number("-3.5e-3", false), Some(-3.5e-3));
+        assert_eq!(parse_number("1,2881847531554629", true), Some(1.2881847531554629));
+        assert_eq!(parse_number("1,25", false), None);
+        assert_eq!(parse_number("1.234,5", true), None);
+        assert_eq!(parse_number("x", false), None);
+        assert_eq!(parse_number("", false), None);
+    }
+
+    #[test]
+    fn a_byte_order_mark_and_crlf_are_removed() {
+        assert_eq!(clean_header("\u{feff}t;rate\r\n"), "t;rate");
+        assert_eq!(trim_line_end("1,2\r\n"), "1,2");
+        assert_eq!(trim_line_end("1,2"), "1,2");
+    }
+}
