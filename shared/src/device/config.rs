@@ -109,7 +109,7 @@ impl<'a> DeviceConfig<'a> {
             && temp_ok
             && self.block_scans > 0
             && self.raw_scans_per_frame > 0
-            && self.block_scans % self.raw_scans_per_frame == 0
+            && self.block_scans.is_multiple_of(self.raw_scans_per_frame)
             && self.raw_scans_per_frame * w <= MAX_CODES
             && self.snapshot_every > 0
             && self.sample_rate_hz > 0

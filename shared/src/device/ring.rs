@@ -58,7 +58,7 @@ impl RingReader {
     /// # Panics
     /// If the ring is not a whole number of blocks, at least two.
     pub const fn new(ring_scans: usize, block_scans: usize) -> Self {
-        assert!(block_scans > 0 && ring_scans % block_scans == 0 && ring_scans >= 2 * block_scans);
+        assert!(block_scans > 0 && ring_scans.is_multiple_of(block_scans) && ring_scans >= 2 * block_scans);
         RingReader {
             ring_scans: ring_scans as u64,
             block_scans: block_scans as u64,
@@ -213,7 +213,7 @@ mod tests {
         assert_eq!(b.first_index, 0);
         // The DMA started scan RING (slot 0) while the block was being copied.
         assert!(!r.confirm(RING as u64 + 1));
-        assert!(r.lost() > 0 && r.next_index() % BLOCK as u64 == 0);
+        assert!(r.lost() > 0 && r.next_index().is_multiple_of(BLOCK as u64));
         assert_eq!(r.poll(RING as u64 + 1).unwrap().skipped, r.lost());
     }
 
