@@ -130,33 +130,47 @@ pub fn split<'a>(line: &'a str, delimiter: Delimiter, out: &mut Vec<&'a str>) ->
     out.clear();
     match delimiter {
         Delimiter::Whitespace => out.extend(line.split_ascii_whitespace()),
-        Delimiter::Byte(d) if !line.as_bytes().contains(&b'"') => {
-            out.extend(line.split(char::from(d)).map(str::trim));
-        }
         Delimiter::Byte(d) => {
             let bytes = line.as_bytes();
             let mut start = 0;
-            let mut quoted = false;
-            for (i, &b) in bytes.iter().enumerate() {
-                if b == b'"' {
-                    quoted = !quoted;
-                } else if b == d && !quoted {
-                    out.push(unquote(&line[start..i]));
-                    start = i + 1;
+            // One pass over the line for delimiters and quotes; a quote sends the line to the careful splitter.
+            for i in memchr::memchr2_iter(d, b'"', bytes) {
+                if bytes[i] == b'"' {
+                    return split_quoted(line, d, out);
                 }
+                out.push(line[start..i].trim_ascii());
+                start = i + 1;
             }
-            if quoted {
-                return Err(SplitError::UnclosedQuote);
-            }
-            out.push(unquote(&line[start..]));
+            out.push(line[start..].trim_ascii());
         }
     }
     Ok(())
 }
 
+/// [`split`] for a line with quotes.
+fn split_quoted<'a>(line: &'a str, d: u8, out: &mut Vec<&'a str>) -> Result<(), SplitError> {
+    out.clear();
+    let bytes = line.as_bytes();
+    let mut start = 0;
+    let mut quoted = false;
+    for (i, &b) in bytes.iter().enumerate() {
+        if b == b'"' {
+            quoted = !quoted;
+        } else if b == d && !quoted {
+            out.push(unquote(&line[start..i]));
+            start = i + 1;
+        }
+    }
+    if quoted {
+        return Err(SplitError::UnclosedQuote);
+    }
+    out.push(unquote(&line[start..]));
+    Ok(())
+}
+
 fn unquote(cell: &str) -> &str {
-    let t = cell.trim();
-    t.strip_prefix('"').and_then(|s| s.strip_suffix('"')).map_or(t, str::trim)
+    let t = cell.trim_ascii();
+    t.strip_prefix('"').and_then(|s| s.strip_suffix('"')).map_or(t, str::trim_ascii)
 }
 
 /// A cell as a number: `None` if it is not one. With `decimal_comma`, one comma stands for the point (and a point

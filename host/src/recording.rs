@@ -122,6 +122,43 @@ pub struct RowFilter {
     pub value: String,
 }
 
+impl RecordingError {
+    /// The file the error is in, where it names one.
+    fn path(&self) -> &str {
+        use RecordingError as E;
+        match self {
+            E::MissingColumn { path, .. }
+            | E::NotANumber { path, .. }
+            | E::NotANumberDecimalComma { path, .. }
+            | E::NotFinite { path, .. }
+            | E::FieldCount { path, .. }
+            | E::DuplicateColumn { path, .. }
+            | E::BadRow { path, .. }
+            | E::Empty { path }
+            | E::NoRate { path }
+            | E::TimeNotIncreasing { path, .. }
+            | E::Io { path, .. } => path,
+            E::UnknownUnit { .. } | E::BadFilter(_) | E::BadRate(_) => "",
+        }
+    }
+
+    /// The line the error names, if it names one.
+    pub fn line(&self) -> Option<u64> {
+        use RecordingError as E;
+        match self {
+            E::MissingColumn { line, .. }
+            | E::NotANumber { line, .. }
+            | E::NotANumberDecimalComma { line, .. }
+            | E::NotFinite { line, .. }
+            | E::FieldCount { line, .. }
+            | E::DuplicateColumn { line, .. }
+            | E::BadRow { line, .. }
+            | E::TimeNotIncreasing { line, .. } => Some(*line),
+            _ => None,
+        }
+    }
+}
+
 impl RowFilter {
     /// Parse `COLUMN=VALUE`.
     ///
@@ -249,8 +286,6 @@ pub fn read_csv<R: BufRead>(reader: R, path: &str, opts: &CsvOptions) -> Result<
 /// Bytes of input parsed at a time (then as many whole lines as complete the last one): the memory a streamed
 /// read holds, whatever the file's size.
 const BLOCK_BYTES: usize = 8 << 20;
-/// Lines per parallel task within a block.
-const LINES_PER_TASK: usize = 16_384;
 /// Data lines looked at to detect a decimal comma.
 const DETECT_ROWS: usize = 20;
 
@@ -335,7 +370,7 @@ impl LineParser<'_> {
         out: &mut Parsed,
     ) -> Result<RowKind, RecordingError> {
         let text = trim_line_end(text);
-        if text.trim().is_empty() {
+        if text.trim_ascii().is_empty() {
             return Ok(RowKind::Blank);
         }
         split(text, self.dialect.delimiter, cells).map_err(|e| RecordingError::BadRow {
@@ -578,28 +613,30 @@ pub fn read_csv_stream<R: BufRead>(
         Ok(())
     };
     while !block.is_empty() {
-        let text = match std::str::from_utf8(&block) {
-            Ok(t) => t,
-            Err(e) => {
-                let at = e.valid_up_to();
-                let line = line_no + 1 + memchr::memchr_iter(b'\n', &block[..at]).count() as u64;
-                return Err(not_utf8(line));
-            }
-        };
-        let lines = block_lines(text);
-        let first = line_no + 1;
-        let parsed: Vec<Parsed> = {
+        // The block in byte ranges of whole lines, one per task; each task checks its UTF-8, finds its lines and
+        // parses them, numbering from 1; the numbers are made absolute after, in order.
+        let ranges = task_ranges(&block, 4 * rayon::current_num_threads());
+        let parsed: Vec<(Parsed, u64)> = {
             use rayon::prelude::*;
-            lines
-                .par_chunks(LINES_PER_TASK)
-                .enumerate()
-                .map(|(k, chunk)| parser.parse(chunk, first + (k * LINES_PER_TASK) as u64))
+            ranges
+                .par_iter()
+                .map(|&(a, b)| match std::str::from_utf8(&block[a..b]) {
+                    Ok(text) => {
+                        let lines = block_lines(text);
+                        (parser.parse(&lines, 1), lines.len() as u64)
+                    }
+                    Err(e) => {
+                        let line = 1 + memchr::memchr_iter(b'\n', &block[a..a + e.valid_up_to()]).count() as u64;
+                        (Parsed { error: Some(not_utf8(line)), ..Parsed::default() }, 0)
+                    }
+                })
                 .collect()
         };
-        for (k, part) in parsed.iter().enumerate() {
+        let mut first = line_no + 1;
+        for (part, lines) in &parsed {
             let (mut v, mut tp, mut tm) = (0, 0, 0);
             for (i, kind) in part.kinds.iter().enumerate() {
-                let line = first + (k * LINES_PER_TASK + i) as u64;
+                let line = first + i as u64;
                 match kind {
                     RowKind::Blank => continue,
                     RowKind::Filtered => {
@@ -633,10 +670,11 @@ pub fn read_csv_stream<R: BufRead>(
                 deliver(values, temp, t, line, rate, &mut info)?;
             }
             if let Some(e) = &part.error {
-                return Err(clone_error(e));
+                return Err(relocate(e, first - 1));
             }
+            first += lines;
         }
-        line_no += lines.len() as u64;
+        line_no = first - 1;
         read_block(&mut reader, &mut block).map_err(io)?;
     }
     if rate == 0.0 && !pending.is_empty() {
@@ -653,24 +691,37 @@ pub fn read_csv_stream<R: BufRead>(
     Ok(info)
 }
 
-/// A copy of a parse error (the variants a line can raise hold only text and numbers).
-fn clone_error(e: &RecordingError) -> RecordingError {
+/// A task's parse error with its line moved by `offset` (tasks number their lines from 1).
+fn relocate(e: &RecordingError, offset: u64) -> RecordingError {
     use RecordingError as E;
+    let (path, line) = (e.path().to_string(), e.line().unwrap_or(0) + offset);
     match e {
-        E::NotANumber { path, line, column, text } => {
-            E::NotANumber { path: path.clone(), line: *line, column: column.clone(), text: text.clone() }
+        E::NotANumber { column, text, .. } => E::NotANumber { path, line, column: column.clone(), text: text.clone() },
+        E::NotANumberDecimalComma { column, text, .. } => {
+            E::NotANumberDecimalComma { path, line, column: column.clone(), text: text.clone() }
         }
-        E::NotANumberDecimalComma { path, line, column, text } => {
-            E::NotANumberDecimalComma { path: path.clone(), line: *line, column: column.clone(), text: text.clone() }
+        E::NotFinite { column, text, .. } => E::NotFinite { path, line, column: column.clone(), text: text.clone() },
+        E::FieldCount { found, expected, hint, .. } => {
+            E::FieldCount { path, line, found: *found, expected: *expected, hint: hint.clone() }
         }
-        E::NotFinite { path, line, column, text } => {
-            E::NotFinite { path: path.clone(), line: *line, column: column.clone(), text: text.clone() }
-        }
-        E::FieldCount { path, line, found, expected, hint } => {
-            E::FieldCount { path: path.clone(), line: *line, found: *found, expected: *expected, hint: hint.clone() }
-        }
-        other => E::BadRow { path: String::new(), line: 0, message: other.to_string() },
+        E::BadRow { message, .. } => E::BadRow { path, line, message: message.clone() },
+        other => E::BadRow { path, line, message: other.to_string() },
     }
+}
+
+/// Split `block` into about `n` byte ranges of whole lines.
+fn task_ranges(block: &[u8], n: usize) -> Vec<(usize, usize)> {
+    let target = block.len().div_ceil(n.max(1)).max(1 << 16);
+    let mut ranges = Vec::with_capacity(n + 1);
+    let mut a = 0;
+    while a < block.len() {
+        let b = (a + target).min(block.len());
+        let b =
+            if b == block.len() { b } else { memchr::memchr(b'\n', &block[b..]).map_or(block.len(), |k| b + k + 1) };
+        ranges.push((a, b));
+        a = b;
+    }
+    ranges
 }
 
 fn median_rate(
@@ -847,18 +898,19 @@ mod tests {
     #[test]
     fn faults_far_into_a_file_name_their_line_across_blocks_and_tasks() {
         // Lines beyond the first parallel task (and a blank line to count): the error's line is exact.
+        const ROWS: usize = 120_000; // about 1.3 MB: several tasks of 64 KiB or more
         let mut text = String::from("# a logger's banner\ng,t\n");
-        for i in 0..3 * LINES_PER_TASK {
+        for i in 0..ROWS {
             if i == 100 {
                 text.push('\n');
             }
-            let cell = if i == 2 * LINES_PER_TASK + 7 { "1.5x".to_string() } else { format!("{}.25", i % 7) };
+            let cell = if i == ROWS - 1000 { "1.5x".to_string() } else { format!("{}.25", i % 7) };
             text.push_str(&format!("{cell},{i}\n"));
         }
         let o = CsvOptions { skip_rows: 1, ..opts(&["g"]) };
         let e = read(&text, &o).unwrap_err();
         // Line 1 the banner, 2 the header, 3.. the rows, one blank line before row 100.
-        let want = 3 + 2 * LINES_PER_TASK as u64 + 7 + 1;
+        let want = 3 + (ROWS - 1000) as u64 + 1;
         assert!(matches!(e, RecordingError::NotANumber { line, .. } if line == want), "{e}");
     }
 

@@ -211,3 +211,79 @@ fn gap_predictive_holdout_check_is_in_the_json() {
         assert!(b > 2.5 && a < 0.5 * b, "{key}: {h}");
     }
 }
+
+/// A white-noise record of `n` samples written in a dialect: `(header, row)` builders.
+fn dialect_file(n: usize, header: &str, row: impl Fn(usize, f64) -> String) -> Vec<u8> {
+    let mut s = 12345u64;
+    let mut text = String::from(header);
+    for i in 0..n {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let g = ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.1;
+        text.push_str(&row(i, g));
+    }
+    text.into_bytes()
+}
+
+/// The analyze JSON's OADEV at m = 1, 2, 4, or the failed run's exit code and stderr.
+fn first_oadev(args: &[&str], input: &[u8]) -> Result<f64, (Option<i32>, String)> {
+    let dir = tempfile::tempdir().expect("a temp dir");
+    let json = dir.path().join("a.json");
+    let json_arg = json.display().to_string();
+    let mut all = vec!["analyze", "-", "--column", "rate", "--rate", "100", "--stats", "oadev", "--json", &json_arg];
+    all.extend_from_slice(args);
+    let o = octavar(&all, Some(input));
+    if !o.status.success() {
+        return Err((o.status.code(), stderr(&o)));
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).expect("the JSON")).expect("JSON");
+    let points = &v["channels"][0]["stats"]["oadev"];
+    Ok((0..3).map(|k| points[k]["dev"].as_f64().unwrap_or_else(|| panic!("no OADEV in {v}"))).sum())
+}
+
+#[test]
+fn every_dialect_reads_the_same_numbers_and_a_misread_is_never_exit_0() {
+    let n = 2000;
+    let reference = first_oadev(&[], &dialect_file(n, "t,rate\n", |i, g| format!("{},{g:.15e}\n", i as f64 / 100.0)))
+        .expect("the plain file");
+    let dialects: Vec<(&str, Vec<u8>, Vec<&str>)> = vec![
+        ("semicolon", dialect_file(n, "t;rate\n", |i, g| format!("{};{g:.15e}\n", i)), vec![]),
+        ("tab", dialect_file(n, "t\trate\n", |i, g| format!("{}\t{g:.15e}\n", i)), vec![]),
+        ("whitespace", dialect_file(n, "t  rate\n", |i, g| format!("{}  {g:.15e}\n", i)), vec![]),
+        (
+            "semicolon, decimal comma",
+            dialect_file(n, "t;rate\n", |i, g| format!("{i};{}\n", format!("{g:.15e}").replace('.', ","))),
+            vec![],
+        ),
+        (
+            "one column, decimal comma, named",
+            dialect_file(n, "rate\n", |_, g| format!("{}\n", format!("{g:.15e}").replace('.', ","))),
+            vec!["--decimal-comma"],
+        ),
+        ("BOM and CRLF", dialect_file(n, "\u{feff}t,rate\r\n", |i, g| format!("{i},{g:.15e}\r\n")), vec![]),
+        ("forced delimiter", dialect_file(n, "t|rate\n", |i, g| format!("{i}|{g:.15e}\n")), vec!["--delimiter", "|"]),
+    ];
+    for (name, file, args) in &dialects {
+        let got = first_oadev(args, file).unwrap_or_else(|e| panic!("{name}: {e:?}"));
+        assert!((got / reference - 1.0).abs() < 1e-12, "{name}: {got} vs {reference}");
+    }
+
+    // Faults: exit 2 and a message that names the line; never exit 0 with the wrong numbers.
+    let one_col_dc = dialect_file(5, "rate\n", |_, g| format!("{}\n", format!("{g:.15e}").replace('.', ",")));
+    let faults: Vec<(&str, Vec<u8>, Vec<&str>, &str)> = vec![
+        ("decimal comma unnamed", one_col_dc, vec![], "line 2: 2 fields where the header has 1; a decimal comma?"),
+        ("a row too long", b"t,rate\n1,2\n1,2,3\n".to_vec(), vec![], "line 3: 3 fields where the header has 2"),
+        ("a row too short", b"t;rate\n1;2\n1\n".to_vec(), vec![], "line 3: 1 fields where the header has 2"),
+        ("duplicate column", b"rate,rate\n1,2\n".to_vec(), vec![], "column \"rate\" appears twice"),
+        ("unclosed quote", b"t,rate\n1,\"2\n".to_vec(), vec![], "line 2: a quoted cell is not closed"),
+        ("bad delimiter flag", b"t,rate\n1,2\n".to_vec(), vec!["--delimiter", "x"], "is not one of"),
+    ];
+    for (name, file, args, message) in &faults {
+        let (code, err) = first_oadev(args, file).expect_err(name);
+        assert_eq!(code, Some(2), "{name}: {err}");
+        assert!(err.contains(message) && !err.contains("panicked"), "{name}: {err}");
+    }
+    // --flexible reads the long row's first fields.
+    let file = dialect_file(n, "t,rate\n", |i, g| format!("{},{g:.15e},extra\n", i as f64 / 100.0));
+    let got = first_oadev(&["--flexible"], &file).expect("flexible");
+    assert!((got / reference - 1.0).abs() < 1e-12);
+}
