@@ -261,7 +261,7 @@ pub struct Recording {
 ///
 /// # Errors
 /// See [`read_csv_stream`].
-pub fn read_csv<R: BufRead>(reader: R, path: &str, opts: &CsvOptions) -> Result<Recording, RecordingError> {
+pub fn read_csv<R: BufRead + Send>(reader: R, path: &str, opts: &CsvOptions) -> Result<Recording, RecordingError> {
     let n = opts.columns.len();
     let mut channels: Vec<Vec<f64>> = vec![Vec::new(); n];
     let mut temps: Vec<f64> = Vec::new();
@@ -460,13 +460,14 @@ fn block_lines(text: &str) -> Vec<&str> {
 ///
 /// The dialect is [`CsvOptions::delimiter`] and [`CsvOptions::decimal_comma`], or detected from the header and
 /// the first rows (see [`crate::csv_rows::Dialect`]). Lines are read in blocks of about 8 MB, split with memchr
-/// and parsed on every core; the samples are then handed on in order, so memory stays bounded.
+/// and parsed on every core while the next block is read; the samples are then handed on in order, so memory
+/// stays bounded (two blocks).
 ///
 /// # Errors
 /// A missing or duplicated column, a cell that is not a number, a row whose field count differs from the
 /// header's (unless [`CsvOptions::flexible`]), a time column that does not increase, no rate, an empty result,
 /// text that is not UTF-8, or an I/O error; each names the file, line and column.
-pub fn read_csv_stream<R: BufRead>(
+pub fn read_csv_stream<R: BufRead + Send>(
     mut reader: R,
     path: &str,
     opts: &CsvOptions,
@@ -500,7 +501,7 @@ pub fn read_csv_stream<R: BufRead>(
     }
     let detected = Dialect::detect_delimiter(header_text);
     let mut delimiter = opts.delimiter.unwrap_or(detected);
-    let mut block = Vec::new();
+    let (mut block, mut next) = (Vec::new(), Vec::new());
     read_block(&mut reader, &mut block).map_err(io)?;
     let decimal_comma = match opts.decimal_comma {
         Some(dc) => dc,
@@ -615,23 +616,27 @@ pub fn read_csv_stream<R: BufRead>(
     while !block.is_empty() {
         // The block in byte ranges of whole lines, one per task; each task checks its UTF-8, finds its lines and
         // parses them, numbering from 1; the numbers are made absolute after, in order.
+        // The next block is read (and decompressed) while this one is parsed.
         let ranges = task_ranges(&block, 4 * rayon::current_num_threads());
-        let parsed: Vec<(Parsed, u64)> = {
-            use rayon::prelude::*;
-            ranges
-                .par_iter()
-                .map(|&(a, b)| match std::str::from_utf8(&block[a..b]) {
-                    Ok(text) => {
-                        let lines = block_lines(text);
-                        (parser.parse(&lines, 1), lines.len() as u64)
-                    }
-                    Err(e) => {
-                        let line = 1 + memchr::memchr_iter(b'\n', &block[a..a + e.valid_up_to()]).count() as u64;
-                        (Parsed { error: Some(not_utf8(line)), ..Parsed::default() }, 0)
-                    }
-                })
-                .collect()
-        };
+        let (parsed, read): (Vec<(Parsed, u64)>, _) = rayon::join(
+            || {
+                use rayon::prelude::*;
+                ranges
+                    .par_iter()
+                    .map(|&(a, b)| match std::str::from_utf8(&block[a..b]) {
+                        Ok(text) => {
+                            let lines = block_lines(text);
+                            (parser.parse(&lines, 1), lines.len() as u64)
+                        }
+                        Err(e) => {
+                            let line = 1 + memchr::memchr_iter(b'\n', &block[a..a + e.valid_up_to()]).count() as u64;
+                            (Parsed { error: Some(not_utf8(line)), ..Parsed::default() }, 0)
+                        }
+                    })
+                    .collect()
+            },
+            || read_block(&mut reader, &mut next),
+        );
         let mut first = line_no + 1;
         for (part, lines) in &parsed {
             let (mut v, mut tp, mut tm) = (0, 0, 0);
@@ -675,7 +680,8 @@ pub fn read_csv_stream<R: BufRead>(
             first += lines;
         }
         line_no = first - 1;
-        read_block(&mut reader, &mut block).map_err(io)?;
+        read.map_err(io)?;
+        std::mem::swap(&mut block, &mut next);
     }
     if rate == 0.0 && !pending.is_empty() {
         rate = median_rate(&pending, path, opts)?;

@@ -694,7 +694,7 @@ pub fn analyze_binary(
 /// # Errors
 /// The reader's errors (file, line, column), [`StreamError::TooShort`].
 pub fn analyze_csv(
-    reader: impl BufRead,
+    reader: impl BufRead + Send,
     name: &str,
     csv: &CsvOptions,
     opts: &StreamOptions,
