@@ -55,8 +55,8 @@ pub struct Dialect {
 
 impl Dialect {
     /// The delimiter of a header line: the most frequent of `,` `;` tab (counting only outside quotes), else
-    /// whitespace if the line has several words, else `,` (a one-column file).
-    pub fn detect_delimiter(header: &str) -> Delimiter {
+    /// whitespace if the line has several words, else `None`: a one-field header says nothing about it.
+    pub fn detect_delimiter(header: &str) -> Option<Delimiter> {
         let mut counts = [(b',', 0usize), (b';', 0), (b'\t', 0)];
         let mut quoted = false;
         for b in header.bytes() {
@@ -73,11 +73,11 @@ impl Dialect {
         // Ties go to the earlier of , ; tab.
         let (best, n) = counts.iter().fold((b',', 0), |acc, &(d, n)| if n > acc.1 { (d, n) } else { acc });
         if n > 0 {
-            Delimiter::Byte(best)
+            Some(Delimiter::Byte(best))
         } else if header.split_whitespace().nth(1).is_some() {
-            Delimiter::Whitespace
+            Some(Delimiter::Whitespace)
         } else {
-            Delimiter::Byte(b',')
+            None
         }
     }
 
@@ -207,13 +207,14 @@ mod tests {
 
     #[test]
     fn delimiters_are_detected_from_the_header() {
-        assert_eq!(Dialect::detect_delimiter("t,rate"), Delimiter::Byte(b','));
-        assert_eq!(Dialect::detect_delimiter("t;rate;temp"), Delimiter::Byte(b';'));
-        assert_eq!(Dialect::detect_delimiter("t\trate"), Delimiter::Byte(b'\t'));
-        assert_eq!(Dialect::detect_delimiter("time   rate  temp"), Delimiter::Whitespace);
-        assert_eq!(Dialect::detect_delimiter("rate"), Delimiter::Byte(b','));
+        assert_eq!(Dialect::detect_delimiter("t,rate"), Some(Delimiter::Byte(b',')));
+        assert_eq!(Dialect::detect_delimiter("t;rate;temp"), Some(Delimiter::Byte(b';')));
+        assert_eq!(Dialect::detect_delimiter("t\trate"), Some(Delimiter::Byte(b'\t')));
+        assert_eq!(Dialect::detect_delimiter("time   rate  temp"), Some(Delimiter::Whitespace));
+        assert_eq!(Dialect::detect_delimiter("rate"), None);
         // A comma inside a quoted name does not count.
-        assert_eq!(Dialect::detect_delimiter("\"rate, x\";t"), Delimiter::Byte(b';'));
+        assert_eq!(Dialect::detect_delimiter("\"rate, x\";t"), Some(Delimiter::Byte(b';')));
+        assert_eq!(Dialect::detect_delimiter("\"rate,x\""), None);
     }
 
     #[test]

@@ -123,27 +123,9 @@ pub struct RowFilter {
 }
 
 impl RecordingError {
-    /// The file the error is in, where it names one.
-    fn path(&self) -> &str {
-        use RecordingError as E;
-        match self {
-            E::MissingColumn { path, .. }
-            | E::NotANumber { path, .. }
-            | E::NotANumberDecimalComma { path, .. }
-            | E::NotFinite { path, .. }
-            | E::FieldCount { path, .. }
-            | E::DuplicateColumn { path, .. }
-            | E::BadRow { path, .. }
-            | E::Empty { path }
-            | E::NoRate { path }
-            | E::TimeNotIncreasing { path, .. }
-            | E::Io { path, .. } => path,
-            E::UnknownUnit { .. } | E::BadFilter(_) | E::BadRate(_) => "",
-        }
-    }
-
-    /// The line the error names, if it names one.
-    pub fn line(&self) -> Option<u64> {
+    /// The line the error names, to move a parallel task's line numbers (counted from its first line) to the
+    /// file's.
+    fn line_mut(&mut self) -> Option<&mut u64> {
         use RecordingError as E;
         match self {
             E::MissingColumn { line, .. }
@@ -153,7 +135,7 @@ impl RecordingError {
             | E::FieldCount { line, .. }
             | E::DuplicateColumn { line, .. }
             | E::BadRow { line, .. }
-            | E::TimeNotIncreasing { line, .. } => Some(*line),
+            | E::TimeNotIncreasing { line, .. } => Some(line),
             _ => None,
         }
     }
@@ -499,19 +481,16 @@ pub fn read_csv_stream<R: BufRead + Send>(
     if header_text.trim().is_empty() {
         return Err(RecordingError::Empty { path: path.to_string() });
     }
+    // `None`: a one-field header, which says nothing about the delimiter (read as a comma).
     let detected = Dialect::detect_delimiter(header_text);
-    let mut delimiter = opts.delimiter.unwrap_or(detected);
+    let one_field = opts.delimiter.is_none() && detected.is_none();
+    let mut delimiter = opts.delimiter.or(detected).unwrap_or(Delimiter::Byte(b','));
     let (mut block, mut next) = (Vec::new(), Vec::new());
     read_block(&mut reader, &mut block).map_err(io)?;
     let decimal_comma = match opts.decimal_comma {
         Some(dc) => dc,
-        // A one-field header says nothing about the delimiter: no decimal comma is guessed there.
-        None if opts.delimiter.is_none()
-            && !header_text.contains([',', ';', '\t'])
-            && delimiter != Delimiter::Whitespace =>
-        {
-            false
-        }
+        // No decimal comma is guessed where nothing is known of the delimiter.
+        None if one_field => false,
         None => {
             let text = String::from_utf8_lossy(&block[..block.len().min(1 << 16)]);
             let rows: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).take(DETECT_ROWS).collect();
@@ -519,7 +498,7 @@ pub fn read_csv_stream<R: BufRead + Send>(
         }
     };
     if decimal_comma && delimiter == Delimiter::Byte(b',') {
-        if opts.delimiter.is_none() && !header_text.contains(',') {
+        if one_field {
             // One column: nothing separates cells, so no delimiter can clash with the comma.
             delimiter = Delimiter::Byte(b';');
         } else {
@@ -638,7 +617,7 @@ pub fn read_csv_stream<R: BufRead + Send>(
             || read_block(&mut reader, &mut next),
         );
         let mut first = line_no + 1;
-        for (part, lines) in &parsed {
+        for (part, lines) in parsed {
             let (mut v, mut tp, mut tm) = (0, 0, 0);
             for (i, kind) in part.kinds.iter().enumerate() {
                 let line = first + i as u64;
@@ -674,8 +653,11 @@ pub fn read_csv_stream<R: BufRead + Send>(
                 info.rate_hz = rate;
                 deliver(values, temp, t, line, rate, &mut info)?;
             }
-            if let Some(e) = &part.error {
-                return Err(relocate(e, first - 1));
+            if let Some(mut e) = part.error {
+                if let Some(line) = e.line_mut() {
+                    *line += first - 1;
+                }
+                return Err(e);
             }
             first += lines;
         }
@@ -695,24 +677,6 @@ pub fn read_csv_stream<R: BufRead + Send>(
     }
     info.rate_hz = rate;
     Ok(info)
-}
-
-/// A task's parse error with its line moved by `offset` (tasks number their lines from 1).
-fn relocate(e: &RecordingError, offset: u64) -> RecordingError {
-    use RecordingError as E;
-    let (path, line) = (e.path().to_string(), e.line().unwrap_or(0) + offset);
-    match e {
-        E::NotANumber { column, text, .. } => E::NotANumber { path, line, column: column.clone(), text: text.clone() },
-        E::NotANumberDecimalComma { column, text, .. } => {
-            E::NotANumberDecimalComma { path, line, column: column.clone(), text: text.clone() }
-        }
-        E::NotFinite { column, text, .. } => E::NotFinite { path, line, column: column.clone(), text: text.clone() },
-        E::FieldCount { found, expected, hint, .. } => {
-            E::FieldCount { path, line, found: *found, expected: *expected, hint: hint.clone() }
-        }
-        E::BadRow { message, .. } => E::BadRow { path, line, message: message.clone() },
-        other => E::BadRow { path, line, message: other.to_string() },
-    }
 }
 
 /// Split `block` into about `n` byte ranges of whole lines.
