@@ -245,8 +245,6 @@ fn bench_model() -> BenchSim {
 /// at all: nobody can see them, and the bench's noise simply goes on from where it was.
 pub struct VirtualAdc {
     bench: Bench,
-    /// Hardware index of the scan the bench simulates next.
-    next: u64,
     /// The time base at the first trigger.
     t0_us: u64,
 }
@@ -257,7 +255,7 @@ impl VirtualAdc {
             Ok(b) => b,
             Err(e) => panic!("sim: {:?}", e),
         };
-        VirtualAdc { bench, next: 0, t0_us: timebase::now_us() }
+        VirtualAdc { bench, t0_us: timebase::now_us() }
     }
 }
 
@@ -268,14 +266,12 @@ impl ScanRing for VirtualAdc {
         (elapsed * u64::from(SAMPLE_RATE_HZ) / 1_000_000).min(RUN_SCANS + 1)
     }
 
-    fn copy_block(&mut self, block: &ReadyBlock, out: &mut [u16; BLOCK_CODES]) {
-        self.next = self.next.max(block.first_index);
+    fn copy_block(&mut self, _block: &ReadyBlock, out: &mut [u16; BLOCK_CODES]) {
         for scan in out.chunks_exact_mut(CHANNELS) {
             let s = self.bench.next_sample();
             scan[..GYROS].copy_from_slice(&s.codes()[..GYROS]);
             scan[GYROS] = temperature_code(s.temp_c);
         }
-        self.next += BLOCK_SCANS as u64;
     }
 
     fn check(&mut self) -> Option<u64> {
