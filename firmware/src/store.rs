@@ -188,15 +188,15 @@ impl LogFlash for BoardFlash {
 
     fn write(&mut self, sector: usize, offset: usize, words: &[u32]) -> Result<(), Self::Error> {
         let mut bytes = [0u8; 64];
-        for (i, chunk) in words.chunks(16).enumerate() {
+        let written = words.chunks(16).enumerate().try_for_each(|(i, chunk)| {
             for (b, w) in bytes.chunks_exact_mut(4).zip(chunk) {
                 b.copy_from_slice(&w.to_le_bytes());
             }
-            let written = self.flash.blocking_write(Self::offset(sector, offset + 16 * i), &bytes[..4 * chunk.len()]);
-            crate::board::flash_caches_reset();
-            written?;
-        }
-        Ok(())
+            self.flash.blocking_write(Self::offset(sector, offset + 16 * i), &bytes[..4 * chunk.len()])
+        });
+        // Once for the whole record, whether or not it was all written.
+        crate::board::flash_caches_reset();
+        written
     }
 
     fn read(&mut self, sector: usize, offset: usize, buf: &mut [u32]) -> Result<(), Self::Error> {
