@@ -14,10 +14,11 @@ import json
 import subprocess
 import sys
 import tempfile
-import time
 
 import allantools
 import numpy as np
+
+from timing import best
 
 p = argparse.ArgumentParser()
 p.add_argument("data")
@@ -26,14 +27,6 @@ p.add_argument("bench")
 p.add_argument("--rate", type=float, default=2000.0)
 p.add_argument("--reps", type=int, default=5)
 a = p.parse_args()
-
-def best(f, reps):
-    times, out = [], None
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        out = f()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
 
 # allantools, end to end: read the file, compute.
 t_at_e2e, _ = best(lambda: allantools.oadev(np.fromfile(a.data, dtype="<f8"), rate=a.rate, data_type="freq",

@@ -8,11 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 N=${1:-10000000}
 # The venv .ci/run makes (allantools==2024.6 + numpy), reused when present.
-if [ ! -x .venv-ref/bin/python ]; then
-    python3 -m venv .venv-ref
-    .venv-ref/bin/pip install --quiet allantools==2024.6 numpy
-fi
-PY=$PWD/.venv-ref/bin/python
+. bench/ref_venv.sh
 cargo build --release -q -p octavar
 cargo bench -q -p octavar --bench analyze --no-run 2>/dev/null
 TARGET=${CARGO_TARGET_DIR:-$PWD/target}

@@ -12,10 +12,11 @@ import json
 import subprocess
 import sys
 import tempfile
-import time
 
 import allantools
 import pandas as pd
+
+from timing import best
 
 p = argparse.ArgumentParser()
 p.add_argument("csv")
@@ -24,14 +25,6 @@ p.add_argument("--rate", type=float, default=1000.0)
 p.add_argument("--reps", type=int, default=3)
 a = p.parse_args()
 
-
-def best(f, reps):
-    times, out = [], None
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        out = f()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
 
 
 t_pd, frame = best(lambda: pd.read_csv(a.csv), a.reps)
