@@ -9,9 +9,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 N=${1:-10000000}
-# The venv .ci/run makes (allantools==2024.6 + numpy), with pandas added for this comparison.
+# The reference venv .ci/run makes (allantools, pandas).
 . bench/ref_venv.sh
-"$PY" -c "import pandas" 2>/dev/null || .venv-ref/bin/pip install --quiet "pandas>=2"
 cargo build --release -q -p octavar
 TARGET=${CARGO_TARGET_DIR:-$PWD/target}
 WORK=$(mktemp -d)

@@ -1,7 +1,12 @@
-# Sourced by the bench scripts: the reference venv that .ci/run makes (allantools==2024.6 + numpy), made here when
-# it is missing; sets PY to its python.
+# The reference venv (.venv-ref) of the independent tools the tests and benches compare against: allantools and
+# numpy (Allan deviations), nptdms (writes TDMS files as NI's tools do), mcap and mcap-ros2-support (write ROS 2
+# bags), pandas (the CSV reader the ingest bench races). Sourced by .ci/run and the bench scripts from the
+# repository root; made or completed here when a package is missing; sets PY to its python.
+REF_PACKAGES="allantools==2024.6 numpy nptdms==1.13.0 mcap==1.6.0 mcap-ros2-support==0.6.0 pandas"
 if [ ! -x .venv-ref/bin/python ]; then
     python3 -m venv .venv-ref
-    .venv-ref/bin/pip install --quiet allantools==2024.6 numpy
+fi
+if ! .venv-ref/bin/python -c "import allantools, numpy, nptdms, mcap, mcap_ros2, pandas" 2>/dev/null; then
+    .venv-ref/bin/pip install --quiet $REF_PACKAGES
 fi
 PY=$PWD/.venv-ref/bin/python

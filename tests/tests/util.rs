@@ -25,11 +25,19 @@ pub fn data_dir() -> Option<PathBuf> {
 /// makes. `None`, with a printed line, where there is none.
 #[allow(dead_code)]
 pub fn allantools_python() -> Option<PathBuf> {
+    reference_python("allantools")
+}
+
+/// A Python that can import `module` (a reference tool of `bench/ref_venv.sh`: allantools, nptdms, mcap_ros2):
+/// `OCTAVAR_PYTHON`, or the `.venv-ref` that `.ci/run` makes. `None`, with a printed line, where there is none;
+/// under CI a missing module is a failure, since `.ci/run` installs them all.
+#[allow(dead_code)]
+pub fn reference_python(module: &str) -> Option<PathBuf> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     let candidates = [std::env::var_os("OCTAVAR_PYTHON").map(PathBuf::from), Some(root.join(".venv-ref/bin/python"))];
     for py in candidates.into_iter().flatten() {
         let ok = std::process::Command::new(&py)
-            .args(["-c", "import allantools"])
+            .args(["-c", &format!("import {module}")])
             .output()
             .is_ok_and(|o| o.status.success());
         if ok {
@@ -37,9 +45,9 @@ pub fn allantools_python() -> Option<PathBuf> {
         }
     }
     if std::env::var_os("CI").is_some() {
-        panic!("CI must have allantools: .ci/run installs it into .venv-ref");
+        panic!("CI must have the Python module {module}: .ci/run installs it into .venv-ref (bench/ref_venv.sh)");
     }
-    println!("skipped: no Python with allantools (run .ci/run once, or set OCTAVAR_PYTHON)");
+    println!("skipped: no Python with {module} (run .ci/run once, or set OCTAVAR_PYTHON)");
     None
 }
 
