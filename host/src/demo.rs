@@ -176,20 +176,27 @@ fn accumulate_group(
     let mut accs: Vec<Box<OctaveAllan<STRIDE>>> = (0..k).map(|_| Box::new(OctaveAllan::new())).collect();
     let mut runs = vec![ChannelRun { snapshots: Vec::new(), rate_dps: Vec::new(), temp_c: Vec::new() }; k];
     let mut blocks = vec![[0u16; BLOCK]; k];
+    let mut temps = [0.0f64; BLOCK];
     let (mut sum_codes, mut sum_temp, mut in_block) = (vec![0u64; k], 0.0f64, 0u64);
     let mut count = 0u64;
     while count < samples {
         // Blocks end on snapshot instants, as the firmware's rounds do.
         let to_snap = every - count % every;
         let n = (BLOCK as u64).min(samples - count).min(to_snap) as usize;
-        for j in 0..n {
-            let s = bench.next_sample();
-            for ((block, sum), &code) in blocks.iter_mut().zip(&mut sum_codes).zip(s.codes()) {
-                block[j] = code;
-                *sum += u64::from(code);
+        let mut views: Vec<&mut [u16]> = blocks.iter_mut().map(|b| &mut b[..n]).collect();
+        bench.fill_block(&mut temps[..n], &mut views);
+        // Block means for the gap diagnosis: the decimation runs across the snapshot blocks.
+        let mut j = 0;
+        while j < n {
+            let take = ((decimate - in_block) as usize).min(n - j);
+            for (block, sum) in blocks.iter().zip(&mut sum_codes) {
+                *sum += block[j..j + take].iter().map(|&c| u64::from(c)).sum::<u64>();
             }
-            sum_temp += s.temp_c;
-            in_block += 1;
+            for &t in &temps[j..j + take] {
+                sum_temp += t;
+            }
+            in_block += take as u64;
+            j += take;
             if in_block == decimate {
                 for ((run, sum), ch) in runs.iter_mut().zip(&mut sum_codes).zip(&channels) {
                     // The mean of the codes, converted through the (affine) channel model.

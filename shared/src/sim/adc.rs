@@ -8,7 +8,7 @@
 use crate::sensor::Channel;
 
 /// Rate -> code for one channel.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quantizer {
     offset: f64,
     gain: f64,

@@ -127,6 +127,22 @@ impl Bench {
         out
     }
 
+    /// The next `temps_c.len()` scans a block at a time: the bench temperatures into `temps_c`, and channel i's
+    /// ADC codes into `codes[i]` (each at least as long as `temps_c`). The same values as as many calls of
+    /// [`Bench::next_sample`], made channel by channel, which keeps each gyro's state in registers.
+    ///
+    /// # Panics
+    /// If `codes` has fewer slices than the bench has channels, or one is shorter than `temps_c`.
+    pub fn fill_block(&mut self, temps_c: &mut [f64], codes: &mut [&mut [u16]]) {
+        for t in temps_c.iter_mut() {
+            *t = self.thermal.next(&mut self.rng);
+        }
+        assert!(codes.len() >= self.gyros.len(), "one code slice per channel");
+        for (g, c) in self.gyros.iter_mut().zip(codes.iter_mut()) {
+            g.fill_codes_at(temps_c, &mut c[..temps_c.len()]);
+        }
+    }
+
     /// Sample rate, Hz.
     pub fn fs_hz(&self) -> f64 {
         self.fs_hz
@@ -227,5 +243,34 @@ mod tests {
     #[test]
     fn temperature_channel_is_not_a_gyro() {
         assert_eq!(Bench::new(&model(&[(SensorKind::Temperature, 0.0)])).unwrap_err(), SimError::NotAGyro);
+    }
+
+    #[test]
+    fn blocks_give_the_samples_of_scan_by_scan() {
+        use crate::sim::model::{Sinusoid, TempCoupling};
+        let mut m = model(&[(SensorKind::Adxrs300, 0.05), (SensorKind::Idg1215X, 0.003), (SensorKind::Env05h, 4e-4)]);
+        for (i, c) in m.channels.iter_mut().enumerate() {
+            c.gyro.k_dps_per_rt_s = 1e-3;
+            c.gyro.bandwidth_hz = Some(30.0);
+            c.gyro.temperature = Some(TempCoupling { dps_per_c: 0.05, ref_c: 23.0, lag_s: 5.0 });
+            if i == 1 {
+                // A term outside the lean path.
+                let _ = c.gyro.sinusoids.push(Sinusoid { amplitude_dps: 0.1, period_s: 7.0, phase_rad: 0.3 });
+            }
+        }
+        let mut scans = Bench::new(&m).unwrap();
+        let mut blocks = Bench::new(&m).unwrap();
+        let mut temps = [0.0; 257];
+        let mut codes = [[0u16; 257]; 3];
+        for len in [1, 256, 257, 100] {
+            let [a, b, c] = &mut codes;
+            blocks.fill_block(&mut temps[..len], &mut [&mut a[..], &mut b[..], &mut c[..]]);
+            for j in 0..len {
+                let s = scans.next_sample();
+                assert_eq!(s.temp_c.to_bits(), temps[j].to_bits());
+                assert_eq!(s.codes(), [codes[0][j], codes[1][j], codes[2][j]]);
+            }
+        }
+        assert_eq!(scans.gyros(), blocks.gyros());
     }
 }

@@ -10,9 +10,10 @@
 //! started at four samples, which a fit took for angle random walk and a simulation of that fit added twice.
 //!
 //! Cost: the [`FAST`] processes with `T <= 16` samples update every sample; the process with `T = 2^j`, j > 4,
-//! updates every `2^(j-4)` samples (`T / D = 16`, held in between), so the slow part averages one update per
-//! sample: six multiply-adds and about 3.3 random words per sample, whatever the number of decades. The
-//! innovations are uniform deviates of unit variance, two per 64-bit word, not Gaussians: the Allan variance
+//! updates every `2^(j-4)` samples (`T / D = 16`, held in between), at the odd multiples of `2^(j-5)`, so that
+//! exactly one slow process updates at each sample: six multiply-adds and two random words per sample, whatever
+//! the number of decades. The innovations are uniform deviates of unit variance, three per 64-bit word
+//! ([`SimRng::unit_uniform_triple`](super::rng::SimRng::unit_uniform_triple)), not Gaussians: the Allan variance
 //! depends only on second moments, so it is unchanged, and each process sums many innovations while the bank
 //! sums 44 processes, so the flicker value is near Gaussian (the fastest processes sum few innovations; their
 //! share of the variance is a few percent).
@@ -42,14 +43,26 @@ pub const FLICKER_FLOOR: f64 = 0.664_282_470_267_960_1;
 /// The flicker bank of one channel (constant memory: about 100 `f64`s).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FlickerBank {
-    fast_x: [f64; FAST],
-    fast_a: [f64; FAST],
-    fast_b: [f64; FAST],
-    slow_x: [f64; SLOW],
-    slow_a: f64,
-    slow_b: f64,
-    slow_sum: f64,
+    pub(crate) fast: FastProcesses,
+    pub(crate) slow: SlowProcesses,
     var: f64,
+}
+
+/// The processes updated every sample. Small and `Copy`, so that a block loop can hold them in registers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct FastProcesses {
+    x: [f64; FAST],
+    a: [f64; FAST],
+    b: [f64; FAST],
+}
+
+/// The held processes (one updates per sample, at an index that varies) and their running sum.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct SlowProcesses {
+    x: [f64; SLOW],
+    a: f64,
+    b: f64,
+    sum: f64,
 }
 
 impl FlickerBank {
@@ -57,31 +70,21 @@ impl FlickerBank {
     pub fn new(b_dps: f64, rng: &mut SimRng) -> Self {
         let var = b_dps * b_dps * core::f64::consts::LN_2 / core::f64::consts::PI;
         let s = libm::sqrt(var);
-        let mut fast_a = [0.0; FAST];
-        let mut fast_b = [0.0; FAST];
-        let mut fast_x = [0.0; FAST];
+        let mut fast = FastProcesses { x: [0.0; FAST], a: [0.0; FAST], b: [0.0; FAST] };
         for j in 0..FAST {
             let a = libm::exp(-1.0 / (1u64 << j) as f64);
             let sd = if j == 0 { s * libm::sqrt(FIRST_WEIGHT) } else { s };
-            fast_a[j] = a;
-            fast_b[j] = sd * libm::sqrt(1.0 - a * a);
-            fast_x[j] = sd * rng.normal();
+            fast.a[j] = a;
+            fast.b[j] = sd * libm::sqrt(1.0 - a * a);
+            fast.x[j] = sd * rng.normal();
         }
         let slow_a = libm::exp(-1.0 / (1u64 << HOLD_RATIO_LOG2) as f64);
-        let mut slow_x = [0.0; SLOW];
-        for x in &mut slow_x {
-            *x = s * rng.normal();
+        let mut x = [0.0; SLOW];
+        for v in &mut x {
+            *v = s * rng.normal();
         }
-        FlickerBank {
-            fast_x,
-            fast_a,
-            fast_b,
-            slow_x,
-            slow_a,
-            slow_b: s * libm::sqrt(1.0 - slow_a * slow_a),
-            slow_sum: slow_x.iter().sum(),
-            var,
-        }
+        let slow = SlowProcesses { x, a: slow_a, b: s * libm::sqrt(1.0 - slow_a * slow_a), sum: x.iter().sum() };
+        FlickerBank { fast, slow, var }
     }
 
     /// The per-process variance `s^2 = B^2 ln 2 / pi`, in (deg/s)^2.
@@ -92,43 +95,7 @@ impl FlickerBank {
     /// The flicker value at sample `n` (n counts from 0, one call per sample), in deg/s.
     #[inline]
     pub fn next(&mut self, n: u64, rng: &mut SimRng) -> f64 {
-        let (u0, u1) = rng.unit_uniform_pair();
-        let (u2, u3) = rng.unit_uniform_pair();
-        let (u4, u5) = rng.unit_uniform_pair();
-        let mut sum = 0.0;
-        for (j, u) in [u0, u1, u2, u3, u4].into_iter().enumerate() {
-            let x = self.fast_a[j] * self.fast_x[j] + self.fast_b[j] * u;
-            self.fast_x[j] = x;
-            sum += x;
-        }
-        if n & 1 == 0 {
-            // Slow process i has hold 2^(i+1): it updates when n is a multiple of that.
-            let top = (n.trailing_zeros() as usize).min(SLOW);
-            let (a, b) = (self.slow_a, self.slow_b);
-            let x0 = self.slow_x[0];
-            self.slow_x[0] = a * x0 + b * u5;
-            let mut delta = self.slow_x[0] - x0;
-            let mut i = 1;
-            while i < top {
-                let (v0, v1) = rng.unit_uniform_pair();
-                for (k, v) in [(i, v0), (i + 1, v1)] {
-                    if k < top {
-                        let old = self.slow_x[k];
-                        let new = a * old + b * v;
-                        delta += new - old;
-                        self.slow_x[k] = new;
-                    }
-                }
-                i += 2;
-            }
-            if top >= 12 {
-                // Re-sum now and then so rounding in the running sum cannot build up.
-                self.slow_sum = self.slow_x.iter().sum();
-            } else {
-                self.slow_sum += delta;
-            }
-        }
-        sum + self.slow_sum
+        step(&mut self.fast, &mut self.slow, n, rng)
     }
 
     /// The bank's Allan variance at `m` samples, in (deg/s)^2, as designed: the exact discrete AR(1) variance of
@@ -142,6 +109,34 @@ impl FlickerBank {
         }
         total
     }
+}
+
+/// One sample of the bank: the fast processes and one held process updated, their sum returned (deg/s).
+/// Slow process i has hold 2^(i+1) and updates at the samples n = 2^i (mod 2^(i+1)): the ruler sequence, one
+/// slow update per sample (process `trailing_zeros(n)`), with no loop and no branch to mispredict.
+#[inline(always)]
+pub(crate) fn step(fast: &mut FastProcesses, slow: &mut SlowProcesses, n: u64, rng: &mut SimRng) -> f64 {
+    let [u0, u1, u2] = rng.unit_uniform_triple();
+    let [u3, u4, u5] = rng.unit_uniform_triple();
+    let u = [u0, u1, u2, u3, u4];
+    let mut sum = 0.0;
+    for j in 0..FAST {
+        fast.x[j] = fast.a[j] * fast.x[j] + fast.b[j] * u[j];
+        sum += fast.x[j];
+    }
+    let i = n.trailing_zeros() as usize;
+    if i < SLOW {
+        let old = slow.x[i];
+        let new = slow.a * old + slow.b * u5;
+        slow.x[i] = new;
+        if i >= 12 {
+            // Re-sum now and then so rounding in the running sum cannot build up.
+            slow.sum = slow.x.iter().sum();
+        } else {
+            slow.sum += new - old;
+        }
+    }
+    sum + slow.sum
 }
 
 /// The exact Allan variance at `m` samples of a stationary AR(1) sequence with variance `var` and

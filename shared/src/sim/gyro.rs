@@ -12,7 +12,7 @@
 
 use super::adc::Quantizer;
 use super::effects::{Sinusoids, Spikes, Steps, Telegraph, WarmUp};
-use super::flicker::FlickerBank;
+use super::flicker::{self, FlickerBank};
 use super::model::GyroSim;
 use super::noise::{GaussMarkov, LowPass, RandomWalk, Resonance};
 use super::rng::SimRng;
@@ -218,12 +218,64 @@ impl VirtualGyro {
     /// temperature at this sample (ignored without temperature coupling).
     #[inline]
     pub fn next_rate(&mut self, temp_c: f64) -> f64 {
+        let mut rate = 0.0;
+        if self.lean {
+            self.run_lean(1, |_| temp_c, |_, r| rate = r);
+        } else {
+            rate = self.rate_with_every_term(temp_c);
+        }
+        rate
+    }
+
+    /// `count` samples of a lean gyro (the IEEE base model and its bench: bias, white, flicker, random walk,
+    /// temperature, low-pass), sample i at temperature `temp_at(i)`, each analog rate handed to `out(i, rate)`.
+    /// The state is copied into locals for the loop and written back after: held in registers, where through
+    /// `self` every sample would store and reload it (the held flicker processes are written at a varying index,
+    /// which the compiler cannot tell apart from the other fields). The base models and the demo's bench take
+    /// this loop billions of times.
+    #[inline(always)]
+    fn run_lean(&mut self, count: usize, temp_at: impl Fn(usize) -> f64, mut out: impl FnMut(usize, f64)) {
+        let mut rng = self.rng.clone();
+        let mut n = self.n;
+        let (bias, white_sigma) = (self.bias, self.white_sigma);
+        let mut rw = self.rw.clone();
+        let mut temp = self.temp.clone();
+        let mut lowpass = self.lowpass.clone();
+        let mut fast = self.flicker.as_ref().map(|f| f.fast);
+        let mut slow = self.flicker.as_mut().map(|f| &mut f.slow);
+        for i in 0..count {
+            let mut r = bias;
+            if white_sigma != 0.0 {
+                r += white_sigma * rng.normal();
+            }
+            if let (Some(fast), Some(slow)) = (&mut fast, &mut slow) {
+                r += flicker::step(fast, slow, n, &mut rng);
+            }
+            if let Some(w) = &mut rw {
+                r += w.next(&mut rng);
+            }
+            if let Some(t) = &mut temp {
+                r += t.next(temp_at(i));
+            }
+            if let Some(lp) = &mut lowpass {
+                r = lp.next(r);
+            }
+            n += 1;
+            out(i, r);
+        }
+        if let (Some(f), Some(fast)) = (&mut self.flicker, fast) {
+            f.fast = fast;
+        }
+        (self.rng, self.n, self.rw, self.temp, self.lowpass) = (rng, n, rw, temp, lowpass);
+    }
+
+    /// The next analog rate of a gyro with any terms; the order of the terms and of the random draws is that of
+    /// [`VirtualGyro::run_lean`] with the other terms in between.
+    fn rate_with_every_term(&mut self, temp_c: f64) -> f64 {
         let n = self.n;
         self.n += 1;
         let rng = &mut self.rng;
-        // A lean gyro skips the checks of the terms it lacks with one flag, four times per sample instead of nine
-        // checks of their own: the base models and the demo's bench take this path millions of times a second.
-        let rare = !self.lean;
+        let rare = true;
         let mut r = self.bias;
         if self.white_sigma != 0.0 {
             r += self.white_sigma * rng.normal();
@@ -296,6 +348,11 @@ impl VirtualGyro {
     #[inline]
     pub fn next(&mut self, temp_c: f64) -> Sample {
         let rate_dps = self.next_rate(temp_c);
+        self.quantize(rate_dps)
+    }
+
+    #[inline(always)]
+    fn quantize(&mut self, rate_dps: f64) -> Sample {
         let (code, clipped) = self.adc.quantize(rate_dps);
         self.clipped += u64::from(clipped);
         Sample { rate_dps, code, clipped }
@@ -303,8 +360,36 @@ impl VirtualGyro {
 
     /// Fill `codes` with consecutive ADC codes at a constant temperature.
     pub fn fill_codes(&mut self, temp_c: f64, codes: &mut [u16]) {
-        for c in codes {
-            *c = self.next(temp_c).code;
+        self.fill_with(|_| temp_c, codes);
+    }
+
+    /// Fill `codes` with consecutive ADC codes, sample i at the bench temperature `temps_c[i]`. The same codes
+    /// as calling [`VirtualGyro::next`] sample by sample.
+    ///
+    /// # Panics
+    /// If `temps_c` is shorter than `codes`.
+    pub fn fill_codes_at(&mut self, temps_c: &[f64], codes: &mut [u16]) {
+        let temps_c = &temps_c[..codes.len()];
+        self.fill_with(|i| temps_c[i], codes);
+    }
+
+    /// The block loop: a lean gyro's in registers, any other sample by sample.
+    #[inline(always)]
+    fn fill_with(&mut self, temp_at: impl Fn(usize) -> f64, codes: &mut [u16]) {
+        if self.lean {
+            let adc = self.adc;
+            let mut clipped = 0u64;
+            self.run_lean(codes.len(), temp_at, |i, r| {
+                let (code, clip) = adc.quantize(r);
+                clipped += u64::from(clip);
+                codes[i] = code;
+            });
+            self.clipped += clipped;
+        } else {
+            for (i, c) in codes.iter_mut().enumerate() {
+                let r = self.rate_with_every_term(temp_at(i));
+                *c = self.quantize(r).code;
+            }
         }
     }
 
