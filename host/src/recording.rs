@@ -247,12 +247,18 @@ pub fn read_csv<R: BufRead + Send>(reader: R, path: &str, opts: &CsvOptions) -> 
     let n = opts.columns.len();
     let mut channels: Vec<Vec<f64>> = vec![Vec::new(); n];
     let mut temps: Vec<f64> = Vec::new();
-    let info = read_csv_stream(reader, path, opts, |row, temp| {
-        for (c, v) in channels.iter_mut().zip(row) {
-            c.push(*v);
+    let info = read_csv_rows(reader, path, opts, |rows, temp| {
+        if n == 1 {
+            channels[0].extend_from_slice(rows);
+        } else {
+            for row in rows.chunks_exact(n) {
+                for (c, v) in channels.iter_mut().zip(row) {
+                    c.push(*v);
+                }
+            }
         }
         if let Some(t) = temp {
-            temps.push(t);
+            temps.extend_from_slice(t);
         }
     })?;
     Ok(Recording {
@@ -271,25 +277,27 @@ const BLOCK_BYTES: usize = 8 << 20;
 /// Data lines looked at to detect a decimal comma.
 const DETECT_ROWS: usize = 20;
 
-/// How one line of a block came out.
+/// A line of a block that gave no row.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum RowKind {
-    /// Values in the task's arrays.
-    Row,
+enum Skip {
     /// An empty line.
     Blank,
     /// Dropped by a `--where` filter.
     Filtered,
 }
 
-/// The parsed lines of one task: flat arrays, one entry per [`RowKind::Row`] (values `ncols` at a time).
+/// The parsed lines of one task: flat arrays, one entry per row that gave values (`ncols` values at a time),
+/// and the lines that gave none.
 #[derive(Default)]
 struct Parsed {
-    kinds: Vec<RowKind>,
     values: Vec<f64>,
     temps: Vec<f64>,
     times: Vec<f64>,
-    /// The first fault, which ends the read; `kinds` stops just before its line.
+    /// The lines without a row, as (line within the task, counted from 1; why), in order.
+    skips: Vec<(u64, Skip)>,
+    /// Lines looked at (up to and including the faulty one).
+    lines: u64,
+    /// The first fault, which ends the read; the arrays stop just before its line.
     error: Option<RecordingError>,
 }
 
@@ -327,19 +335,29 @@ impl LineParser<'_> {
         }
     }
 
-    /// Parse `lines` (each without its line end), the first being line `first_line` of the file.
-    fn parse(&self, lines: &[&str], first_line: u64) -> Parsed {
+    /// Parse the whole lines of `text`, numbering them from 1: one pass with memchr over the task's bytes for the
+    /// line ends, each line split into `cells`.
+    fn parse(&self, text: &str) -> Parsed {
         let mut out = Parsed::default();
+        out.values.reserve(text.len() / 16 * self.cols.len());
         let mut cells = Vec::with_capacity(self.header_fields + 1);
-        for (k, text) in lines.iter().enumerate() {
-            let line = first_line + k as u64;
-            match self.parse_line(text, line, &mut cells, &mut out) {
-                Ok(kind) => out.kinds.push(kind),
+        let mut start = 0;
+        let ends = memchr::memchr_iter(b'\n', text.as_bytes()).chain((!text.ends_with('\n')).then_some(text.len()));
+        for end in ends {
+            if end == start && end == text.len() {
+                break;
+            }
+            out.lines += 1;
+            let line = out.lines;
+            match self.parse_line(&text[start..end], line, &mut cells, &mut out) {
+                Ok(None) => {}
+                Ok(Some(skip)) => out.skips.push((line, skip)),
                 Err(e) => {
                     out.error = Some(e);
                     break;
                 }
             }
+            start = end + 1;
         }
         out
     }
@@ -350,10 +368,10 @@ impl LineParser<'_> {
         line: u64,
         cells: &mut Vec<&'t str>,
         out: &mut Parsed,
-    ) -> Result<RowKind, RecordingError> {
+    ) -> Result<Option<Skip>, RecordingError> {
         let text = trim_line_end(text);
         if text.trim_ascii().is_empty() {
-            return Ok(RowKind::Blank);
+            return Ok(Some(Skip::Blank));
         }
         split(text, self.dialect.delimiter, cells).map_err(|e| RecordingError::BadRow {
             path: self.path.to_string(),
@@ -378,7 +396,7 @@ impl LineParser<'_> {
             });
         }
         if self.filters.iter().any(|(i, f)| cells.get(*i).is_none_or(|cell| !f.matches(cell))) {
-            return Ok(RowKind::Filtered);
+            return Ok(Some(Skip::Filtered));
         }
         let missing = |name: &str, c: usize| RecordingError::BadRow {
             path: self.path.to_string(),
@@ -401,7 +419,7 @@ impl LineParser<'_> {
             }
             out.times.push(t);
         }
-        Ok(RowKind::Row)
+        Ok(None)
     }
 }
 
@@ -423,20 +441,6 @@ fn read_block<R: BufRead>(reader: &mut R, buf: &mut Vec<u8>) -> std::io::Result<
     Ok(())
 }
 
-/// The lines of a block (without their `\n`), found with memchr.
-fn block_lines(text: &str) -> Vec<&str> {
-    let mut lines = Vec::with_capacity(text.len() / 16);
-    let mut start = 0;
-    for end in memchr::memchr_iter(b'\n', text.as_bytes()) {
-        lines.push(&text[start..end]);
-        start = end + 1;
-    }
-    if start < text.len() {
-        lines.push(&text[start..]);
-    }
-    lines
-}
-
 /// Stream a CSV recording: `sink` gets each sample's values (deg/s, one per column, NaN for a gap) and the
 /// temperature when a temperature column was named. The rate is known before the first call.
 ///
@@ -450,10 +454,26 @@ fn block_lines(text: &str) -> Vec<&str> {
 /// header's (unless [`CsvOptions::flexible`]), a time column that does not increase, no rate, an empty result,
 /// text that is not UTF-8, or an I/O error; each names the file, line and column.
 pub fn read_csv_stream<R: BufRead + Send>(
-    mut reader: R,
+    reader: R,
     path: &str,
     opts: &CsvOptions,
     mut sink: impl FnMut(&[f64], Option<f64>),
+) -> Result<StreamInfo, RecordingError> {
+    let n = opts.columns.len();
+    read_csv_rows(reader, path, opts, |rows, temps| {
+        for (k, row) in rows.chunks_exact(n).enumerate() {
+            sink(row, temps.map(|t| t[k]));
+        }
+    })
+}
+
+/// [`read_csv_stream`] with the rows handed on in batches: `sink` gets the values of consecutive rows (`ncols`
+/// per row, row after row) and their temperatures when a temperature column was named.
+fn read_csv_rows<R: BufRead + Send>(
+    mut reader: R,
+    path: &str,
+    opts: &CsvOptions,
+    mut sink: impl FnMut(&[f64], Option<&[f64]>),
 ) -> Result<StreamInfo, RecordingError> {
     let io = |err| RecordingError::Io { path: path.to_string(), err };
     let not_utf8 =
@@ -557,101 +577,72 @@ pub fn read_csv_stream<R: BufRead + Send>(
         scale: opts.unit.to_dps(),
     };
     let mut info = StreamInfo { columns: opts.columns.clone(), ..Default::default() };
-
-    // With a time column the rate comes from the median step of the first rows, which are buffered.
-    let mut pending: Vec<(u64, Vec<f64>, Option<f64>, f64)> = Vec::new();
-    let mut rate = opts.rate_hz.unwrap_or(0.0);
-    let mut last_t: Option<f64> = None;
-    let mut emit = |vals: &[f64], temp: Option<f64>, info: &mut StreamInfo| {
-        info.samples += 1;
-        info.gaps += vals.iter().filter(|v| v.is_nan()).count() as u64;
-        sink(vals, temp);
-    };
     let ncols = parser.cols.len();
-    let nan_row = vec![f64::NAN; ncols];
-    // Hand one row on, inserting NaN samples for a jump in the time column.
-    let mut deliver = |vals: &[f64], temp: Option<f64>, t: Option<f64>, line: u64, rate: f64, info: &mut StreamInfo| {
-        if let (Some(t), Some(prev)) = (t, last_t) {
-            if t <= prev {
-                return Err(RecordingError::TimeNotIncreasing {
-                    path: path.to_string(),
-                    line,
-                    column: opts.time_column.clone().unwrap_or_default(),
-                    t,
-                    previous: prev,
-                });
-            }
-            let steps = ((t - prev) * rate).round() as i64;
-            for _ in 1..steps.max(1) {
-                emit(&nan_row, temp.map(|_| f64::NAN), info);
-            }
-        }
-        if t.is_some() {
-            last_t = t;
-        }
-        emit(vals, temp, info);
-        Ok(())
+    let with_temp = parser.temp.is_some();
+    // Without a time column the rows go on in batches; with one, row by row, with NaN rows for the samples
+    // missing from the time column, once the rate is known from the median step of the first rows (buffered).
+    let mut timed = parser.time.map(|_| Timed {
+        rate: opts.rate_hz.unwrap_or(0.0),
+        last_t: None,
+        pending: Vec::new(),
+        nan_row: vec![f64::NAN; ncols],
+        column: opts.time_column.as_deref().unwrap_or(""),
+    });
+    if timed.is_none() {
+        info.rate_hz = opts.rate_hz.unwrap_or(0.0);
+    }
+    let mut emit = |values: &[f64], temps: Option<&[f64]>, info: &mut StreamInfo| {
+        let rows = values.len() / ncols.max(1);
+        info.samples += rows as u64;
+        info.gaps += values.iter().filter(|v| v.is_nan()).count() as u64;
+        sink(values, temps.filter(|_| with_temp));
     };
     while !block.is_empty() {
         // The block in byte ranges of whole lines, one per task; each task checks its UTF-8, finds its lines and
         // parses them, numbering from 1; the numbers are made absolute after, in order.
         // The next block is read (and decompressed) while this one is parsed.
         let ranges = task_ranges(&block, 4 * rayon::current_num_threads());
-        let (parsed, read): (Vec<(Parsed, u64)>, _) = rayon::join(
+        let (parsed, read): (Vec<Parsed>, _) = rayon::join(
             || {
                 use rayon::prelude::*;
                 ranges
                     .par_iter()
                     .map(|&(a, b)| match std::str::from_utf8(&block[a..b]) {
-                        Ok(text) => {
-                            let lines = block_lines(text);
-                            (parser.parse(&lines, 1), lines.len() as u64)
-                        }
+                        Ok(text) => parser.parse(text),
                         Err(e) => {
                             let line = 1 + memchr::memchr_iter(b'\n', &block[a..a + e.valid_up_to()]).count() as u64;
-                            (Parsed { error: Some(not_utf8(line)), ..Parsed::default() }, 0)
+                            Parsed { error: Some(not_utf8(line)), ..Parsed::default() }
                         }
                     })
                     .collect()
             },
             || read_block(&mut reader, &mut next),
         );
-        let mut first = line_no + 1;
-        for (part, lines) in parsed {
-            let (mut v, mut tp, mut tm) = (0, 0, 0);
-            for (i, kind) in part.kinds.iter().enumerate() {
-                let line = first + i as u64;
-                match kind {
-                    RowKind::Blank => continue,
-                    RowKind::Filtered => {
-                        info.filtered_out += 1;
-                        continue;
-                    }
-                    RowKind::Row => {}
-                }
-                let values = &part.values[v..v + ncols];
-                v += ncols;
-                let temp = parser.temp.map(|_| {
-                    tp += 1;
-                    part.temps[tp - 1]
-                });
-                let t = parser.time.map(|_| {
-                    tm += 1;
-                    part.times[tm - 1]
-                });
-                if rate == 0.0 {
-                    pending.push((line, values.to_vec(), temp, t.unwrap_or(f64::NAN)));
-                    if pending.len() == 1001 {
-                        rate = median_rate(&pending, path, opts)?;
-                        info.rate_hz = rate;
-                        for (l, pv, tc, tt) in pending.drain(..) {
-                            deliver(&pv, tc, Some(tt), l, rate, &mut info)?;
+        for part in parsed {
+            let first = line_no + 1;
+            let filtered = part.skips.iter().filter(|(_, k)| *k == Skip::Filtered).count() as u64;
+            info.filtered_out += filtered;
+            let rows = part.lines - part.skips.len() as u64 - u64::from(part.error.is_some());
+            let values = &part.values[..rows as usize * ncols];
+            let temps = &part.temps[..if with_temp { rows as usize } else { 0 }];
+            match &mut timed {
+                None => emit(values, Some(temps), &mut info),
+                Some(timed) => {
+                    // The file line of each row: the task's lines less its skipped ones.
+                    let mut skips = part.skips.iter().peekable();
+                    let mut line = first;
+                    for k in 0..rows as usize {
+                        while skips.peek().is_some_and(|(l, _)| first + l - 1 == line) {
+                            skips.next();
+                            line += 1;
                         }
+                        let row = &values[k * ncols..(k + 1) * ncols];
+                        let temp = with_temp.then(|| &temps[k..k + 1]);
+                        timed.row(row, temp, part.times[k], line, path, &mut |v, t| emit(v, t, &mut info))?;
+                        line += 1;
                     }
-                    continue;
+                    info.rate_hz = timed.rate;
                 }
-                info.rate_hz = rate;
-                deliver(values, temp, t, line, rate, &mut info)?;
             }
             if let Some(mut e) = part.error {
                 if let Some(line) = e.line_mut() {
@@ -659,24 +650,102 @@ pub fn read_csv_stream<R: BufRead + Send>(
                 }
                 return Err(e);
             }
-            first += lines;
+            line_no += part.lines;
         }
-        line_no = first - 1;
         read.map_err(io)?;
         std::mem::swap(&mut block, &mut next);
     }
-    if rate == 0.0 && !pending.is_empty() {
-        rate = median_rate(&pending, path, opts)?;
-        info.rate_hz = rate;
-        for (l, v, tc, tt) in pending.drain(..) {
-            deliver(&v, tc, Some(tt), l, rate, &mut info)?;
-        }
+    if let Some(timed) = &mut timed {
+        timed.finish(path, &mut |v, t| emit(v, t, &mut info))?;
+        info.rate_hz = timed.rate;
     }
     if info.samples == 0 {
         return Err(RecordingError::Empty { path: path.to_string() });
     }
-    info.rate_hz = rate;
     Ok(info)
+}
+
+/// Rows with a time column: the rate from the median step of the first rows (buffered until then), and NaN rows
+/// for the samples missing where the time jumps.
+struct Timed<'a> {
+    /// Hz; 0 until known.
+    rate: f64,
+    last_t: Option<f64>,
+    /// The first rows while the rate is not known: (line, values, temperature, time).
+    pending: Vec<(u64, Vec<f64>, Option<f64>, f64)>,
+    nan_row: Vec<f64>,
+    column: &'a str,
+}
+
+/// Rows that fix the rate of a time column.
+const RATE_ROWS: usize = 1001;
+
+impl Timed<'_> {
+    /// One row at time `t` from file line `line`.
+    fn row(
+        &mut self,
+        values: &[f64],
+        temp: Option<&[f64]>,
+        t: f64,
+        line: u64,
+        path: &str,
+        emit: &mut dyn FnMut(&[f64], Option<&[f64]>),
+    ) -> Result<(), RecordingError> {
+        if self.rate == 0.0 {
+            self.pending.push((line, values.to_vec(), temp.map(|t| t[0]), t));
+            if self.pending.len() == RATE_ROWS {
+                self.flush(path, emit)?;
+            }
+            return Ok(());
+        }
+        self.deliver(values, temp, t, line, path, emit)
+    }
+
+    /// The end of the input: a rate from the rows buffered so far, if still unknown.
+    fn finish(&mut self, path: &str, emit: &mut dyn FnMut(&[f64], Option<&[f64]>)) -> Result<(), RecordingError> {
+        if self.rate == 0.0 && !self.pending.is_empty() {
+            self.flush(path, emit)?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self, path: &str, emit: &mut dyn FnMut(&[f64], Option<&[f64]>)) -> Result<(), RecordingError> {
+        self.rate = median_rate(&self.pending, path, self.column)?;
+        for (l, v, temp, t) in std::mem::take(&mut self.pending) {
+            let temp = temp.map(|x| [x]);
+            self.deliver(&v, temp.as_ref().map(|x| &x[..]), t, l, path, emit)?;
+        }
+        Ok(())
+    }
+
+    fn deliver(
+        &mut self,
+        values: &[f64],
+        temp: Option<&[f64]>,
+        t: f64,
+        line: u64,
+        path: &str,
+        emit: &mut dyn FnMut(&[f64], Option<&[f64]>),
+    ) -> Result<(), RecordingError> {
+        if let Some(prev) = self.last_t {
+            if t <= prev {
+                return Err(RecordingError::TimeNotIncreasing {
+                    path: path.to_string(),
+                    line,
+                    column: self.column.to_string(),
+                    t,
+                    previous: prev,
+                });
+            }
+            let steps = ((t - prev) * self.rate).round() as i64;
+            for _ in 1..steps.max(1) {
+                emit(&self.nan_row, temp.map(|_| &[f64::NAN][..]));
+            }
+        }
+        self.last_t = Some(t);
+        emit(values, temp);
+        Ok(())
+    }
 }
 
 /// Split `block` into about `n` byte ranges of whole lines.
@@ -694,18 +763,14 @@ fn task_ranges(block: &[u8], n: usize) -> Vec<(usize, usize)> {
     ranges
 }
 
-fn median_rate(
-    rows: &[(u64, Vec<f64>, Option<f64>, f64)],
-    path: &str,
-    opts: &CsvOptions,
-) -> Result<f64, RecordingError> {
+fn median_rate(rows: &[(u64, Vec<f64>, Option<f64>, f64)], path: &str, column: &str) -> Result<f64, RecordingError> {
     let mut steps: Vec<f64> = rows.windows(2).map(|w| w[1].3 - w[0].3).collect();
     for (w, step) in rows.windows(2).zip(&steps) {
         if !(*step > 0.0) {
             return Err(RecordingError::TimeNotIncreasing {
                 path: path.to_string(),
                 line: w[1].0,
-                column: opts.time_column.clone().unwrap_or_default(),
+                column: column.to_string(),
                 t: w[1].3,
                 previous: w[0].3,
             });

@@ -352,7 +352,9 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
 
 #[test]
 fn gauss_markov_recovered() {
-    for (fs, sigma, t) in [(100.0, 0.02, 2.0), (10.0, 0.004, 300.0)] {
+    // The slow process at 0.008 deg/s: its hump stands clear of the base model's flicker floor (0.0033 deg/s) on
+    // every seed; at half that it is found on about two seeds in five, as the flicker's scatter allows.
+    for (fs, sigma, t) in [(100.0, 0.02, 2.0), (10.0, 0.008, 300.0)] {
         let m = GyroSim { gauss_markov: Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t }), ..base_model() };
         let (x, _) = simulate(&m, fs, 1_000_000, 7, None);
         let e = run(Effect::GaussMarkov, &x, None, fs).unwrap();
