@@ -665,6 +665,9 @@ fn read_csv_rows<R: BufRead + Send>(
     Ok(info)
 }
 
+/// Where rows go: the values of consecutive rows (`ncols` per row) and their temperatures, if read.
+type RowSink<'a> = dyn FnMut(&[f64], Option<&[f64]>) + 'a;
+
 /// Rows with a time column: the rate from the median step of the first rows (buffered until then), and NaN rows
 /// for the samples missing where the time jumps.
 struct Timed<'a> {
@@ -689,7 +692,7 @@ impl Timed<'_> {
         t: f64,
         line: u64,
         path: &str,
-        emit: &mut dyn FnMut(&[f64], Option<&[f64]>),
+        emit: &mut RowSink<'_>,
     ) -> Result<(), RecordingError> {
         if self.rate == 0.0 {
             self.pending.push((line, values.to_vec(), temp.map(|t| t[0]), t));
@@ -702,14 +705,14 @@ impl Timed<'_> {
     }
 
     /// The end of the input: a rate from the rows buffered so far, if still unknown.
-    fn finish(&mut self, path: &str, emit: &mut dyn FnMut(&[f64], Option<&[f64]>)) -> Result<(), RecordingError> {
+    fn finish(&mut self, path: &str, emit: &mut RowSink<'_>) -> Result<(), RecordingError> {
         if self.rate == 0.0 && !self.pending.is_empty() {
             self.flush(path, emit)?;
         }
         Ok(())
     }
 
-    fn flush(&mut self, path: &str, emit: &mut dyn FnMut(&[f64], Option<&[f64]>)) -> Result<(), RecordingError> {
+    fn flush(&mut self, path: &str, emit: &mut RowSink<'_>) -> Result<(), RecordingError> {
         self.rate = median_rate(&self.pending, path, self.column)?;
         for (l, v, temp, t) in std::mem::take(&mut self.pending) {
             let temp = temp.map(|x| [x]);
@@ -725,7 +728,7 @@ impl Timed<'_> {
         t: f64,
         line: u64,
         path: &str,
-        emit: &mut dyn FnMut(&[f64], Option<&[f64]>),
+        emit: &mut RowSink<'_>,
     ) -> Result<(), RecordingError> {
         if let Some(prev) = self.last_t {
             if t <= prev {
