@@ -7,8 +7,9 @@
 //! channel's `wf_increment`. The reader follows NI's published format: any number of segments, metadata carried
 //! over from earlier segments (segments without metadata, raw data indexes marked "same as previous", objects
 //! appended to the previous list), interleaved data, big-endian segments, and a final segment whose length was
-//! never written (a crashed writer), of which the whole chunks are read. The file is read into memory and parsed
-//! in one pass; only the requested channels are decoded.
+//! never written (a crashed writer), of which the whole chunks are read. The file is read into memory; one walk
+//! over the segments finds where the requested channels' values are, then each channel is decoded, scaled and
+//! converted straight into an array of its final size (the channels in parallel), and the rest is skipped.
 //!
 //! It does not read DAQmx raw data (the raw data index `0x69120000`/`0x69130000`: scaler-encoded samples), string,
 //! boolean, time stamp or complex channels, or scale types that need a sensor model (thermocouple, RTD, strain,
@@ -19,6 +20,8 @@
 
 use std::collections::HashMap;
 use std::path::Path;
+
+use rayon::prelude::*;
 
 use crate::recording::{RateUnit, Recording, StreamInfo};
 
@@ -166,9 +169,9 @@ fn read_bytes(
             }
         }
     }
-    let len = file.data[objects[0].1].len();
+    let len = file.lengths[objects[0].1];
     for (column, &(_, slot)) in columns.iter().zip(&objects) {
-        let n = file.data[slot].len();
+        let n = file.lengths[slot];
         if n != len {
             return Err(TdmsError::UnequalLengths {
                 path: path(),
@@ -185,38 +188,83 @@ fn read_bytes(
 
     let rate = sample_rate(&file, columns, &objects, rate_hz, source)?;
 
-    // Scale each distinct series once, then hand the series out to the columns in order.
-    let to_dps = unit.to_dps();
-    let mut scaled: Vec<Option<Vec<f64>>> = vec![None; columns.len()];
+    // Each distinct series with its scale, then decoded (in parallel) into its final place in one pass.
+    let mut series = Vec::new();
     for (column, &(id, slot)) in columns.iter().zip(&objects) {
-        if scaled[slot].is_some() {
+        if series.iter().any(|&(s, _, _)| s == slot) {
             continue;
         }
-        let mut values = std::mem::take(&mut file.data[slot]);
         let scale = file.scale_of(id).map_err(|fault| match fault {
             ScaleFault::Unsupported { index, scale_type } => {
                 TdmsError::UnsupportedScale { path: path(), channel: column.clone(), index, scale_type }
             }
             ScaleFault::Bad(message) => TdmsError::BadScale { path: path(), channel: column.clone(), message },
         })?;
-        match &scale {
-            Some(s) => values.iter_mut().for_each(|v| *v = s.apply(*v) * to_dps),
-            None if to_dps != 1.0 => values.iter_mut().for_each(|v| *v *= to_dps),
-            None => {}
-        }
-        if let Some(index) = values.iter().position(|v| v.is_infinite()) {
-            return Err(TdmsError::NotFinite { path: path(), channel: column.clone(), index, value: values[index] });
-        }
-        scaled[slot] = Some(values);
+        series.push((slot, column, scale));
     }
+    let to_dps = unit.to_dps();
+    // Each series' slot, values and NaN count; the errors in column order, whichever thread met them first.
+    type Decoded = (usize, Vec<f64>, u64);
+    let decoded: Vec<Result<Decoded, TdmsError>> = series
+        .into_par_iter()
+        .map(|(slot, column, scale)| {
+            let mut values = Vec::with_capacity(len);
+            let mut gaps = 0u64;
+            for job in file.jobs.iter().filter(|j| j.slot == slot) {
+                let from = values.len();
+                job.decode(file.bytes, &mut values);
+                let new = &mut values[from..];
+                let (nan, inf) = match &scale {
+                    Some(s) => finish(new, |v| s.apply(v) * to_dps),
+                    None if to_dps != 1.0 => finish(new, |v| v * to_dps),
+                    None => finish(new, |v| v),
+                };
+                gaps += nan;
+                if inf {
+                    let at = new.iter().position(|v| v.is_infinite()).unwrap_or(0);
+                    return Err(TdmsError::NotFinite {
+                        path: path(),
+                        channel: column.clone(),
+                        index: from + at,
+                        value: new[at],
+                    });
+                }
+            }
+            Ok((slot, values, gaps))
+        })
+        .collect();
+    let mut done: Vec<Option<Vec<f64>>> = vec![None; columns.len()];
+    let mut gaps = 0;
+    for d in decoded {
+        let (slot, values, nan) = d?;
+        done[slot] = Some(values);
+        gaps += nan;
+    }
+    // A repeated column is a copy of the first, and its gaps count again.
     let mut channels = Vec::with_capacity(columns.len());
     for (i, &(_, slot)) in objects.iter().enumerate() {
+        let first = objects[..i].iter().any(|o| o.1 == slot);
         let again = objects[i + 1..].iter().any(|o| o.1 == slot);
-        channels.push(if again { scaled[slot].clone() } else { scaled[slot].take() }.unwrap_or_default());
+        let values = if again { done[slot].clone() } else { done[slot].take() }.unwrap_or_default();
+        if first {
+            gaps += values.iter().filter(|v| v.is_nan()).count() as u64;
+        }
+        channels.push(values);
     }
-    let gaps = channels.iter().map(|c| c.iter().filter(|v| v.is_nan()).count() as u64).sum();
     let info = StreamInfo { columns: columns.to_vec(), rate_hz: rate, samples: len as u64, gaps, filtered_out: 0 };
     Ok(Recording { source: source.to_string(), names: columns.to_vec(), channels, temp_c: None, rate_hz: rate, info })
+}
+
+/// Apply `f` to each value in place: the NaNs among the results, and whether one is infinite.
+fn finish(values: &mut [f64], f: impl Fn(f64) -> f64) -> (u64, bool) {
+    let (mut nan, mut inf) = (0u64, false);
+    for v in values {
+        let x = f(*v);
+        *v = x;
+        nan += u64::from(x.is_nan());
+        inf |= x.is_infinite();
+    }
+    (nan, inf)
 }
 
 /// The sample rate from the channels' `wf_increment` and `--rate`.
@@ -418,8 +466,10 @@ struct FileReader<'a> {
     list: Vec<(usize, bool)>,
     /// Whether a segment has set the object list.
     have_list: bool,
-    /// Raw (unscaled) values per slot.
-    data: Vec<Vec<f64>>,
+    /// Where each requested channel's values are, segment by segment.
+    jobs: Vec<Job>,
+    /// Values per slot.
+    lengths: Vec<usize>,
     /// The object of each slot.
     slot_object: Vec<Option<usize>>,
 }
@@ -529,7 +579,8 @@ impl<'a> FileReader<'a> {
             by_path: HashMap::new(),
             list: Vec::new(),
             have_list: false,
-            data: vec![Vec::new(); columns.len()],
+            jobs: Vec::new(),
+            lengths: vec![0; columns.len()],
             slot_object: vec![None; columns.len()],
         }
     }
@@ -808,7 +859,6 @@ impl<'a> FileReader<'a> {
 
     /// Decode the requested channels' values in the raw data `start..end` of a segment.
     fn read_data(&mut self, toc: u32, start: usize, end: usize, unwritten: bool) -> Result<(), Fault> {
-        let big = toc & TOC_BIG_ENDIAN != 0;
         let mut with_data = Vec::new();
         let mut chunk = 0u64;
         for &(id, has) in &self.list {
@@ -846,18 +896,15 @@ impl<'a> FileReader<'a> {
             });
         }
         for &(id, index) in &with_data {
-            if let Some(slot) = self.objects[id].slot {
-                if !is_numeric(index.data_type) {
-                    let o = &self.objects[id];
-                    return Err(Fault::NotNumeric {
-                        channel: format!("{}/{}", o.group.as_deref().unwrap_or(""), o.channel.as_deref().unwrap_or("")),
-                        data_type: type_name(index.data_type),
-                    });
-                }
-                self.data[slot].reserve((index.values * chunks) as usize);
+            let o = &self.objects[id];
+            if o.slot.is_some() && !is_numeric(index.data_type) {
+                return Err(Fault::NotNumeric {
+                    channel: format!("{}/{}", o.group.as_deref().unwrap_or(""), o.channel.as_deref().unwrap_or("")),
+                    data_type: type_name(index.data_type),
+                });
             }
         }
-        let bytes = &self.bytes[start..end];
+        let big = toc & TOC_BIG_ENDIAN != 0;
         if toc & TOC_INTERLEAVED != 0 {
             let values = with_data[0].1.values;
             let mut width = 0usize;
@@ -888,28 +935,43 @@ impl<'a> FileReader<'a> {
                 }
             }
             // Whole rows only: an unfinished segment may stop inside a chunk.
-            let rows = bytes.len() / width;
-            let mut offset = 0usize;
+            let rows = (end - start) / width;
+            let mut offset = start;
             for &(id, index) in &with_data {
                 if let Some(slot) = self.objects[id].slot {
-                    decode(index.data_type, big, &bytes[offset..], width, rows, &mut self.data[slot]);
+                    let data_type = index.data_type;
+                    let job =
+                        Job { slot, data_type, big, start: offset, stride: width, count: rows, runs: 1, run_stride: 0 };
+                    self.add(job);
                 }
                 offset += type_size(index.data_type).unwrap_or(0) as usize;
             }
-        } else {
-            let mut offset = 0usize;
-            for _ in 0..chunks {
-                for &(id, index) in &with_data {
-                    let n = index.bytes as usize;
-                    if let Some(slot) = self.objects[id].slot {
-                        let size = type_size(index.data_type).unwrap_or(1) as usize;
-                        decode(index.data_type, big, &bytes[offset..offset + n], size, n / size, &mut self.data[slot]);
-                    }
-                    offset += n;
+        } else if chunks > 0 {
+            // Every value counted here lies inside `start..end`, so the sizes fit in usize.
+            let mut offset = start;
+            for &(id, index) in &with_data {
+                if let Some(slot) = self.objects[id].slot {
+                    let job = Job {
+                        slot,
+                        data_type: index.data_type,
+                        big,
+                        start: offset,
+                        stride: type_size(index.data_type).unwrap_or(1) as usize,
+                        count: index.values as usize,
+                        runs: chunks as usize,
+                        run_stride: chunk as usize,
+                    };
+                    self.add(job);
                 }
+                offset += index.bytes as usize;
             }
         }
         Ok(())
+    }
+
+    fn add(&mut self, job: Job) {
+        self.lengths[job.slot] += job.count * job.runs;
+        self.jobs.push(job);
     }
 
     /// The scale of a channel: from its own properties, else its group's, else the file's; `None` for none (or
@@ -933,6 +995,28 @@ impl<'a> FileReader<'a> {
             return build_scale(props, n - 1, n, &mut Vec::new()).map(Some);
         }
         Ok(None)
+    }
+}
+
+/// Where a requested channel's values are in one segment: `runs` runs (chunks) of `count` values `stride` bytes
+/// apart, the runs `run_stride` bytes apart from byte `start` of the file.
+#[derive(Clone, Copy, Debug)]
+struct Job {
+    slot: usize,
+    data_type: u32,
+    big: bool,
+    start: usize,
+    stride: usize,
+    count: usize,
+    runs: usize,
+    run_stride: usize,
+}
+
+impl Job {
+    fn decode(&self, bytes: &[u8], out: &mut Vec<f64>) {
+        for r in 0..self.runs {
+            decode(self.data_type, self.big, &bytes[self.start + r * self.run_stride..], self.stride, self.count, out);
+        }
     }
 }
 
@@ -1859,7 +1943,9 @@ mod tests {
         let objs = [obj(&chan("g", "a"), Ix::Same, vec![])];
         let file = segment(TOC_NEW_OBJ_LIST, Some(&objs), &[0; 16]);
         let err = read(&file, &["g/a"], Some(1.0)).unwrap_err().to_string();
-        assert!(err.contains("byte 44 (segment 1, which starts at byte 0): corrupt: channel \"g/a\" reuses the previous raw data index, but none came before"), "{err}");
+        let want = "byte 44 (segment 1, which starts at byte 0): corrupt: channel \"g/a\" reuses the previous raw \
+                    data index, but none came before";
+        assert!(err.contains(want), "{err}");
         // Raw data and no metadata in the first segment.
         let file = segment(0, None, &[0; 16]);
         assert!(read(&file, &["g/a"], Some(1.0)).unwrap_err().to_string().contains("no earlier segment"));
