@@ -25,6 +25,7 @@ pub mod simulate;
 pub mod snapshot_stats;
 pub mod stats;
 pub mod streaming;
+pub mod tdms;
 pub mod verify;
 
 #[cfg(test)]

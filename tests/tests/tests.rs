@@ -12,5 +12,6 @@ mod reference_adis;
 mod reference_nbs14;
 mod reference_stable32;
 mod sim_closed_form;
+mod tdms;
 mod transients;
 mod util;
