@@ -335,12 +335,74 @@ impl LineParser<'_> {
         }
     }
 
-    /// Parse the whole lines of `text`, numbering them from 1: one pass with memchr over the task's bytes for the
-    /// line ends, each line split into `cells`.
+    /// Parse the whole lines of `text`, numbering them from 1. With a delimiter byte, one pass with memchr over
+    /// the task's bytes finds the line ends and the delimiters together; a line with a quote is split again with
+    /// the quote rules, and whitespace-delimited text goes line by line.
     fn parse(&self, text: &str) -> Parsed {
         let mut out = Parsed::default();
         out.values.reserve(text.len() / 16 * self.cols.len());
         let mut cells = Vec::with_capacity(self.header_fields + 1);
+        let result = match self.dialect.delimiter {
+            Delimiter::Byte(d) => self.parse_delimited(text, d, &mut cells, &mut out),
+            Delimiter::Whitespace => self.parse_lines(text, &mut cells, &mut out),
+        };
+        if let Err(e) = result {
+            out.error = Some(e);
+        }
+        out
+    }
+
+    /// [`LineParser::parse`] for a delimiter byte.
+    fn parse_delimited<'t>(
+        &self,
+        text: &'t str,
+        d: u8,
+        cells: &mut Vec<&'t str>,
+        out: &mut Parsed,
+    ) -> Result<(), RecordingError> {
+        let bytes = text.as_bytes();
+        let (mut line_start, mut field_start, mut quoted) = (0, 0, false);
+        let mut end_line = |(line_start, end): (usize, usize), cells: &mut Vec<&'t str>, quoted: bool, field_start: usize| {
+            out.lines += 1;
+            let line = out.lines;
+            let whole = trim_line_end(&text[line_start..end]);
+            let outcome = if whole.trim_ascii().is_empty() {
+                Ok(Some(Skip::Blank))
+            } else if quoted {
+                self.parse_line(whole, line, cells, out)
+            } else {
+                cells.push(trim_line_end(&text[field_start..end]).trim_ascii());
+                self.row(cells, line, out)
+            };
+            cells.clear();
+            if let Some(skip) = outcome? {
+                out.skips.push((line, skip));
+            }
+            Ok::<(), RecordingError>(())
+        };
+        for i in memchr::memchr3_iter(b'\n', d, b'"', bytes) {
+            match bytes[i] {
+                b'\n' => {
+                    end_line((line_start, i), cells, quoted, field_start)?;
+                    (line_start, field_start, quoted) = (i + 1, i + 1, false);
+                }
+                b'"' => quoted = true,
+                _ => {
+                    if !quoted {
+                        cells.push(text[field_start..i].trim_ascii());
+                    }
+                    field_start = i + 1;
+                }
+            }
+        }
+        if line_start < text.len() {
+            end_line((line_start, text.len()), cells, quoted, field_start)?;
+        }
+        Ok(())
+    }
+
+    /// [`LineParser::parse`] line by line.
+    fn parse_lines<'t>(&self, text: &'t str, cells: &mut Vec<&'t str>, out: &mut Parsed) -> Result<(), RecordingError> {
         let mut start = 0;
         let ends = memchr::memchr_iter(b'\n', text.as_bytes()).chain((!text.ends_with('\n')).then_some(text.len()));
         for end in ends {
@@ -349,17 +411,12 @@ impl LineParser<'_> {
             }
             out.lines += 1;
             let line = out.lines;
-            match self.parse_line(&text[start..end], line, &mut cells, &mut out) {
-                Ok(None) => {}
-                Ok(Some(skip)) => out.skips.push((line, skip)),
-                Err(e) => {
-                    out.error = Some(e);
-                    break;
-                }
+            if let Some(skip) = self.parse_line(&text[start..end], line, cells, out)? {
+                out.skips.push((line, skip));
             }
             start = end + 1;
         }
-        out
+        Ok(())
     }
 
     fn parse_line<'t>(
@@ -378,6 +435,11 @@ impl LineParser<'_> {
             line,
             message: e.to_string(),
         })?;
+        self.row(cells, line, out)
+    }
+
+    /// The values of a line split into `cells` (not blank): field count, filters, wanted cells.
+    fn row(&self, cells: &[&str], line: u64, out: &mut Parsed) -> Result<Option<Skip>, RecordingError> {
         if cells.len() != self.header_fields && !self.flexible {
             let hint = if !self.dialect.decimal_comma
                 && cells.len() > self.header_fields
