@@ -399,7 +399,7 @@ fn scan(path: &Path, want: Want) -> Result<Scan, BagError> {
         scratch: Vec::new(),
     };
     let len = buf.len() as u64;
-    walk_records(&buf, false, |offset, record| scan.record(offset, record)).map_err(|e| match e {
+    walk_records(&buf, false, |offset, record| scan.record(offset, record, false)).map_err(|e| match e {
         WalkError::Stop(err) => err,
         WalkError::Mcap { offset, err } => scan.mcap_error(offset, len, err),
     })?;
@@ -421,14 +421,19 @@ impl Scan {
         }
     }
 
-    /// Take one top-level or chunked record.
-    fn record(&mut self, offset: u64, record: Record<'_>) -> Result<(), BagError> {
+    /// Take one record: top-level, or (`in_chunk`) from a chunk that starts at `offset`.
+    fn record(&mut self, offset: u64, record: Record<'_>, in_chunk: bool) -> Result<(), BagError> {
         match record {
             Record::Schema { header, .. } => {
                 self.schemas.insert(header.id, Schema { name: header.name, encoding: header.encoding });
             }
             Record::Channel(c) => self.channel(offset, c)?,
             Record::Message { header, data } => self.message(offset, header.channel_id, header.log_time, &data)?,
+            // Chunks hold schemas, channels and messages only; one inside another is damage (and would recurse).
+            Record::Chunk { .. } if in_chunk => {
+                let what = "a chunk inside the chunk".to_string();
+                return Err(BagError::Corrupt { path: self.path.clone(), offset, what });
+            }
             Record::Chunk { header, data } => self.chunk(offset, &header, &data)?,
             _ => {}
         }
@@ -571,7 +576,7 @@ impl Scan {
                 )));
             }
         }
-        let walked = walk_records(content, true, |_, record| self.record(offset, record));
+        let walked = walk_records(content, true, |_, record| self.record(offset, record, true));
         let walked = walked.map_err(|e| match e {
             WalkError::Stop(err) => err,
             WalkError::Mcap { offset: inner, err } => BagError::Corrupt {
