@@ -32,7 +32,7 @@ use crate::recording::{RateUnit, Recording, StreamInfo};
 /// The ROS 2 message type read.
 pub const IMU_TYPE: &str = "sensor_msgs/msg/Imu";
 
-/// The largest chunk octavar decompresses (rosbag2 writes chunks of about 1 MiB): a bigger size in a chunk
+/// The largest chunk octavar decompresses (writers make chunks of about a megabyte): a bigger size in a chunk
 /// header is taken for corruption rather than allocated.
 const MAX_CHUNK_BYTES: u64 = 1 << 32;
 
@@ -366,7 +366,8 @@ fn walk_records(
                 let start = end as u64;
                 end = fed;
                 if matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE | op::CHUNK) {
-                    let record = mcap::parse_record(opcode, data).map_err(|err| WalkError::Mcap { offset: start, err })?;
+                    let record =
+                        mcap::parse_record(opcode, data).map_err(|err| WalkError::Mcap { offset: start, err })?;
                     f(start, record).map_err(WalkError::Stop)?;
                 }
             }
@@ -383,7 +384,9 @@ fn scan(path: &Path, want: Want) -> Result<Scan, BagError> {
         let hint = match buf.len() {
             0 => ": the file is empty",
             n if n < mcap::MAGIC.len() && mcap::MAGIC.starts_with(&buf) => ": the file is cut short",
-            _ if buf.starts_with(b"SQLite format 3") => ": it is SQLite, rosbag2's older storage; `ros2 bag convert` writes MCAP",
+            _ if buf.starts_with(b"SQLite format 3") => {
+                ": it is SQLite, rosbag2's older storage; `ros2 bag convert` writes MCAP"
+            }
             _ if buf.starts_with(b"#ROSBAG") => ": it is a ROS 1 bag",
             _ => "",
         };
@@ -449,7 +452,10 @@ impl Scan {
             id => Some(self.schemas.get(&id).ok_or_else(|| BagError::Corrupt {
                 path: self.path.clone(),
                 offset,
-                what: format!("channel {} ({:?}) refers to schema {id}, which no record before it defines", c.id, c.topic),
+                what: format!(
+                    "channel {} ({:?}) refers to schema {id}, which no record before it defines",
+                    c.id, c.topic
+                ),
             })?),
         };
         let imu = schema.is_some_and(|s| s.name == IMU_TYPE && matches!(s.encoding.as_str(), "ros2msg" | "ros2idl"))
@@ -630,7 +636,11 @@ fn pick_topic(scan: &Scan, path: &str, topic: Option<&str>) -> Result<usize, Bag
             }
         }
         Some(name) => match scan.topics.iter().position(|t| t.name == name) {
-            None => Err(BagError::TopicNotFound { path: path.to_string(), topic: name.to_string(), imu_topics: imu_topics() }),
+            None => Err(BagError::TopicNotFound {
+                path: path.to_string(),
+                topic: name.to_string(),
+                imu_topics: imu_topics(),
+            }),
             Some(i) if !scan.topics[i].imu => Err(BagError::NotImu {
                 path: path.to_string(),
                 topic: name.to_string(),
@@ -645,7 +655,8 @@ fn pick_topic(scan: &Scan, path: &str, topic: Option<&str>) -> Result<usize, Bag
 /// The recording of one topic's samples: sorted, de-duplicated, placed on the grid.
 fn build(path: String, t: Topic, rate_hz: Option<f64>) -> Result<ImuBag, BagError> {
     let mut samples = t.samples;
-    let too_few = |hint| BagError::TooFewMessages { path: path.clone(), topic: t.name.clone(), messages: t.messages, hint };
+    let too_few =
+        |hint| BagError::TooFewMessages { path: path.clone(), topic: t.name.clone(), messages: t.messages, hint };
     if samples.is_empty() || (samples.len() < 2 && rate_hz.is_none()) {
         return Err(too_few(if samples.is_empty() { "" } else { ": give --rate to read one sample" }));
     }
@@ -790,6 +801,48 @@ mod tests {
             f(&mut b, 20.0 + i as f64);
         }
         b
+    }
+
+    fn topic(stamps: &[i64]) -> Topic {
+        let samples = stamps
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| Sample { stamp_ns: t, log_time: 1000 + i as u64 * 10, w: [i as f64, 0.0, -1.0] })
+            .collect::<Vec<_>>();
+        Topic { name: "/imu".into(), imu: true, messages: stamps.len() as u64, samples, ..Topic::default() }
+    }
+
+    #[test]
+    fn build_sorts_drops_repeats_and_places_gaps() {
+        let ms = 1_000_000;
+        // Logged out of order (3 before 2), 4 repeated, 6 missing; the rate is the median step, 1 ms.
+        let b = build("b.mcap".into(), topic(&[0, ms, 3 * ms, 2 * ms, 4 * ms, 4 * ms, 5 * ms, 7 * ms]), None).unwrap();
+        assert_eq!((b.out_of_order, b.duplicates, b.messages), (1, 1, 8));
+        assert_eq!(b.recording.rate_hz, 1000.0);
+        assert_eq!(b.time_source, TimeSource::HeaderStamp);
+        let k = RateUnit::RadPerS.to_dps();
+        let want = [0.0, 1.0, 3.0, 2.0, 4.0, 6.0, f64::NAN, 7.0];
+        let x = &b.recording.channels[0];
+        assert_eq!(x.len(), want.len());
+        for (i, (g, w)) in x.iter().zip(want).enumerate() {
+            assert!(g.to_bits() == (w * k).to_bits() || (g.is_nan() && w.is_nan()), "{i}: {x:?}");
+        }
+        assert_eq!((b.recording.info.samples, b.recording.info.gaps), (8, 3));
+        // An even count of steps: the median is the mean of the middle two (1 and 3 ms).
+        let b = build("b.mcap".into(), topic(&[0, ms, 4 * ms]), None).unwrap();
+        assert_eq!(b.recording.rate_hz, 500.0);
+        // Every stamp zero: the log times (10 ns apart) instead.
+        let b = build("b.mcap".into(), topic(&[0, 0, 0, 0]), None).unwrap();
+        assert_eq!((b.time_source, b.start_ns, b.recording.rate_hz), (TimeSource::LogTime, 1000, 1e8));
+        // One message needs a rate; none is an error.
+        assert!(matches!(build("b".into(), topic(&[5]), None), Err(BagError::TooFewMessages { .. })));
+        assert_eq!(build("b".into(), topic(&[5]), Some(100.0)).unwrap().recording.info.samples, 1);
+        assert!(matches!(build("b".into(), topic(&[]), Some(100.0)), Err(BagError::TooFewMessages { .. })));
+        // A clock jump of a day at 1 kHz is refused rather than filled with 86 million NaN.
+        let mut stamps: Vec<i64> = (0..1000).map(|i| i * ms).collect();
+        stamps.push(86_400_000 * ms);
+        let err = build("b".into(), topic(&stamps), None).unwrap_err();
+        assert!(matches!(err, BagError::ClockJump { messages: 1001, .. }), "{err}");
     }
 
     #[test]
