@@ -21,6 +21,7 @@ pub mod input;
 pub mod plot;
 pub mod record;
 pub mod recording;
+pub mod ros2_bag;
 pub mod simulate;
 pub mod snapshot_stats;
 pub mod stats;

@@ -11,6 +11,7 @@ mod qemu;
 mod reference_adis;
 mod reference_nbs14;
 mod reference_stable32;
+mod ros2_bag;
 mod sim_closed_form;
 mod tdms;
 mod transients;
