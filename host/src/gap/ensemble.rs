@@ -135,24 +135,38 @@ fn draw_all(spreads: &[ParamSpread], gyro: &GyroSim, seed: u64) -> GyroSim {
 /// channel) at the record's rate (oversampled and block-averaged as the record says), driven by the record's
 /// temperature, with the record's gaps copied in. `gyro` must have been checked by [`VirtualGyro::new`].
 fn member(gyro: &GyroSim, channel: Option<&Channel>, table: &[f64], rec: &Record, n: usize, seed: u64) -> Vec<f64> {
+    // Output samples simulated per block (each `d` simulated samples).
+    const BLOCK: usize = 4096;
     let d = rec.oversample.max(1);
     let mut g =
         VirtualGyro::new(gyro, adc_of(channel), rec.fs_hz * d as f64, seed).expect("model checked by the caller");
     let analog = channel.is_none();
-    let mut one = |tc: f64| if analog { g.next_rate(tc) } else { table[g.next(tc).code as usize] };
-    rec.rate_dps[..n]
-        .iter()
-        .enumerate()
-        .map(|(i, &r)| {
+    let mut temps: Vec<f64> = Vec::with_capacity(BLOCK * d);
+    let mut rates = vec![0.0; BLOCK * d];
+    let mut codes = vec![0u16; if analog { 0 } else { BLOCK * d }];
+    let mut out = Vec::with_capacity(n);
+    for start in (0..n).step_by(BLOCK) {
+        let end = (start + BLOCK).min(n);
+        temps.clear();
+        for i in start..end {
             let tc = rec.temp_c.map_or(NO_TEMP_C, |t| t[i]);
-            let v = if d == 1 { one(tc) } else { (0..d).map(|_| one(tc)).sum::<f64>() / d as f64 };
-            if r.is_nan() {
-                f64::NAN
-            } else {
-                v
+            temps.extend(std::iter::repeat_n(tc, d));
+        }
+        let m = temps.len();
+        if analog {
+            g.fill_rates_at(&temps, &mut rates[..m]);
+        } else {
+            g.fill_codes_at(&temps, &mut codes[..m]);
+            for (r, &c) in rates.iter_mut().zip(&codes[..m]) {
+                *r = table[c as usize];
             }
-        })
-        .collect()
+        }
+        for (j, &real) in rec.rate_dps[start..end].iter().enumerate() {
+            let v = if d == 1 { rates[j] } else { rates[j * d..(j + 1) * d].iter().sum::<f64>() / d as f64 };
+            out.push(if real.is_nan() { f64::NAN } else { v });
+        }
+    }
+    out
 }
 
 /// The code-to-rate table of every code of `channel` (empty without one).

@@ -134,9 +134,7 @@ impl Bench {
     /// # Panics
     /// If `codes` has fewer slices than the bench has channels, or one is shorter than `temps_c`.
     pub fn fill_block(&mut self, temps_c: &mut [f64], codes: &mut [&mut [u16]]) {
-        for t in temps_c.iter_mut() {
-            *t = self.thermal.next(&mut self.rng);
-        }
+        self.thermal.fill(&mut self.rng, temps_c);
         assert!(codes.len() >= self.gyros.len(), "one code slice per channel");
         for (g, c) in self.gyros.iter_mut().zip(codes.iter_mut()) {
             g.fill_codes_at(temps_c, &mut c[..temps_c.len()]);
@@ -258,11 +256,13 @@ mod tests {
                 let _ = c.gyro.sinusoids.push(Sinusoid { amplitude_dps: 0.1, period_s: 7.0, phase_rad: 0.3 });
             }
         }
+        // A wander on the temperature, and blocks that cross the phasor's renormalisation at sample 4095.
+        m.temperature.wander = Some(crate::sim::model::Wander { sigma_c: 0.3, tau_s: 2.0 });
         let mut scans = Bench::new(&m).unwrap();
         let mut blocks = Bench::new(&m).unwrap();
-        let mut temps = [0.0; 257];
-        let mut codes = [[0u16; 257]; 3];
-        for len in [1, 256, 257, 100] {
+        let mut temps = [0.0; 5000];
+        let mut codes = [[0u16; 5000]; 3];
+        for len in [1, 256, 257, 100, 5000] {
             let [a, b, c] = &mut codes;
             blocks.fill_block(&mut temps[..len], &mut [&mut a[..], &mut b[..], &mut c[..]]);
             for j in 0..len {

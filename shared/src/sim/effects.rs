@@ -50,6 +50,22 @@ impl Sinusoids {
         self.len == 0
     }
 
+    /// Add the sum of the sinusoids at samples `n0 ..` to `out`, one sample per entry: the values of as many calls
+    /// of [`Sinusoids::next`] (for `out` zeroed first), each phasor turned in registers over the whole block.
+    pub fn add_block(&mut self, n0: u64, out: &mut [f64]) {
+        for p in &mut self.phasors[..self.len] {
+            let (mut c, mut s) = (p.c, p.s);
+            for (k, o) in out.iter_mut().enumerate() {
+                *o += p.amplitude * s;
+                let c2 = c * p.cos_d - s * p.sin_d;
+                let s2 = s * p.cos_d + c * p.sin_d;
+                let g = if (n0 + k as u64) & 4095 == 4095 { 1.5 - 0.5 * (c2 * c2 + s2 * s2) } else { 1.0 };
+                (c, s) = (c2 * g, s2 * g);
+            }
+            (p.c, p.s) = (c, s);
+        }
+    }
+
     /// The sum of the sinusoids at sample `n` (n counts from 0, one call per sample), in deg/s.
     #[inline]
     pub fn next(&mut self, n: u64) -> f64 {

@@ -373,6 +373,22 @@ impl VirtualGyro {
         self.fill_with(|i| temps_c[i], codes);
     }
 
+    /// Fill `rates` with consecutive analog rates (deg/s, no ADC), sample i at the bench temperature `temps_c[i]`:
+    /// the values of as many calls of [`VirtualGyro::next_rate`].
+    ///
+    /// # Panics
+    /// If `temps_c` is shorter than `rates`.
+    pub fn fill_rates_at(&mut self, temps_c: &[f64], rates: &mut [f64]) {
+        let temps_c = &temps_c[..rates.len()];
+        if self.lean {
+            self.run_lean(rates.len(), |i| temps_c[i], |i, r| rates[i] = r);
+        } else {
+            for (r, &t) in rates.iter_mut().zip(temps_c) {
+                *r = self.rate_with_every_term(t);
+            }
+        }
+    }
+
     /// The block loop: a lean gyro's in registers, any other sample by sample.
     #[inline(always)]
     fn fill_with(&mut self, temp_at: impl Fn(usize) -> f64, codes: &mut [u16]) {

@@ -47,6 +47,22 @@ impl Thermal {
     }
 }
 
+impl Thermal {
+    /// The temperatures of the next `out.len()` samples, degC: the values of as many calls of [`Thermal::next`].
+    pub fn fill(&mut self, rng: &mut SimRng, out: &mut [f64]) {
+        let n0 = self.n;
+        out.fill(0.0);
+        self.cycle.add_block(n0, out);
+        for (k, t) in out.iter_mut().enumerate() {
+            *t += self.mid;
+            if let Some(w) = &mut self.wander {
+                *t += w.next(n0 + k as u64, rng);
+            }
+        }
+        self.n += out.len() as u64;
+    }
+}
+
 /// One channel's thermal lag and bias coefficient.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ThermalLag {
