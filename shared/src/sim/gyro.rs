@@ -219,28 +219,49 @@ impl VirtualGyro {
     #[inline]
     pub fn next_rate(&mut self, temp_c: f64) -> f64 {
         let mut rate = 0.0;
-        if self.lean {
-            self.run_lean(1, |_| temp_c, |_, r| rate = r);
-        } else {
-            rate = self.rate_with_every_term(temp_c);
-        }
+        self.run(1, |_| temp_c, |_, r| rate = r);
         rate
     }
 
-    /// `count` samples of a lean gyro (the IEEE base model and its bench: bias, white, flicker, random walk,
-    /// temperature, low-pass), sample i at temperature `temp_at(i)`, each analog rate handed to `out(i, rate)`.
-    /// The state is copied into locals for the loop and written back after: held in registers, where through
-    /// `self` every sample would store and reload it (the held flicker processes are written at a varying index,
-    /// which the compiler cannot tell apart from the other fields). The base models and the demo's bench take
-    /// this loop billions of times.
+    /// `count` samples, sample i at temperature `temp_at(i)`, each analog rate handed to `out(i, rate)`: the
+    /// loop of a lean gyro (the IEEE base model and its bench) or of one with any terms.
     #[inline(always)]
-    fn run_lean(&mut self, count: usize, temp_at: impl Fn(usize) -> f64, mut out: impl FnMut(usize, f64)) {
+    fn run(&mut self, count: usize, temp_at: impl Fn(usize) -> f64, out: impl FnMut(usize, f64)) {
+        if self.lean {
+            self.run_path::<true>(count, temp_at, out);
+        } else {
+            self.run_path::<false>(count, temp_at, out);
+        }
+    }
+
+    /// The sample loop. The state is copied into locals for the loop and written back after: held in registers,
+    /// where through `self` every sample would store and reload it (the held flicker processes are written at a
+    /// varying index, which the compiler cannot tell apart from the other fields). With `LEAN` the terms outside
+    /// the base model are not even checked: the base models and the demo's bench take that loop billions of times.
+    /// The order of the terms, and so of the random draws, is fixed: white, white angle, flicker, random walk,
+    /// ramp, Gauss-Markov, sinusoids, temperature, bias steps, resonance, bistable bias, warm-up, then the
+    /// low-pass, then the outliers.
+    #[inline(always)]
+    fn run_path<const LEAN: bool>(
+        &mut self,
+        count: usize,
+        temp_at: impl Fn(usize) -> f64,
+        mut out: impl FnMut(usize, f64),
+    ) {
         let mut rng = self.rng.clone();
         let mut n = self.n;
-        let (bias, white_sigma) = (self.bias, self.white_sigma);
+        let (bias, white_sigma, angle_scale, ramp_step) = (self.bias, self.white_sigma, self.angle_scale, self.ramp_step);
+        let mut last_angle = self.last_angle;
         let mut rw = self.rw.clone();
         let mut temp = self.temp.clone();
         let mut lowpass = self.lowpass.clone();
+        let mut gm = self.gm.clone();
+        let mut steps = self.steps.clone();
+        let mut resonance = self.resonance.clone();
+        let mut telegraph = self.telegraph.clone();
+        let mut warm_up = self.warm_up.clone();
+        let mut spikes = self.spikes.clone();
+        let sines = &mut self.sines;
         let mut fast = self.flicker.as_ref().map(|f| f.fast);
         let mut slow = self.flicker.as_mut().map(|f| &mut f.slow);
         for i in 0..count {
@@ -248,17 +269,52 @@ impl VirtualGyro {
             if white_sigma != 0.0 {
                 r += white_sigma * rng.normal();
             }
+            if !LEAN && angle_scale != 0.0 {
+                let w = rng.normal();
+                r += angle_scale * (w - last_angle);
+                last_angle = w;
+            }
             if let (Some(fast), Some(slow)) = (&mut fast, &mut slow) {
                 r += flicker::step(fast, slow, n, &mut rng);
             }
             if let Some(w) = &mut rw {
                 r += w.next(&mut rng);
             }
+            if !LEAN {
+                if ramp_step != 0.0 {
+                    r += ramp_step * n as f64;
+                }
+                if let Some(g) = &mut gm {
+                    r += g.next(&mut rng);
+                }
+                if !sines.is_empty() {
+                    r += sines.next(n);
+                }
+            }
             if let Some(t) = &mut temp {
                 r += t.next(temp_at(i));
             }
+            if !LEAN {
+                if let Some(s) = &mut steps {
+                    r += s.next(&mut rng);
+                }
+                if let Some(x) = &mut resonance {
+                    r += x.next(&mut rng);
+                }
+                if let Some(t) = &mut telegraph {
+                    r += t.next(&mut rng);
+                }
+                if let Some(w) = &mut warm_up {
+                    r += w.next_dps();
+                }
+            }
             if let Some(lp) = &mut lowpass {
                 r = lp.next(r);
+            }
+            if !LEAN {
+                if let Some(s) = &mut spikes {
+                    r += s.next(&mut rng);
+                }
             }
             n += 1;
             out(i, r);
@@ -266,68 +322,9 @@ impl VirtualGyro {
         if let (Some(f), Some(fast)) = (&mut self.flicker, fast) {
             f.fast = fast;
         }
-        (self.rng, self.n, self.rw, self.temp, self.lowpass) = (rng, n, rw, temp, lowpass);
-    }
-
-    /// The next analog rate of a gyro with any terms; the order of the terms and of the random draws is that of
-    /// [`VirtualGyro::run_lean`] with the other terms in between.
-    fn rate_with_every_term(&mut self, temp_c: f64) -> f64 {
-        let n = self.n;
-        self.n += 1;
-        let rng = &mut self.rng;
-        let rare = true;
-        let mut r = self.bias;
-        if self.white_sigma != 0.0 {
-            r += self.white_sigma * rng.normal();
-        }
-        if rare && self.angle_scale != 0.0 {
-            let w = rng.normal();
-            r += self.angle_scale * (w - self.last_angle);
-            self.last_angle = w;
-        }
-        if let Some(f) = &mut self.flicker {
-            r += f.next(n, rng);
-        }
-        if let Some(w) = &mut self.rw {
-            r += w.next(rng);
-        }
-        if rare {
-            if self.ramp_step != 0.0 {
-                r += self.ramp_step * n as f64;
-            }
-            if let Some(g) = &mut self.gm {
-                r += g.next(rng);
-            }
-            if !self.sines.is_empty() {
-                r += self.sines.next(n);
-            }
-        }
-        if let Some(t) = &mut self.temp {
-            r += t.next(temp_c);
-        }
-        if rare {
-            if let Some(s) = &mut self.steps {
-                r += s.next(rng);
-            }
-            if let Some(x) = &mut self.resonance {
-                r += x.next(rng);
-            }
-            if let Some(t) = &mut self.telegraph {
-                r += t.next(rng);
-            }
-            if let Some(w) = &mut self.warm_up {
-                r += w.next_dps();
-            }
-        }
-        if let Some(lp) = &mut self.lowpass {
-            r = lp.next(r);
-        }
-        if rare {
-            if let Some(s) = &mut self.spikes {
-                r += s.next(rng);
-            }
-        }
-        r
+        (self.rng, self.n, self.last_angle, self.rw, self.temp, self.lowpass) = (rng, n, last_angle, rw, temp, lowpass);
+        (self.gm, self.steps, self.resonance, self.telegraph, self.warm_up, self.spikes) =
+            (gm, steps, resonance, telegraph, warm_up, spikes);
     }
 
     /// Mark the gyro lean when it has none of the terms outside the base model and its bench.
@@ -380,33 +377,20 @@ impl VirtualGyro {
     /// If `temps_c` is shorter than `rates`.
     pub fn fill_rates_at(&mut self, temps_c: &[f64], rates: &mut [f64]) {
         let temps_c = &temps_c[..rates.len()];
-        if self.lean {
-            self.run_lean(rates.len(), |i| temps_c[i], |i, r| rates[i] = r);
-        } else {
-            for (r, &t) in rates.iter_mut().zip(temps_c) {
-                *r = self.rate_with_every_term(t);
-            }
-        }
+        self.run(rates.len(), |i| temps_c[i], |i, r| rates[i] = r);
     }
 
-    /// The block loop: a lean gyro's in registers, any other sample by sample.
+    /// The block loop of the codes.
     #[inline(always)]
     fn fill_with(&mut self, temp_at: impl Fn(usize) -> f64, codes: &mut [u16]) {
-        if self.lean {
-            let adc = self.adc;
-            let mut clipped = 0u64;
-            self.run_lean(codes.len(), temp_at, |i, r| {
-                let (code, clip) = adc.quantize(r);
-                clipped += u64::from(clip);
-                codes[i] = code;
-            });
-            self.clipped += clipped;
-        } else {
-            for (i, c) in codes.iter_mut().enumerate() {
-                let r = self.rate_with_every_term(temp_at(i));
-                *c = self.quantize(r).code;
-            }
-        }
+        let adc = self.adc;
+        let mut clipped = 0u64;
+        self.run(codes.len(), temp_at, |i, r| {
+            let (code, clip) = adc.quantize(r);
+            clipped += u64::from(clip);
+            codes[i] = code;
+        });
+        self.clipped += clipped;
     }
 
     /// Samples produced so far.
