@@ -16,6 +16,7 @@ pub mod decode;
 pub mod demo;
 pub mod device_sim;
 pub mod fit;
+pub mod formats;
 pub mod gap;
 pub mod input;
 pub mod plot;

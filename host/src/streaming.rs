@@ -478,7 +478,7 @@ impl BinaryFormat {
         }
     }
 
-    fn decode(self, b: &[u8]) -> f64 {
+    pub(crate) fn decode(self, b: &[u8]) -> f64 {
         match self {
             BinaryFormat::F64 => f64::from_le_bytes(b.try_into().unwrap_or([0; 8])),
             BinaryFormat::F32 => f64::from(f32::from_le_bytes(b.try_into().unwrap_or([0; 4]))),

@@ -287,3 +287,55 @@ fn every_dialect_reads_the_same_numbers_and_a_misread_is_never_exit_0() {
     let got = first_oadev(&["--flexible"], &file).expect("flexible");
     assert!((got / reference - 1.0).abs() < 1e-12);
 }
+
+#[test]
+fn tdms_and_bag_inputs_are_chosen_by_extension_and_their_faults_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, says) in [("broken.tdms", "broken.tdms"), ("broken.mcap", "broken.mcap")] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, b"this is not a recording at all").unwrap();
+        let p = path.to_str().unwrap();
+        for args in [vec!["analyze", p, "--column", "g/c"], vec!["gap", p, "--column", "x"]] {
+            let o = octavar(&args, None);
+            assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+            assert!(stderr(&o).contains(says) && !stderr(&o).contains("panicked"), "{}", stderr(&o));
+        }
+    }
+    let o = octavar(&["analyze", dir.path().join("x.tdms").to_str().unwrap()], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--column 'GROUP/CHANNEL'"), "{}", stderr(&o));
+}
+
+#[test]
+fn gap_reads_raw_samples() {
+    // White noise, N = 0.01 deg/sqrt(s) at 10 Hz, as f64le: the diagnosis runs and finds no gap to explain.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rate.f64");
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut bytes = Vec::new();
+    for _ in 0..40_000 {
+        // Sum of 12 uniforms - 6: unit variance, near Gaussian.
+        let mut s = -6.0;
+        for _ in 0..12 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            s += (state >> 11) as f64 / (1u64 << 53) as f64;
+        }
+        bytes.extend_from_slice(&(0.01 * 10f64.sqrt() * s).to_le_bytes());
+    }
+    std::fs::write(&path, bytes).unwrap();
+    let json = dir.path().join("gap.json");
+    let p = path.to_str().unwrap();
+    let args = ["gap", p, "--column", "rate", "--format", "f64le", "--rate", "10", "--seeds", "8"];
+    let o = octavar(&[&args[..], &["--json", json.to_str().unwrap()]].concat(), None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    // N from 40000 samples: its 95% interval is about 1.5% wide.
+    let n = doc["base_fit"]["N"]["value"].as_f64().expect("N in the report");
+    assert!((n / 0.01 - 1.0).abs() < 0.05, "N {n}");
+    // Without --rate a raw input is refused by name.
+    let o = octavar(&["gap", p, "--column", "rate", "--format", "f64le"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--rate HZ is required"), "{}", stderr(&o));
+}

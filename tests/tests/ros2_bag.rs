@@ -306,3 +306,22 @@ fn ros2_bag_truncated_and_garbage_files_are_errors() {
     let err = read_imu_bag(&dir.join("absent.mcap"), None, None).unwrap_err();
     assert!(matches!(err, BagError::Io { .. }), "{err}");
 }
+
+#[test]
+fn the_command_s_read_path_takes_a_bag_by_extension_and_picks_axes() {
+    use octavar::formats::{read_recording, ReadError, ReadOptions, RecordingFormat};
+    use octavar::recording::CsvOptions;
+    let dir = util::temp_dir("ros2-bag-formats");
+    let Some(bag) = write_bag(&dir, "axes", json!({"topics": [imu("/imu/data", 500, 100.0)]})) else { return };
+    assert_eq!(RecordingFormat::of(&bag, None), Some(RecordingFormat::Mcap));
+    let all = read_recording(&bag, RecordingFormat::Mcap, &ReadOptions::default()).unwrap();
+    assert_eq!(all.names, ["x", "y", "z"]);
+    let csv = CsvOptions { columns: vec!["z".into(), "x".into()], ..Default::default() };
+    let opts = ReadOptions { csv, topic: Some("/imu/data".into()), channels: 1 };
+    let picked = read_recording(&bag, RecordingFormat::Mcap, &opts).unwrap();
+    assert_eq!(picked.names, ["z", "x"]);
+    assert_eq!(picked.channels, [all.channels[2].clone(), all.channels[0].clone()]);
+    let csv = CsvOptions { columns: vec!["w".into()], ..Default::default() };
+    let err = read_recording(&bag, RecordingFormat::Mcap, &ReadOptions { csv, ..Default::default() }).unwrap_err();
+    assert!(matches!(err, ReadError::NoSuchAxis { .. }), "{err}");
+}

@@ -186,3 +186,20 @@ fn truncated_and_garbage_files_are_errors() {
     let err = read_tdms(&garbage, &columns(&IMU), RateUnit::DegPerS, None).unwrap_err();
     assert!(matches!(err, TdmsError::Corrupt { .. } | TdmsError::Truncated { .. }), "{err}");
 }
+
+#[test]
+fn the_command_s_read_path_takes_tdms_by_extension_with_a_temperature_channel() {
+    use octavar::formats::{read_recording, ReadError, ReadOptions, RecordingFormat};
+    use octavar::recording::CsvOptions;
+    let Some(dir) = write("segments", "formats") else { return };
+    let path = dir.join("file.tdms");
+    assert_eq!(RecordingFormat::of(&path, None), Some(RecordingFormat::Tdms));
+    let csv = CsvOptions { columns: columns(&["imu/gx"]), temp_column: Some("aux/temp".into()), ..Default::default() };
+    let rec = read_recording(&path, RecordingFormat::Tdms, &ReadOptions { csv, ..Default::default() }).unwrap();
+    assert_eq!(bits(&rec.channels[0]), bits(&expected(&dir, "imu/gx")));
+    assert_eq!(bits(rec.temp_c.as_ref().unwrap()), bits(&expected(&dir, "aux/temp")));
+    // CSV-only options are refused by name.
+    let csv = CsvOptions { columns: columns(&["imu/gx"]), time_column: Some("t".into()), ..Default::default() };
+    let err = read_recording(&path, RecordingFormat::Tdms, &ReadOptions { csv, ..Default::default() }).unwrap_err();
+    assert!(matches!(err, ReadError::CsvOnly { option: "--time-column", .. }), "{err}");
+}

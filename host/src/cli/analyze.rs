@@ -7,20 +7,22 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use octavar::analyze::{self, AnalyzeOptions, ChannelAnalysis};
 use octavar::fit::FitOptions;
+use octavar::formats::{self, RecordingFormat};
 use octavar::plot;
-use octavar::recording::{self, CsvOptions};
+use octavar::recording::CsvOptions;
 use octavar::stats::{Statistic, TauSpec};
 
 use super::csv_args::CsvArgs;
 
-/// Analyse a rate recording (CSV, CSV.gz or stdin): the Allan deviation family with confidence intervals
-/// (Stable32's table), the IEEE 952 noise terms N, B, K, R, Q with intervals, and the files to go on with.
+/// Analyse a rate recording (CSV, CSV.gz or stdin, NI TDMS, a ROS 2 bag, a device capture or raw samples): the
+/// Allan deviation family with confidence intervals (Stable32's table), the IEEE 952 noise terms N, B, K, R, Q
+/// with intervals, and the files to go on with.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The recording: CSV with a header (.gz is read as such); - is stdin.
+    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, .mcap (ROS 2 bag), a capture.
     pub input: PathBuf,
-    /// A rate column to analyse (repeat for several channels; required for CSV; names the channels of a binary
-    /// input).
+    /// A rate column to analyse (repeat for several channels; required for CSV; `group/channel` in a TDMS file;
+    /// x, y or z of a bag's angular velocity, all three by default; names the channels of a binary input).
     #[arg(long = "column", value_name = "NAME")]
     pub columns: Vec<String>,
     /// How to read a CSV recording.
@@ -59,8 +61,9 @@ pub struct Args {
     /// Write a Kalibr imu.yaml (gyroscope_noise_density and gyroscope_random_walk) for the first channel.
     #[arg(long, value_name = "FILE")]
     pub kalibr: Option<PathBuf>,
-    /// Input format: csv (default), capture (default for .cap/.capture files), or raw little-endian samples
-    /// f64le, f32le, i16le, u16le (streamed: OADEV at octave tau and the fit, any length in bounded memory).
+    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap: a ROS 2 bag), capture
+    /// (default for .cap/.capture files), or raw little-endian samples f64le, f32le, i16le, u16le (streamed: OADEV
+    /// at octave tau and the fit, any length in bounded memory).
     #[arg(long, value_name = "FORMAT")]
     pub format: Option<String>,
     /// Interleaved channels of a raw binary input.
@@ -129,14 +132,15 @@ impl Args {
         if let Some(kind) = self.stream_kind()? {
             return self.run_stream(kind);
         }
-        if self.columns.is_empty() {
-            bail!("--column NAME is required for a CSV input (repeat it for several channels)");
+        let format = RecordingFormat::of(&self.input, self.format.as_deref()).unwrap_or(RecordingFormat::Csv);
+        if self.columns.is_empty() && format != RecordingFormat::Mcap {
+            let what = if format == RecordingFormat::Tdms { "'GROUP/CHANNEL' for a TDMS" } else { "NAME for a CSV" };
+            bail!("--column {what} input is required (repeat it for several channels)");
         }
         let stats = parse_stats(&self.stats)?;
         let taus = parse_taus(&self.taus)?;
-        let csv_opts = self.csv_options()?;
-        let input = octavar::input::open(&self.input)?;
-        let rec = recording::read_csv(input.reader, &input.name, &csv_opts)?;
+        let read = self.reading.read_options(self.columns.clone(), None, &self.reading.filters, self.channels)?;
+        let rec = formats::read_recording(&self.input, format, &read)?;
         let opts = AnalyzeOptions { stats, taus, confidence: self.confidence, fit: self.fit_options(), no_fit: false };
         let mut results: Vec<ChannelAnalysis> = Vec::new();
         for (name, data) in rec.names.iter().zip(&rec.channels) {
@@ -224,12 +228,16 @@ impl Args {
         let ext = self.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         let kind = match self.format.as_deref().map(|f| f.trim().to_ascii_lowercase()) {
             Some(f) if f == "csv" => None,
+            Some(f) if f == "tdms" || f == "mcap" => return Ok(None),
             Some(f) if f == "capture" => Some(StreamKind::Capture),
             Some(f) => Some(StreamKind::Binary(
                 octavar::streaming::BinaryFormat::parse(&f)
-                    .with_context(|| format!("--format {f:?}: use csv, capture, f64le, f32le, i16le or u16le"))?,
+                    .with_context(|| {
+                        format!("--format {f:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le")
+                    })?,
             )),
             None if ext == "cap" || ext == "capture" => Some(StreamKind::Capture),
+            None if ext == "tdms" || ext == "mcap" => return Ok(None),
             None => None,
         };
         let size = std::fs::metadata(&self.input).map(|m| m.len()).unwrap_or(0);

@@ -1,7 +1,8 @@
 //! The recording flags `analyze` and `gap` share: the sample rate or a time column, the unit, skipped rows and
-//! row filters, and the CSV options they make.
+//! row filters, the CSV dialect, a bag's topic, and the read options they make.
 
 use octavar::csv_rows::Delimiter;
+use octavar::formats::ReadOptions;
 use octavar::recording::{CsvOptions, RateUnit, RowFilter};
 
 /// How to read a rate recording.
@@ -31,6 +32,9 @@ pub struct CsvArgs {
     /// Accept rows with more or fewer fields than the header (otherwise such a row is an error).
     #[arg(long)]
     pub flexible: bool,
+    /// The IMU topic of a ROS 2 bag (.mcap), e.g. /imu/data (default: the bag's only sensor_msgs/msg/Imu topic).
+    #[arg(long, value_name = "TOPIC")]
+    pub topic: Option<String>,
 }
 
 impl CsvArgs {
@@ -59,5 +63,17 @@ impl CsvArgs {
             decimal_comma: self.decimal_comma.then_some(true),
             flexible: self.flexible,
         })
+    }
+
+    /// The options of any format: the CSV options as [`CsvArgs::options`] makes them, the bag's topic and a raw
+    /// input's channel count.
+    pub fn read_options(
+        &self,
+        columns: Vec<String>,
+        temp_column: Option<String>,
+        filters: &[String],
+        channels: usize,
+    ) -> anyhow::Result<ReadOptions> {
+        Ok(ReadOptions { csv: self.options(columns, temp_column, filters)?, topic: self.topic.clone(), channels })
     }
 }

@@ -8,7 +8,8 @@ use std::sync::Mutex;
 use anyhow::{bail, Context};
 use octavar::gap::{self, GapInput, GapOptions};
 use octavar::plot;
-use octavar::recording::{self, CsvOptions, Recording};
+use octavar::formats::{self, RecordingFormat};
+use octavar::recording::Recording;
 use octavar_shared::sensor::SensorKind;
 use octavar_shared::sim::{BenchSim, ChannelSim};
 
@@ -22,11 +23,16 @@ use super::progress::Progress;
 /// Transient disturbances are found and masked first; a gap no candidate explains is described.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The recording: CSV with a header (.gz is read as such); - is stdin.
+    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, .mcap (ROS 2 bag), or raw
+    /// samples (--format).
     pub input: PathBuf,
-    /// The rate column to diagnose.
+    /// The rate column to diagnose (`group/channel` in a TDMS file; x, y or z of a bag's angular velocity).
     #[arg(long, value_name = "NAME")]
     pub column: String,
+    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap), or one channel of raw
+    /// little-endian samples f64le, f32le, i16le, u16le (with --rate).
+    #[arg(long, value_name = "FORMAT")]
+    pub format: Option<String>,
     /// How to read the recording.
     #[command(flatten)]
     pub reading: CsvArgs,
@@ -77,13 +83,12 @@ pub struct Args {
 }
 
 impl Args {
-    fn csv_options(&self, filters: &[String]) -> anyhow::Result<CsvOptions> {
-        self.reading.options(vec![self.column.clone()], self.temp_column.clone(), filters)
-    }
-
     fn read(&self, path: &Path, filters: &[String]) -> anyhow::Result<Recording> {
-        let input = octavar::input::open(path)?;
-        Ok(recording::read_csv(input.reader, &input.name, &self.csv_options(filters)?)?)
+        let format = RecordingFormat::of(path, self.format.as_deref()).with_context(|| {
+            format!("--format {:?}: use csv, tdms, mcap, f64le, f32le, i16le or u16le", self.format)
+        })?;
+        let opts = self.reading.read_options(vec![self.column.clone()], self.temp_column.clone(), filters, 1)?;
+        Ok(formats::read_recording(path, format, &opts)?)
     }
 
     pub fn run(self) -> anyhow::Result<ExitCode> {

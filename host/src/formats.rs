@@ -1,0 +1,194 @@
+//! Which reader a recording goes through, and the recording in memory whatever the format: CSV (also gzipped,
+//! or stdin), NI TDMS ([`crate::tdms`]), a ROS 2 bag in MCAP ([`crate::ros2_bag`]) or raw little-endian
+//! samples. `analyze` and `gap` read through here, so both take every format. The format is the `--format` flag,
+//! or else the file's extension (`.tdms`, `.mcap`), or else CSV.
+
+use std::io::Read;
+use std::path::Path;
+
+use crate::recording::{self, CsvOptions, RateUnit, Recording, RecordingError, StreamInfo};
+use crate::ros2_bag::{self, BagError};
+use crate::streaming::BinaryFormat;
+use crate::tdms::{self, TdmsError};
+
+/// A recording's file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RecordingFormat {
+    /// Text with a header line (any delimiter; also gzipped).
+    Csv,
+    /// National Instruments TDMS; columns are `group/channel`.
+    Tdms,
+    /// A ROS 2 bag in MCAP with `sensor_msgs/msg/Imu` messages; channels `x`, `y`, `z`.
+    Mcap,
+    /// Raw interleaved little-endian samples.
+    Binary(BinaryFormat),
+}
+
+impl RecordingFormat {
+    /// The format named by `flag` (csv, tdms, mcap, f64le, f32le, i16le, u16le), or else the one `path`'s
+    /// extension says, or else CSV. `None` for a flag naming no format read here.
+    pub fn of(path: &Path, flag: Option<&str>) -> Option<RecordingFormat> {
+        match flag.map(|f| f.trim().to_ascii_lowercase()) {
+            Some(f) => match f.as_str() {
+                "csv" => Some(RecordingFormat::Csv),
+                "tdms" => Some(RecordingFormat::Tdms),
+                "mcap" => Some(RecordingFormat::Mcap),
+                _ => BinaryFormat::parse(&f).map(RecordingFormat::Binary),
+            },
+            None => {
+                let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+                Some(match ext.as_str() {
+                    "tdms" => RecordingFormat::Tdms,
+                    "mcap" => RecordingFormat::Mcap,
+                    _ => RecordingFormat::Csv,
+                })
+            }
+        }
+    }
+}
+
+/// How to read a recording: the CSV options (columns, unit, rate; the rest are CSV's own), a bag's topic and a
+/// raw input's channel count.
+#[derive(Clone, Debug, Default)]
+pub struct ReadOptions {
+    /// Columns, unit, rate, temperature column and the CSV-only options.
+    pub csv: CsvOptions,
+    /// The IMU topic of a bag (`None`: its only one).
+    pub topic: Option<String>,
+    /// Interleaved channels of a raw input.
+    pub channels: usize,
+}
+
+/// Why a recording could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The CSV reader's error (it names the line and column).
+    #[error(transparent)]
+    Csv(#[from] RecordingError),
+    /// The TDMS reader's error.
+    #[error(transparent)]
+    Tdms(#[from] TdmsError),
+    /// The bag reader's error.
+    #[error(transparent)]
+    Bag(#[from] BagError),
+    /// An option that this format does not take.
+    #[error("{path}: {option} applies to CSV recordings only, not to {format}")]
+    CsvOnly { path: String, option: &'static str, format: &'static str },
+    /// A bag's channel that is not x, y or z.
+    #[error("{path}: no channel {column:?} in the IMU topic (its channels are x, y, z)")]
+    NoSuchAxis { path: String, column: String },
+    /// A raw input needs the rate.
+    #[error("{path}: --rate HZ is required for a raw binary input")]
+    NoRate { path: String },
+    /// A raw input whose length is not a whole number of sample sets.
+    #[error("{path}: {bytes} bytes is not a whole number of {set}-byte sample sets ({channels} channels of {format})")]
+    PartialSet { path: String, bytes: u64, set: usize, channels: usize, format: &'static str },
+    /// Reading a raw input.
+    #[error("{path}: {err}")]
+    Io { path: String, err: std::io::Error },
+}
+
+/// Read a whole recording into memory in `format`.
+///
+/// # Errors
+/// The format reader's error ([`ReadError`]), or an option the format does not take.
+pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) -> Result<Recording, ReadError> {
+    let name = path.display().to_string();
+    let csv = &opts.csv;
+    let csv_only = |option: &'static str, format: &'static str| ReadError::CsvOnly { path: name.clone(), option, format };
+    if format != RecordingFormat::Csv {
+        let label = match format {
+            RecordingFormat::Tdms => "TDMS",
+            RecordingFormat::Mcap => "a ROS 2 bag",
+            _ => "raw samples",
+        };
+        if csv.time_column.is_some() {
+            return Err(csv_only("--time-column", label));
+        }
+        if !csv.filters.is_empty() {
+            return Err(csv_only("--where", label));
+        }
+        if csv.skip_rows > 0 {
+            return Err(csv_only("--skip-rows", label));
+        }
+    }
+    match format {
+        RecordingFormat::Csv => {
+            let input = crate::input::open(path).map_err(|err| ReadError::Io { path: name.clone(), err })?;
+            Ok(recording::read_csv(input.reader, &input.name, csv)?)
+        }
+        RecordingFormat::Tdms => {
+            let mut rec = tdms::read_tdms(path, &csv.columns, csv.unit, csv.rate_hz)?;
+            if let Some(t) = &csv.temp_column {
+                let temp = tdms::read_tdms(path, std::slice::from_ref(t), RateUnit::DegPerS, Some(rec.rate_hz))?;
+                rec.temp_c = temp.channels.into_iter().next();
+            }
+            Ok(rec)
+        }
+        RecordingFormat::Mcap => {
+            if csv.temp_column.is_some() {
+                return Err(csv_only("--temp-column", "a ROS 2 bag"));
+            }
+            let bag = ros2_bag::read_imu_bag(path, opts.topic.as_deref(), csv.rate_hz)?;
+            let mut rec = bag.recording;
+            if !csv.columns.is_empty() {
+                let mut picked = Vec::new();
+                for c in &csv.columns {
+                    let i = rec
+                        .names
+                        .iter()
+                        .position(|n| n == c)
+                        .ok_or_else(|| ReadError::NoSuchAxis { path: name.clone(), column: c.clone() })?;
+                    picked.push(i);
+                }
+                rec.channels = picked.iter().map(|&i| rec.channels[i].clone()).collect();
+                rec.names = csv.columns.clone();
+                rec.info.columns = csv.columns.clone();
+                rec.info.gaps = rec.channels.iter().flatten().filter(|v| v.is_nan()).count() as u64;
+            }
+            rec.source = format!("{} ({})", rec.source, bag.topic);
+            Ok(rec)
+        }
+        RecordingFormat::Binary(format) => read_binary(path, format, opts),
+    }
+}
+
+/// A raw interleaved binary recording in memory.
+fn read_binary(path: &Path, format: BinaryFormat, opts: &ReadOptions) -> Result<Recording, ReadError> {
+    let name = path.display().to_string();
+    let rate = opts.csv.rate_hz.filter(|r| r.is_finite() && *r > 0.0).ok_or(ReadError::NoRate { path: name.clone() })?;
+    let channels = opts.channels.max(1);
+    let mut input = crate::input::open(path).map_err(|err| ReadError::Io { path: name.clone(), err })?;
+    let mut bytes = Vec::new();
+    input.reader.read_to_end(&mut bytes).map_err(|err| ReadError::Io { path: name.clone(), err })?;
+    let set = format.size() * channels;
+    if bytes.len() % set != 0 {
+        return Err(ReadError::PartialSet {
+            path: name,
+            bytes: bytes.len() as u64,
+            set,
+            channels,
+            format: format.name(),
+        });
+    }
+    let scale = opts.csv.unit.to_dps();
+    let mut series = vec![Vec::with_capacity(bytes.len() / set); channels];
+    for sample in bytes.chunks_exact(set) {
+        for (c, s) in series.iter_mut().zip(sample.chunks_exact(format.size())) {
+            c.push(format.decode(s) * scale);
+        }
+    }
+    let names: Vec<String> = (0..channels)
+        .map(|i| opts.csv.columns.get(i).cloned().unwrap_or_else(|| format!("ch{i}")))
+        .collect();
+    let samples = series.first().map_or(0, Vec::len) as u64;
+    let gaps = series.iter().flatten().filter(|v| v.is_nan()).count() as u64;
+    Ok(Recording {
+        source: input.name,
+        names: names.clone(),
+        channels: series,
+        temp_c: None,
+        rate_hz: rate,
+        info: StreamInfo { columns: names, rate_hz: rate, samples, gaps, filtered_out: 0 },
+    })
+}
