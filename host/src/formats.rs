@@ -95,7 +95,8 @@ pub enum ReadError {
 pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) -> Result<Recording, ReadError> {
     let name = path.display().to_string();
     let csv = &opts.csv;
-    let csv_only = |option: &'static str, format: &'static str| ReadError::CsvOnly { path: name.clone(), option, format };
+    let csv_only =
+        |option: &'static str, format: &'static str| ReadError::CsvOnly { path: name.clone(), option, format };
     if format != RecordingFormat::Csv {
         let label = match format {
             RecordingFormat::Tdms => "TDMS",
@@ -156,7 +157,8 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
 /// A raw interleaved binary recording in memory.
 fn read_binary(path: &Path, format: BinaryFormat, opts: &ReadOptions) -> Result<Recording, ReadError> {
     let name = path.display().to_string();
-    let rate = opts.csv.rate_hz.filter(|r| r.is_finite() && *r > 0.0).ok_or(ReadError::NoRate { path: name.clone() })?;
+    let rate =
+        opts.csv.rate_hz.filter(|r| r.is_finite() && *r > 0.0).ok_or(ReadError::NoRate { path: name.clone() })?;
     let channels = opts.channels.max(1);
     let mut input = crate::input::open(path).map_err(|err| ReadError::Io { path: name.clone(), err })?;
     let mut bytes = Vec::new();
@@ -178,9 +180,8 @@ fn read_binary(path: &Path, format: BinaryFormat, opts: &ReadOptions) -> Result<
             c.push(format.decode(s) * scale);
         }
     }
-    let names: Vec<String> = (0..channels)
-        .map(|i| opts.csv.columns.get(i).cloned().unwrap_or_else(|| format!("ch{i}")))
-        .collect();
+    let names: Vec<String> =
+        (0..channels).map(|i| opts.csv.columns.get(i).cloned().unwrap_or_else(|| format!("ch{i}"))).collect();
     let samples = series.first().map_or(0, Vec::len) as u64;
     let gaps = series.iter().flatten().filter(|v| v.is_nan()).count() as u64;
     Ok(Recording {

@@ -362,24 +362,25 @@ impl LineParser<'_> {
     ) -> Result<(), RecordingError> {
         let bytes = text.as_bytes();
         let (mut line_start, mut field_start, mut quoted) = (0, 0, false);
-        let mut end_line = |(line_start, end): (usize, usize), cells: &mut Vec<&'t str>, quoted: bool, field_start: usize| {
-            out.lines += 1;
-            let line = out.lines;
-            let whole = trim_line_end(&text[line_start..end]);
-            let outcome = if whole.trim_ascii().is_empty() {
-                Ok(Some(Skip::Blank))
-            } else if quoted {
-                self.parse_line(whole, line, cells, out)
-            } else {
-                cells.push(trim_line_end(&text[field_start..end]).trim_ascii());
-                self.row(cells, line, out)
+        let mut end_line =
+            |(line_start, end): (usize, usize), cells: &mut Vec<&'t str>, quoted: bool, field_start: usize| {
+                out.lines += 1;
+                let line = out.lines;
+                let whole = trim_line_end(&text[line_start..end]);
+                let outcome = if whole.trim_ascii().is_empty() {
+                    Ok(Some(Skip::Blank))
+                } else if quoted {
+                    self.parse_line(whole, line, cells, out)
+                } else {
+                    cells.push(trim_line_end(&text[field_start..end]).trim_ascii());
+                    self.row(cells, line, out)
+                };
+                cells.clear();
+                if let Some(skip) = outcome? {
+                    out.skips.push((line, skip));
+                }
+                Ok::<(), RecordingError>(())
             };
-            cells.clear();
-            if let Some(skip) = outcome? {
-                out.skips.push((line, skip));
-            }
-            Ok::<(), RecordingError>(())
-        };
         for i in memchr::memchr3_iter(b'\n', d, b'"', bytes) {
             match bytes[i] {
                 b'\n' => {

@@ -279,7 +279,7 @@ fn ros2_bag_truncated_and_garbage_files_are_errors() {
         }
         // Damage anywhere (about 600 places, every part of the file): an error or (where the damage is in a part
         // not read or not checked) data, never a panic.
-        for at in (0..n).step_by(n / 600 | 1) {
+        for at in (0..n).step_by((n / 600) | 1) {
             let mut damaged = whole.clone();
             damaged[at] ^= 0x5A;
             std::fs::write(&cut, &damaged).unwrap();

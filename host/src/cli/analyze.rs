@@ -230,12 +230,9 @@ impl Args {
             Some(f) if f == "csv" => None,
             Some(f) if f == "tdms" || f == "mcap" => return Ok(None),
             Some(f) if f == "capture" => Some(StreamKind::Capture),
-            Some(f) => Some(StreamKind::Binary(
-                octavar::streaming::BinaryFormat::parse(&f)
-                    .with_context(|| {
-                        format!("--format {f:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le")
-                    })?,
-            )),
+            Some(f) => Some(StreamKind::Binary(octavar::streaming::BinaryFormat::parse(&f).with_context(|| {
+                format!("--format {f:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le")
+            })?)),
             None if ext == "cap" || ext == "capture" => Some(StreamKind::Capture),
             None if ext == "tdms" || ext == "mcap" => return Ok(None),
             None => None,

@@ -250,7 +250,8 @@ impl VirtualGyro {
     ) {
         let mut rng = self.rng.clone();
         let mut n = self.n;
-        let (bias, white_sigma, angle_scale, ramp_step) = (self.bias, self.white_sigma, self.angle_scale, self.ramp_step);
+        let (bias, white_sigma, angle_scale, ramp_step) =
+            (self.bias, self.white_sigma, self.angle_scale, self.ramp_step);
         let mut last_angle = self.last_angle;
         let mut rw = self.rw.clone();
         let mut temp = self.temp.clone();
