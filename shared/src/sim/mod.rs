@@ -25,15 +25,15 @@
 //! # Determinism and cost
 //! One model and one seed give the same samples bit for bit (xoshiro256++, a ziggurat Gaussian, and only `+ - *`
 //! in the per-sample path, which IEEE 754 rounds the same everywhere). Memory is fixed: a [`VirtualGyro`] is
-//! about 1.1 KiB whatever the run length. Per sample and channel, with every term on: five Gaussian draws (white,
-//! random walk, Gauss-Markov, resonance, a bias step's size only on a step; a sixth for white angle noise Q), the
-//! flicker bank's six multiply-adds on about 3.3 random words, some forty multiply-adds in all, and one decrement
-//! for each of bias steps, bistable flips and outliers; no division and no transcendental call except on rare
-//! events (a bias step, a flip, an outlier, a ziggurat tail). On this x86_64 host one core measured about 18 ns of
-//! CPU per sample for N + B + K + ADC (55 million samples/s) and 29 ns with every term and effect on but the
-//! resonance, bistable bias and warm-up (34 million samples/s); criterion bench `host/benches/sim.rs` (the flicker
-//! bank from one sample costs about 10% over the bank from four samples it replaced: 16.3 and 25.5 ns on the same
-//! machine). A [`VirtualGyro`] is 1104 bytes, a [`Bench`] of up to eight channels 9.9 KiB. On the Cortex-M4 the `f64`
+//! about 1.1 KiB whatever the run length. Per sample and channel, with every term on: four Gaussian draws (white,
+//! Gauss-Markov, resonance, a bias step's size only on a step; a fifth for white angle noise Q), the flicker
+//! bank's six multiply-adds on two random words, half a word for the random walk, some forty multiply-adds in all,
+//! and one decrement for each of bias steps, bistable flips and outliers; no division and no transcendental call
+//! except on rare events (a bias step, a flip, an outlier, a ziggurat tail). The block methods
+//! ([`VirtualGyro::fill_codes_at`], [`Bench::fill_block`]) run a loop with the state in registers, and a gyro with
+//! only the base terms (N, B, K, temperature, bandwidth) skips the checks of the others: about 230 instructions
+//! per sample for the demo's channel. Criterion bench `host/benches/sim.rs`. A [`VirtualGyro`] is about 1.1 KiB, a
+//! [`Bench`] of up to eight channels about 10 KiB. On the Cortex-M4 the `f64`
 //! arithmetic is software, so a channel costs a few thousand cycles per sample: enough for a self-test at a few
 //! kS/s, not for five channels at 2 kS/s while the firmware does its real work.
 //!
