@@ -699,9 +699,13 @@ fn read_csv_rows<R: BufRead + Send>(
                             skips.next();
                             line += 1;
                         }
-                        let row = &values[k * ncols..(k + 1) * ncols];
-                        let temp = with_temp.then(|| &temps[k..k + 1]);
-                        timed.row(row, temp, part.times[k], line, path, &mut |v, t| emit(v, t, &mut info))?;
+                        let row = TimedRow {
+                            values: &values[k * ncols..(k + 1) * ncols],
+                            temp: with_temp.then(|| temps[k]),
+                            t: part.times[k],
+                            line,
+                        };
+                        timed.row(row, path, &mut |v, t| emit(v, t, &mut info))?;
                         line += 1;
                     }
                     info.rate_hz = timed.rate;
@@ -746,25 +750,26 @@ struct Timed<'a> {
 /// Rows that fix the rate of a time column.
 const RATE_ROWS: usize = 1001;
 
+/// One row of a timed read: its values, temperature, time and file line.
+#[derive(Clone, Copy)]
+struct TimedRow<'r> {
+    values: &'r [f64],
+    temp: Option<f64>,
+    t: f64,
+    line: u64,
+}
+
 impl Timed<'_> {
-    /// One row at time `t` from file line `line`.
-    fn row(
-        &mut self,
-        values: &[f64],
-        temp: Option<&[f64]>,
-        t: f64,
-        line: u64,
-        path: &str,
-        emit: &mut RowSink<'_>,
-    ) -> Result<(), RecordingError> {
+    /// One row (the rate known, or its first rows buffered until it is).
+    fn row(&mut self, row: TimedRow<'_>, path: &str, emit: &mut RowSink<'_>) -> Result<(), RecordingError> {
         if self.rate == 0.0 {
-            self.pending.push((line, values.to_vec(), temp.map(|t| t[0]), t));
+            self.pending.push((row.line, row.values.to_vec(), row.temp, row.t));
             if self.pending.len() == RATE_ROWS {
                 self.flush(path, emit)?;
             }
             return Ok(());
         }
-        self.deliver(values, temp, t, line, path, emit)
+        self.deliver(row, path, emit)
     }
 
     /// The end of the input: a rate from the rows buffered so far, if still unknown.
@@ -777,39 +782,32 @@ impl Timed<'_> {
 
     fn flush(&mut self, path: &str, emit: &mut RowSink<'_>) -> Result<(), RecordingError> {
         self.rate = median_rate(&self.pending, path, self.column)?;
-        for (l, v, temp, t) in std::mem::take(&mut self.pending) {
-            let temp = temp.map(|x| [x]);
-            self.deliver(&v, temp.as_ref().map(|x| &x[..]), t, l, path, emit)?;
+        for (line, values, temp, t) in std::mem::take(&mut self.pending) {
+            self.deliver(TimedRow { values: &values, temp, t, line }, path, emit)?;
         }
         Ok(())
     }
 
-    fn deliver(
-        &mut self,
-        values: &[f64],
-        temp: Option<&[f64]>,
-        t: f64,
-        line: u64,
-        path: &str,
-        emit: &mut RowSink<'_>,
-    ) -> Result<(), RecordingError> {
+    fn deliver(&mut self, row: TimedRow<'_>, path: &str, emit: &mut RowSink<'_>) -> Result<(), RecordingError> {
+        let temp = row.temp.map(|x| [x]);
+        let temp = temp.as_ref().map(|x| &x[..]);
         if let Some(prev) = self.last_t {
-            if t <= prev {
+            if row.t <= prev {
                 return Err(RecordingError::TimeNotIncreasing {
                     path: path.to_string(),
-                    line,
+                    line: row.line,
                     column: self.column.to_string(),
-                    t,
+                    t: row.t,
                     previous: prev,
                 });
             }
-            let steps = ((t - prev) * self.rate).round() as i64;
+            let steps = ((row.t - prev) * self.rate).round() as i64;
             for _ in 1..steps.max(1) {
                 emit(&self.nan_row, temp.map(|_| &[f64::NAN][..]));
             }
         }
-        self.last_t = Some(t);
-        emit(values, temp);
+        self.last_t = Some(row.t);
+        emit(row.values, temp);
         Ok(())
     }
 }

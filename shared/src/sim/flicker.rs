@@ -10,10 +10,9 @@
 //! started at four samples, which a fit took for angle random walk and a simulation of that fit added twice.
 //!
 //! Cost: the [`FAST`] processes with `T <= 16` samples update every sample; the process with `T = 2^j`, j > 4,
-//! updates every `2^(j-4)` samples (`T / D = 16`, held in between), at the odd multiples of `2^(j-5)`, so that
-//! exactly one slow process updates at each sample: six multiply-adds and two random words per sample, whatever
-//! the number of decades. The innovations are uniform deviates of unit variance, three per 64-bit word
-//! ([`SimRng::unit_uniform_triple`](super::rng::SimRng::unit_uniform_triple)), not Gaussians: the Allan variance
+//! updates every `2^(j-4)` samples (`T / D = 16`, held in between), so the slow part averages one update per
+//! sample: six multiply-adds and about 3.3 random words per sample, whatever the number of decades. The
+//! innovations are uniform deviates of unit variance, two per 64-bit word, not Gaussians: the Allan variance
 //! depends only on second moments, so it is unchanged, and each process sums many innovations while the bank
 //! sums 44 processes, so the flicker value is near Gaussian (the fastest processes sum few innovations; their
 //! share of the variance is a few percent).
@@ -111,29 +110,43 @@ impl FlickerBank {
     }
 }
 
-/// One sample of the bank: the fast processes and one held process updated, their sum returned (deg/s).
-/// Slow process i has hold 2^(i+1) and updates at the samples n = 2^i (mod 2^(i+1)): the ruler sequence, one
-/// slow update per sample (process `trailing_zeros(n)`), with no loop and no branch to mispredict.
+/// One sample of the bank: the fast processes updated, and the held ones whose hold ends here; their sum
+/// returned (deg/s). Slow process i has hold 2^(i+1): it updates when n is a multiple of that.
 #[inline(always)]
 pub(crate) fn step(fast: &mut FastProcesses, slow: &mut SlowProcesses, n: u64, rng: &mut SimRng) -> f64 {
-    let [u0, u1, u2] = rng.unit_uniform_triple();
-    let [u3, u4, u5] = rng.unit_uniform_triple();
+    let (u0, u1) = rng.unit_uniform_pair();
+    let (u2, u3) = rng.unit_uniform_pair();
+    let (u4, u5) = rng.unit_uniform_pair();
     let u = [u0, u1, u2, u3, u4];
     let mut sum = 0.0;
     for j in 0..FAST {
         fast.x[j] = fast.a[j] * fast.x[j] + fast.b[j] * u[j];
         sum += fast.x[j];
     }
-    let i = n.trailing_zeros() as usize;
-    if i < SLOW {
-        let old = slow.x[i];
-        let new = slow.a * old + slow.b * u5;
-        slow.x[i] = new;
-        if i >= 12 {
+    if n & 1 == 0 {
+        let top = (n.trailing_zeros() as usize).min(SLOW);
+        let (a, b) = (slow.a, slow.b);
+        let x0 = slow.x[0];
+        slow.x[0] = a * x0 + b * u5;
+        let mut delta = slow.x[0] - x0;
+        let mut i = 1;
+        while i < top {
+            let (v0, v1) = rng.unit_uniform_pair();
+            for (k, v) in [(i, v0), (i + 1, v1)] {
+                if k < top {
+                    let old = slow.x[k];
+                    let new = a * old + b * v;
+                    delta += new - old;
+                    slow.x[k] = new;
+                }
+            }
+            i += 2;
+        }
+        if top >= 12 {
             // Re-sum now and then so rounding in the running sum cannot build up.
             slow.sum = slow.x.iter().sum();
         } else {
-            slow.sum += new - old;
+            slow.sum += delta;
         }
     }
     sum + slow.sum

@@ -25,9 +25,9 @@
 //! # Determinism and cost
 //! One model and one seed give the same samples bit for bit (xoshiro256++, a ziggurat Gaussian, and only `+ - *`
 //! in the per-sample path, which IEEE 754 rounds the same everywhere). Memory is fixed: a [`VirtualGyro`] is
-//! about 1.1 KiB whatever the run length. Per sample and channel, with every term on: four Gaussian draws (white,
-//! Gauss-Markov, resonance, a bias step's size only on a step; a fifth for white angle noise Q), the flicker
-//! bank's six multiply-adds on two random words, half a word for the random walk, some forty multiply-adds in all,
+//! about 1.1 KiB whatever the run length. Per sample and channel, with every term on: five Gaussian draws (white,
+//! random walk, Gauss-Markov, resonance, a bias step's size only on a step; a sixth for white angle noise Q), the
+//! flicker bank's six multiply-adds on about 3.3 random words, some forty multiply-adds in all,
 //! and one decrement for each of bias steps, bistable flips and outliers; no division and no transcendental call
 //! except on rare events (a bias step, a flip, an outlier, a ziggurat tail). The block methods
 //! ([`VirtualGyro::fill_codes_at`], [`Bench::fill_block`]) run a loop with the state in registers, and a gyro with

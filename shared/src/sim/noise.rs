@@ -13,30 +13,18 @@ use super::rng::SimRng;
 pub struct RandomWalk {
     x: f64,
     step: f64,
-    /// The second innovation of the last word drawn, for the next sample.
-    spare: Option<f64>,
 }
 
 impl RandomWalk {
     /// K in deg/s/sqrt(s) at a sample interval of `tau0_s`.
     pub fn new(k_dps_per_rt_s: f64, tau0_s: f64) -> Self {
-        RandomWalk { x: 0.0, step: k_dps_per_rt_s * libm::sqrt(tau0_s), spare: None }
+        RandomWalk { x: 0.0, step: k_dps_per_rt_s * libm::sqrt(tau0_s) }
     }
 
-    /// The next value, in deg/s. The innovations are uniform deviates of unit variance, two per random word
-    /// ([`SimRng::unit_uniform_pair`](super::rng::SimRng::unit_uniform_pair)): the walk is the sum of all of them, Gaussian by summation, and its Allan
-    /// variance depends only on their variance.
+    /// The next value, in deg/s.
     #[inline]
     pub fn next(&mut self, rng: &mut SimRng) -> f64 {
-        let u = match self.spare.take() {
-            Some(u) => u,
-            None => {
-                let (u, v) = rng.unit_uniform_pair();
-                self.spare = Some(v);
-                u
-            }
-        };
-        self.x += self.step * u;
+        self.x += self.step * rng.normal();
         self.x
     }
 }

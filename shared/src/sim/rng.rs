@@ -54,17 +54,6 @@ impl SimRng {
         (lo, hi)
     }
 
-    /// Three independent uniform deviates with mean 0 and variance 1 (to within 2^-42), from 21-bit fields of
-    /// one 64-bit word: the flicker bank's innovations, where a finer grid than 2^-20 of the range buys nothing.
-    #[inline]
-    pub fn unit_uniform_triple(&mut self) -> [f64; 3] {
-        const SCALE: f64 = 1.732_050_807_568_877_2 / 1_048_576.0; // sqrt(3) / 2^20
-        let w = self.next_u64();
-        // Field k is bits 21k .. 21k + 20, read as a signed 21-bit integer.
-        let field = |k: u32| (((w << (43 - 21 * k)) as i64 >> 43) as f64 + 0.5) * SCALE;
-        [field(0), field(1), field(2)]
-    }
-
     /// +1.0 or -1.0 with equal probability.
     #[inline]
     pub fn sign(&mut self) -> f64 {
