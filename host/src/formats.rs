@@ -1,6 +1,6 @@
 //! Which reader a recording goes through, and the recording in memory whatever the format: CSV (also gzipped,
-//! or stdin), NI TDMS ([`crate::tdms`]), a ROS 2 bag in MCAP ([`crate::ros2_bag`]) or raw little-endian
-//! samples. `analyze` and `gap` read through here, so both take every format. The format is the `--format` flag,
+//! or stdin), NI TDMS ([`crate::tdms`]), a ROS 2 bag in MCAP ([`crate::ros2_bag`]), raw little-endian samples,
+//! or the raw samples of a device capture. `analyze` and `gap` read through here, so both take every format. The format is the `--format` flag,
 //! or else the file's extension (`.tdms`, `.mcap`), or else CSV.
 
 use std::io::Read;
@@ -22,6 +22,8 @@ pub enum RecordingFormat {
     Mcap,
     /// Raw interleaved little-endian samples.
     Binary(BinaryFormat),
+    /// A device capture's raw sample frames; columns are the hello's channel names.
+    Capture,
 }
 
 impl RecordingFormat {
@@ -33,6 +35,7 @@ impl RecordingFormat {
                 "csv" => Some(RecordingFormat::Csv),
                 "tdms" => Some(RecordingFormat::Tdms),
                 "mcap" => Some(RecordingFormat::Mcap),
+                "capture" => Some(RecordingFormat::Capture),
                 _ => BinaryFormat::parse(&f).map(RecordingFormat::Binary),
             },
             None => {
@@ -40,6 +43,7 @@ impl RecordingFormat {
                 Some(match ext.as_str() {
                     "tdms" => RecordingFormat::Tdms,
                     "mcap" => RecordingFormat::Mcap,
+                    "cap" | "capture" => RecordingFormat::Capture,
                     _ => RecordingFormat::Csv,
                 })
             }
@@ -83,6 +87,9 @@ pub enum ReadError {
     /// A raw input whose length is not a whole number of sample sets.
     #[error("{path}: {bytes} bytes is not a whole number of {set}-byte sample sets ({channels} channels of {format})")]
     PartialSet { path: String, bytes: u64, set: usize, channels: usize, format: &'static str },
+    /// A capture that gives no recording.
+    #[error("{path}: {what}")]
+    Capture { path: String, what: String },
     /// Reading a raw input.
     #[error("{path}: {err}")]
     Io { path: String, err: std::io::Error },
@@ -101,6 +108,7 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
         let label = match format {
             RecordingFormat::Tdms => "TDMS",
             RecordingFormat::Mcap => "a ROS 2 bag",
+            RecordingFormat::Capture => "a capture",
             _ => "raw samples",
         };
         if csv.time_column.is_some() {
@@ -151,7 +159,87 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
             Ok(rec)
         }
         RecordingFormat::Binary(format) => read_binary(path, format, opts),
+        RecordingFormat::Capture => read_capture(path, csv),
     }
+}
+
+/// The raw sample frames of a device capture in memory: each named channel in deg/s through its part's bench
+/// channel (the temperature channel in degC), the rate from the hello, and the samples the device lost (a jump
+/// in the frames' hardware sample index) as NaN.
+fn read_capture(path: &Path, csv: &CsvOptions) -> Result<Recording, ReadError> {
+    use crate::decode::Record;
+    use octavar_shared::sensor::{Channel, GyroModel, SensorKind};
+    let name = path.display().to_string();
+    let capture_err = |what: String| ReadError::Capture { path: name.clone(), what };
+    let reader = crate::decode::open(path).map_err(|e| capture_err(e.to_string()))?;
+    let mut hello = None;
+    // Per channel index: its values so far (one per hardware sample index from the first frame on).
+    let mut series: Vec<Vec<f64>> = Vec::new();
+    let mut first: Option<u64> = None;
+    for item in reader {
+        let d = item.map_err(|e| capture_err(e.to_string()))?;
+        match d.record {
+            Record::Hello(h) => {
+                series.resize(series.len().max(h.channels.len()), Vec::new());
+                hello = Some(h);
+            }
+            Record::Samples(s) => {
+                let Some(h) = &hello else { continue };
+                let k = s.channels();
+                let start = *first.get_or_insert(s.first_sample);
+                let Some(at) = s.first_sample.checked_sub(start) else { continue };
+                for (j, c) in (0..8usize).filter(|b| s.channel_mask & (1 << b) != 0).enumerate() {
+                    let Some(info) = h.channels.get(c) else { continue };
+                    let to_value = |code: u16| match info.kind {
+                        SensorKind::Temperature => f64::from(octavar_shared::sensor::temperature_c(f64::from(code))),
+                        kind => GyroModel::of(kind).map_or(f64::from(code), |g| Channel::bench(g).code_to_dps(code)),
+                    };
+                    let out = &mut series[c];
+                    if (out.len() as u64) < at {
+                        out.resize(at as usize, f64::NAN);
+                    }
+                    if out.len() as u64 == at {
+                        out.extend(s.codes.iter().skip(j).step_by(k).map(|&v| to_value(v)));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    let hello = hello.ok_or_else(|| capture_err("no hello frame: the sample rate is unknown".into()))?;
+    let rate = f64::from(hello.sample_rate_hz);
+    let names: Vec<String> = hello.channels.iter().map(|c| c.name.as_str().to_string()).collect();
+    let find = |column: &str| {
+        names
+            .iter()
+            .position(|n| n == column)
+            .ok_or_else(|| capture_err(format!("no channel {column:?} (the capture's channels: {})", names.join(", "))))
+    };
+    let mut channels = Vec::new();
+    for c in &csv.columns {
+        let i = find(c)?;
+        if series[i].is_empty() {
+            return Err(capture_err(format!("no raw samples of channel {c:?} (record with raw streaming on)")));
+        }
+        channels.push(series[i].clone());
+    }
+    let mut temp_c = match &csv.temp_column {
+        Some(t) => Some(series[find(t)?].clone()),
+        None => None,
+    };
+    let len = channels.iter().chain(&temp_c).map(Vec::len).min().unwrap_or(0);
+    for c in channels.iter_mut().chain(temp_c.iter_mut()) {
+        c.truncate(len);
+    }
+    let gaps = channels.iter().flatten().filter(|v| v.is_nan()).count() as u64;
+    Ok(Recording {
+        source: name,
+        names: csv.columns.clone(),
+        channels,
+        temp_c,
+        rate_hz: rate,
+        info: StreamInfo { columns: csv.columns.clone(), rate_hz: rate, samples: len as u64, gaps, filtered_out: 0 },
+    })
 }
 
 /// A raw interleaved binary recording in memory.

@@ -190,3 +190,46 @@ fn record_names_a_missing_port() {
     let o = octavar(&["record", "-o", s(&dir.path().join("y.cap"))], None);
     assert_eq!(o.status.code(), Some(2), "a port or --from is required");
 }
+
+#[test]
+fn a_capture_s_raw_samples_are_a_recording_with_its_lost_samples_as_gaps() {
+    use octavar::formats::{read_recording, ReadOptions, RecordingFormat};
+    use octavar::recording::CsvOptions;
+    use octavar_shared::sensor::{temperature_c, Channel, ADXRS300};
+    let dir = tempfile::tempdir().unwrap();
+    let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);
+    let mut bytes = Vec::new();
+    dev.boot(&mut bytes);
+    (0..1000).for_each(|i| dev.push_scan(&scan(i), &mut bytes));
+    dev.lose_samples(300, &mut bytes);
+    (1000..2000).for_each(|i| dev.push_scan(&scan(i), &mut bytes));
+    let cap = write(dir.path(), "run.cap", &bytes);
+    assert_eq!(RecordingFormat::of(&cap, None), Some(RecordingFormat::Capture));
+    let csv = CsvOptions {
+        columns: vec!["ADXRS300".into()],
+        temp_column: Some("ADXRS300 TEMP".into()),
+        ..Default::default()
+    };
+    let rec = read_recording(&cap, RecordingFormat::Capture, &ReadOptions { csv, ..Default::default() }).unwrap();
+    assert_eq!(rec.rate_hz, 2000.0);
+    // Every scan pushed before the loss is there, then 300 NaN, then the scans after it that whole blocks of 128
+    // scans carried, each code through the ADXRS300's bench channel.
+    let ch = Channel::bench(ADXRS300);
+    let x = &rec.channels[0];
+    let t = rec.temp_c.as_ref().unwrap();
+    assert_eq!(x.len(), 1300 + 1000 / 128 * 128, "{}", x.len());
+    for (k, (&v, &tc)) in x.iter().zip(t).enumerate() {
+        let i = match k {
+            0..1000 => k,
+            1000..1300 => {
+                assert!(v.is_nan() && tc.is_nan(), "sample {k}");
+                continue;
+            }
+            _ => k - 300,
+        };
+        let code = scan(i as u32);
+        assert_eq!(v, ch.code_to_dps(code[2]), "sample {k}");
+        assert_eq!(tc, f64::from(temperature_c(f64::from(code[4]))), "sample {k}");
+    }
+    assert_eq!(rec.info.gaps, 300);
+}

@@ -23,14 +23,15 @@ use super::progress::Progress;
 /// Transient disturbances are found and masked first; a gap no candidate explains is described.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, .mcap (ROS 2 bag), or raw
-    /// samples (--format).
+    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, .mcap (ROS 2 bag), a device
+    /// capture (its raw samples), or raw samples (--format).
     pub input: PathBuf,
     /// The rate column to diagnose (`group/channel` in a TDMS file; x, y or z of a bag's angular velocity).
     #[arg(long, value_name = "NAME")]
     pub column: String,
-    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap), or one channel of raw
-    /// little-endian samples f64le, f32le, i16le, u16le (with --rate).
+    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap), capture (default for
+    /// .cap/.capture: the raw samples, --column a channel's name), or one channel of raw little-endian samples
+    /// f64le, f32le, i16le, u16le (with --rate).
     #[arg(long, value_name = "FORMAT")]
     pub format: Option<String>,
     /// How to read the recording.
@@ -85,7 +86,7 @@ pub struct Args {
 impl Args {
     fn read(&self, path: &Path, filters: &[String]) -> anyhow::Result<Recording> {
         let format = RecordingFormat::of(path, self.format.as_deref()).with_context(|| {
-            format!("--format {:?}: use csv, tdms, mcap, f64le, f32le, i16le or u16le", self.format)
+            format!("--format {:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le", self.format)
         })?;
         let opts = self.reading.read_options(vec![self.column.clone()], self.temp_column.clone(), filters, 1)?;
         Ok(formats::read_recording(path, format, &opts)?)
