@@ -934,7 +934,7 @@ impl CsvSet {
                     self.samples = Some((Csv::create(&self.dir, "samples.csv", &cols)?, n));
                 }
                 let (csv, columns) = self.samples.as_mut().expect("created above");
-                let slots: Vec<usize> = (0..8).filter(|c| s.channel_mask & (1 << c) != 0).collect();
+                let slots: Vec<usize> = s.mask_channels().collect();
                 let mut row = vec![String::new(); *columns + 1];
                 for set in 0..s.sets() {
                     row.iter_mut().for_each(String::clear);
@@ -1020,7 +1020,7 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
         match d.record {
             Record::Hello(h) => hello = Some(h),
             Record::Samples(s) => {
-                for ch in (0..8u8).filter(|c| s.channel_mask & (1 << c) != 0) {
+                for ch in s.mask_channels().map(|c| c as u8) {
                     *per_channel.entry(ch).or_default() += s.sets() as u64;
                 }
             }

@@ -185,10 +185,9 @@ fn read_capture(path: &Path, csv: &CsvOptions) -> Result<Recording, ReadError> {
             }
             Record::Samples(s) => {
                 let Some(h) = &hello else { continue };
-                let k = s.channels();
                 let start = *first.get_or_insert(s.first_sample);
                 let Some(at) = s.first_sample.checked_sub(start) else { continue };
-                for (j, c) in (0..8usize).filter(|b| s.channel_mask & (1 << b) != 0).enumerate() {
+                for (j, c) in s.mask_channels().enumerate() {
                     let Some(info) = h.channels.get(c) else { continue };
                     let to_value = |code: u16| match info.kind {
                         SensorKind::Temperature => f64::from(octavar_shared::sensor::temperature_c(f64::from(code))),
@@ -199,7 +198,7 @@ fn read_capture(path: &Path, csv: &CsvOptions) -> Result<Recording, ReadError> {
                         out.resize(at as usize, f64::NAN);
                     }
                     if out.len() as u64 == at {
-                        out.extend(s.codes.iter().skip(j).step_by(k).map(|&v| to_value(v)));
+                        out.extend(s.slot_codes(j).map(to_value));
                     }
                 }
             }

@@ -789,7 +789,7 @@ pub fn analyze_capture<R: Read>(
                 if k == 0 {
                     continue;
                 }
-                let chans: Vec<usize> = (0..8).filter(|b| s.channel_mask & (1 << b) != 0).collect();
+                let chans: Vec<usize> = s.mask_channels().collect();
                 for &c in &chans {
                     if c >= accs.len() {
                         for _ in accs.len()..=c {
@@ -806,7 +806,7 @@ pub fn analyze_capture<R: Read>(
                 }
                 for (j, &c) in chans.iter().enumerate() {
                     cols[c].clear();
-                    cols[c].extend(s.codes.iter().skip(j).step_by(k).map(|&v| f64::from(v)));
+                    cols[c].extend(s.slot_codes(j).map(f64::from));
                     accs[c].push(&cols[c]);
                 }
             }

@@ -456,7 +456,7 @@ impl Verifier {
     fn samples(&mut self, s: &Samples) {
         let sets = s.sets();
         let first = s.first_sample;
-        for (slot, c) in (0..8u8).filter(|c| s.channel_mask & (1 << c) != 0).enumerate() {
+        for (slot, c) in s.mask_channels().map(|c| c as u8).enumerate() {
             self.chan(c).raw_samples += sets as u64;
             let lost_total = self.lost_total;
             let r = self.channels.entry(c).or_insert_with(|| Replay::new(Err(Unchecked::NotStreamed)));

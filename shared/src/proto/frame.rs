@@ -166,6 +166,16 @@ impl Samples {
         self.codes.extend_from_slice(set).map_err(|_| ())
     }
 
+    /// The channels of the mask in increasing order: slot `j` of every set is the `j`-th of them.
+    pub fn mask_channels(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..8).filter(move |&c| self.channel_mask & (1 << c) != 0)
+    }
+
+    /// The codes of channel slot `slot`, set after set.
+    pub fn slot_codes(&self, slot: usize) -> impl Iterator<Item = u16> + '_ {
+        self.codes.iter().skip(slot).step_by(self.channels().max(1)).copied()
+    }
+
     /// The code of channel slot `slot` (0-based among the mask's channels) in sample set `set`.
     pub fn code(&self, set: usize, slot: usize) -> Option<u16> {
         if slot >= self.channels() {

@@ -19,6 +19,18 @@ struct Phasor {
     amplitude: f64,
 }
 
+impl Phasor {
+    /// The phasor `(c, s)` of sample `n` turned on by one sample; at every 4096th sample one Newton step towards
+    /// |phasor| = 1 (no sqrt), so the rounding drift never accumulates.
+    #[inline(always)]
+    fn turn(&self, c: f64, s: f64, n: u64) -> (f64, f64) {
+        let c2 = c * self.cos_d - s * self.sin_d;
+        let s2 = s * self.cos_d + c * self.sin_d;
+        let g = if n & 4095 == 4095 { 1.5 - 0.5 * (c2 * c2 + s2 * s2) } else { 1.0 };
+        (c2 * g, s2 * g)
+    }
+}
+
 /// Up to [`MAX_SINUSOIDS`] sinusoids on the rate, `A sin(2 pi t / P + phi)` with t = n tau0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sinusoids {
@@ -57,10 +69,7 @@ impl Sinusoids {
             let (mut c, mut s) = (p.c, p.s);
             for (k, o) in out.iter_mut().enumerate() {
                 *o += p.amplitude * s;
-                let c2 = c * p.cos_d - s * p.sin_d;
-                let s2 = s * p.cos_d + c * p.sin_d;
-                let g = if (n0 + k as u64) & 4095 == 4095 { 1.5 - 0.5 * (c2 * c2 + s2 * s2) } else { 1.0 };
-                (c, s) = (c2 * g, s2 * g);
+                (c, s) = p.turn(c, s, n0 + k as u64);
             }
             (p.c, p.s) = (c, s);
         }
@@ -69,16 +78,10 @@ impl Sinusoids {
     /// The sum of the sinusoids at sample `n` (n counts from 0, one call per sample), in deg/s.
     #[inline]
     pub fn next(&mut self, n: u64) -> f64 {
-        let renorm = n & 4095 == 4095;
         let mut sum = 0.0;
         for p in &mut self.phasors[..self.len] {
             sum += p.amplitude * p.s;
-            let c = p.c * p.cos_d - p.s * p.sin_d;
-            let s = p.s * p.cos_d + p.c * p.sin_d;
-            // One Newton step towards |phasor| = 1 (no sqrt): the rounding drift never accumulates.
-            let g = if renorm { 1.5 - 0.5 * (c * c + s * s) } else { 1.0 };
-            p.c = c * g;
-            p.s = s * g;
+            (p.c, p.s) = p.turn(p.c, p.s, n);
         }
         sum
     }

@@ -45,9 +45,7 @@ impl Thermal {
         }
         t
     }
-}
 
-impl Thermal {
     /// The temperatures of the next `out.len()` samples, degC: the values of as many calls of [`Thermal::next`].
     pub fn fill(&mut self, rng: &mut SimRng, out: &mut [f64]) {
         let n0 = self.n;
