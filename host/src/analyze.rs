@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 
 use octavar_shared::sensor::{Channel, SensorKind, GENERIC};
 use octavar_shared::sim::{BenchSim, ChannelSim, GyroSim};
+use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::{json, Value};
 
@@ -112,7 +113,7 @@ pub fn analyze_channel(
         unit: "deg/s".to_string(),
         tau0_s: 1.0 / rate_hz,
         n_samples: data.len(),
-        n_gaps: data.iter().filter(|v| v.is_nan()).count(),
+        n_gaps: data.par_iter().filter(|v| v.is_nan()).count(),
         stats,
         fit_points,
         fit,

@@ -124,7 +124,7 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
     match format {
         RecordingFormat::Csv => {
             let input = crate::input::open(path).map_err(|err| ReadError::Io { path: name.clone(), err })?;
-            Ok(recording::read_csv(input.reader, &input.name, csv)?)
+            Ok(recording::read_csv_sized(input.reader, &input.name, csv, input.size)?)
         }
         RecordingFormat::Tdms => {
             let mut rec = tdms::read_tdms(path, &csv.columns, csv.unit, csv.rate_hz)?;

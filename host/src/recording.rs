@@ -10,7 +10,7 @@ use std::io::BufRead;
 
 use serde::Serialize;
 
-use crate::csv_rows::{clean_header, parse_number, split, trim_line_end, Delimiter, Dialect};
+use crate::csv_rows::{clean_header, parse_number, parse_plain, split, trim_line_end, Delimiter, Dialect};
 
 /// Units a rate column may be in; everything is converted to deg/s.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -244,10 +244,32 @@ pub struct Recording {
 /// # Errors
 /// See [`read_csv_stream`].
 pub fn read_csv<R: BufRead + Send>(reader: R, path: &str, opts: &CsvOptions) -> Result<Recording, RecordingError> {
+    read_csv_sized(reader, path, opts, None)
+}
+
+/// [`read_csv`] of an input of `input_bytes` bytes, when known (an uncompressed file): the channels are given
+/// room for all their samples at once.
+///
+/// # Errors
+/// See [`read_csv_stream`].
+pub fn read_csv_sized<R: BufRead + Send>(
+    reader: R,
+    path: &str,
+    opts: &CsvOptions,
+    input_bytes: Option<u64>,
+) -> Result<Recording, RecordingError> {
     let n = opts.columns.len();
     let mut channels: Vec<Vec<f64>> = vec![Vec::new(); n];
     let mut temps: Vec<f64> = Vec::new();
-    let info = read_csv_rows(reader, path, opts, |rows, temp| {
+    let info = read_csv_rows(reader, path, opts, input_bytes, |rows, temp, expected_rows| {
+        if channels[0].capacity() == 0 && expected_rows > 0 {
+            for c in &mut channels {
+                c.reserve(expected_rows);
+            }
+            if temp.is_some() {
+                temps.reserve(expected_rows);
+            }
+        }
         if n == 1 {
             channels[0].extend_from_slice(rows);
         } else {
@@ -299,6 +321,19 @@ struct Parsed {
     lines: u64,
     /// The first fault, which ends the read; the arrays stop just before its line.
     error: Option<RecordingError>,
+    /// NaN values (gaps) among `values`.
+    gaps: u64,
+}
+
+impl Parsed {
+    /// Empty, keeping the arrays' room for the next block.
+    fn clear(&mut self) {
+        self.values.clear();
+        self.temps.clear();
+        self.times.clear();
+        self.skips.clear();
+        (self.lines, self.error, self.gaps) = (0, None, 0);
+    }
 }
 
 /// Everything the line parser needs, shared by the tasks.
@@ -313,9 +348,25 @@ struct LineParser<'a> {
     time: Option<(usize, &'a str)>,
     filters: Vec<(usize, &'a RowFilter)>,
     scale: f64,
+    /// Per header field, whether a row reads it: the plan of [`LineParser::plain_row`], `None` where a filter
+    /// asks for the careful path on every line.
+    roles: Option<Vec<bool>>,
 }
 
 impl LineParser<'_> {
+    /// The fields a row reads, for [`LineParser::plain_row`]: `None` with a filter (which compares text).
+    fn plain_roles(&self) -> Option<Vec<bool>> {
+        if !self.filters.is_empty() || self.header_fields == 0 {
+            return None;
+        }
+        let mut roles = vec![false; self.header_fields];
+        let read = self.cols.iter().chain(self.temp.iter().map(|(i, _)| i)).chain(self.time.iter().map(|(i, _)| i));
+        for &i in read {
+            roles[i] = true;
+        }
+        Some(roles)
+    }
+
     fn cell(&self, text: &str, line: u64, column: &str) -> Result<f64, RecordingError> {
         if text.is_empty() || text.eq_ignore_ascii_case("nan") || text.eq_ignore_ascii_case("na") {
             return Ok(f64::NAN);
@@ -335,24 +386,24 @@ impl LineParser<'_> {
         }
     }
 
-    /// Parse the whole lines of `text`, numbering them from 1. With a delimiter byte, one pass with memchr over
-    /// the task's bytes finds the line ends and the delimiters together; a line with a quote is split again with
-    /// the quote rules, and whitespace-delimited text goes line by line.
-    fn parse(&self, text: &str) -> Parsed {
-        let mut out = Parsed::default();
+    /// Parse the whole lines of `text` into `out` (emptied by the caller), numbering them from 1. With a
+    /// delimiter byte, a plain line is read in one pass over its bytes ([`LineParser::plain_row`]) and any other
+    /// is split with the quote rules; whitespace-delimited text goes line by line.
+    fn parse(&self, text: &str, out: &mut Parsed) {
         out.values.reserve(text.len() / 16 * self.cols.len());
         let mut cells = Vec::with_capacity(self.header_fields + 1);
         let result = match self.dialect.delimiter {
-            Delimiter::Byte(d) => self.parse_delimited(text, d, &mut cells, &mut out),
-            Delimiter::Whitespace => self.parse_lines(text, &mut cells, &mut out),
+            Delimiter::Byte(d) => self.parse_delimited(text, d, &mut cells, out),
+            Delimiter::Whitespace => self.parse_lines(text, &mut cells, out),
         };
         if let Err(e) = result {
             out.error = Some(e);
         }
-        out
+        out.gaps = out.values.iter().filter(|v| v.is_nan()).count() as u64;
     }
 
-    /// [`LineParser::parse`] for a delimiter byte.
+    /// [`LineParser::parse`] for a delimiter byte: each line through [`LineParser::plain_row`], or where that
+    /// declines, split with the quote rules.
     fn parse_delimited<'t>(
         &self,
         text: &'t str,
@@ -361,45 +412,77 @@ impl LineParser<'_> {
         out: &mut Parsed,
     ) -> Result<(), RecordingError> {
         let bytes = text.as_bytes();
-        let (mut line_start, mut field_start, mut quoted) = (0, 0, false);
-        let mut end_line =
-            |(line_start, end): (usize, usize), cells: &mut Vec<&'t str>, quoted: bool, field_start: usize| {
-                out.lines += 1;
-                let line = out.lines;
-                let whole = trim_line_end(&text[line_start..end]);
-                let outcome = if whole.trim_ascii().is_empty() {
-                    Ok(Some(Skip::Blank))
-                } else if quoted {
-                    self.parse_line(whole, line, cells, out)
-                } else {
-                    cells.push(trim_line_end(&text[field_start..end]).trim_ascii());
-                    self.row(cells, line, out)
-                };
-                cells.clear();
-                if let Some(skip) = outcome? {
-                    out.skips.push((line, skip));
-                }
-                Ok::<(), RecordingError>(())
-            };
-        for i in memchr::memchr3_iter(b'\n', d, b'"', bytes) {
-            match bytes[i] {
-                b'\n' => {
-                    end_line((line_start, i), cells, quoted, field_start)?;
-                    (line_start, field_start, quoted) = (i + 1, i + 1, false);
-                }
-                b'"' => quoted = true,
-                _ => {
-                    if !quoted {
-                        cells.push(text[field_start..i].trim_ascii());
-                    }
-                    field_start = i + 1;
-                }
+        let mut fields = vec![0.0; self.header_fields];
+        let mut start = 0;
+        while start < bytes.len() {
+            out.lines += 1;
+            if let Some(next) = self.plain_row(bytes, start, d, &mut fields, out) {
+                start = next;
+                continue;
             }
-        }
-        if line_start < text.len() {
-            end_line((line_start, text.len()), cells, quoted, field_start)?;
+            let end = memchr::memchr(b'\n', &bytes[start..]).map_or(bytes.len(), |i| start + i);
+            let line = out.lines;
+            if let Some(skip) = self.parse_line(&text[start..end], line, cells, out)? {
+                out.skips.push((line, skip));
+            }
+            start = end + 1;
         }
         Ok(())
+    }
+
+    /// The row of the line at `start` when it is plain: the header's number of fields, each wanted cell a plain
+    /// number ([`parse_plain`]) with at most spaces around it, no quotes, no filter to apply. Returns where the next
+    /// line starts, or `None` (nothing pushed) for the careful path to read the line.
+    fn plain_row(&self, bytes: &[u8], start: usize, d: u8, fields: &mut [f64], out: &mut Parsed) -> Option<usize> {
+        let roles = self.roles.as_deref()?;
+        let point = if self.dialect.decimal_comma { b',' } else { b'.' };
+        let skip_spaces = |mut p: usize| {
+            while bytes.get(p) == Some(&b' ') {
+                p += 1;
+            }
+            p
+        };
+        let mut p = start;
+        for (f, &wanted) in roles.iter().enumerate() {
+            if wanted {
+                p = skip_spaces(p);
+                let (v, n) = parse_plain(&bytes[p..], point)?;
+                fields[f] = v;
+                p = skip_spaces(p + n);
+            } else {
+                while let Some(&b) = bytes.get(p) {
+                    if b == d || b == b'\n' {
+                        break;
+                    }
+                    if b == b'"' {
+                        return None;
+                    }
+                    p += 1;
+                }
+            }
+            if f + 1 < roles.len() {
+                if bytes.get(p) != Some(&d) {
+                    return None;
+                }
+                p += 1;
+            }
+        }
+        let next = match bytes.get(p) {
+            None => p,
+            Some(b'\n') => p + 1,
+            Some(b'\r') if bytes.get(p + 1) == Some(&b'\n') => p + 2,
+            _ => return None,
+        };
+        for &c in &self.cols {
+            out.values.push(fields[c] * self.scale);
+        }
+        if let Some((i, _)) = self.temp {
+            out.temps.push(fields[i]);
+        }
+        if let Some((i, _)) = self.time {
+            out.times.push(fields[i]);
+        }
+        Some(next)
     }
 
     /// [`LineParser::parse`] line by line.
@@ -486,30 +569,48 @@ impl LineParser<'_> {
     }
 }
 
-/// Read the next block: about [`BLOCK_BYTES`] and the rest of its last line. Empty at the end of the input.
-fn read_block<R: BufRead>(reader: &mut R, buf: &mut Vec<u8>) -> std::io::Result<()> {
-    buf.clear();
-    while buf.len() < BLOCK_BYTES {
-        let chunk = reader.fill_buf()?;
-        if chunk.is_empty() {
-            return Ok(());
+/// A block of whole lines of the input: about [`BLOCK_BYTES`] and the rest of its last line, read straight into a
+/// buffer that is kept (never shrunk or zeroed again) from block to block.
+#[derive(Default)]
+struct Block {
+    buf: Vec<u8>,
+    len: usize,
+}
+
+impl Block {
+    fn bytes(&self) -> &[u8] {
+        &self.buf[..self.len]
+    }
+
+    /// Read the next block; empty at the end of the input.
+    fn read<R: BufRead>(&mut self, reader: &mut R) -> std::io::Result<()> {
+        if self.buf.len() < BLOCK_BYTES {
+            self.buf.resize(BLOCK_BYTES, 0);
         }
-        let n = chunk.len().min(BLOCK_BYTES - buf.len());
-        buf.extend_from_slice(&chunk[..n]);
-        reader.consume(n);
+        self.len = 0;
+        while self.len < BLOCK_BYTES {
+            match reader.read(&mut self.buf[self.len..BLOCK_BYTES]) {
+                Ok(0) => return Ok(()),
+                Ok(n) => self.len += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
+        if self.buf[self.len - 1] != b'\n' {
+            self.buf.truncate(self.len);
+            reader.read_until(b'\n', &mut self.buf)?;
+            self.len = self.buf.len();
+        }
+        Ok(())
     }
-    if buf.last() != Some(&b'\n') {
-        reader.read_until(b'\n', buf)?;
-    }
-    Ok(())
 }
 
 /// Stream a CSV recording: `sink` gets each sample's values (deg/s, one per column, NaN for a gap) and the
 /// temperature when a temperature column was named. The rate is known before the first call.
 ///
 /// The dialect is [`CsvOptions::delimiter`] and [`CsvOptions::decimal_comma`], or detected from the header and
-/// the first rows (see [`crate::csv_rows::Dialect`]). Lines are read in blocks of about 8 MB, split with memchr
-/// and parsed on every core while the next block is read; the samples are then handed on in order, so memory
+/// the first rows (see [`crate::csv_rows::Dialect`]). Lines are read in blocks of about 8 MB and parsed on
+/// every core while the next block is read; the samples are then handed on in order, so memory
 /// stays bounded (two blocks).
 ///
 /// # Errors
@@ -523,7 +624,7 @@ pub fn read_csv_stream<R: BufRead + Send>(
     mut sink: impl FnMut(&[f64], Option<f64>),
 ) -> Result<StreamInfo, RecordingError> {
     let n = opts.columns.len();
-    read_csv_rows(reader, path, opts, |rows, temps| {
+    read_csv_rows(reader, path, opts, None, |rows, temps, _| {
         for (k, row) in rows.chunks_exact(n).enumerate() {
             sink(row, temps.map(|t| t[k]));
         }
@@ -531,12 +632,14 @@ pub fn read_csv_stream<R: BufRead + Send>(
 }
 
 /// [`read_csv_stream`] with the rows handed on in batches: `sink` gets the values of consecutive rows (`ncols`
-/// per row, row after row) and their temperatures when a temperature column was named.
+/// per row, row after row), their temperatures when a temperature column was named, and the rows expected in
+/// all (from the first block and `input_bytes`, the input's size when known; 0 when not).
 fn read_csv_rows<R: BufRead + Send>(
     mut reader: R,
     path: &str,
     opts: &CsvOptions,
-    mut sink: impl FnMut(&[f64], Option<&[f64]>),
+    input_bytes: Option<u64>,
+    mut sink: impl FnMut(&[f64], Option<&[f64]>, usize),
 ) -> Result<StreamInfo, RecordingError> {
     let io = |err| RecordingError::Io { path: path.to_string(), err };
     let not_utf8 =
@@ -568,14 +671,14 @@ fn read_csv_rows<R: BufRead + Send>(
     let detected = Dialect::detect_delimiter(header_text);
     let one_field = opts.delimiter.is_none() && detected.is_none();
     let mut delimiter = opts.delimiter.or(detected).unwrap_or(Delimiter::Byte(b','));
-    let (mut block, mut next) = (Vec::new(), Vec::new());
-    read_block(&mut reader, &mut block).map_err(io)?;
+    let (mut block, mut next) = (Block::default(), Block::default());
+    block.read(&mut reader).map_err(io)?;
     let decimal_comma = match opts.decimal_comma {
         Some(dc) => dc,
         // No decimal comma is guessed where nothing is known of the delimiter.
         None if one_field => false,
         None => {
-            let text = String::from_utf8_lossy(&block[..block.len().min(1 << 16)]);
+            let text = String::from_utf8_lossy(&block.bytes()[..block.len.min(1 << 16)]);
             let rows: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).take(DETECT_ROWS).collect();
             Dialect::detect_decimal_comma(delimiter, &rows)
         }
@@ -636,9 +739,11 @@ fn read_csv_rows<R: BufRead + Send>(
         names: &opts.columns,
         temp: temp_col.zip(opts.temp_column.as_deref()),
         time: time_col.zip(opts.time_column.as_deref()),
+        roles: None,
         filters,
         scale: opts.unit.to_dps(),
     };
+    let parser = LineParser { roles: parser.plain_roles(), ..parser };
     let mut info = StreamInfo { columns: opts.columns.clone(), ..Default::default() };
     let ncols = parser.cols.len();
     let with_temp = parser.temp.is_some();
@@ -654,34 +759,47 @@ fn read_csv_rows<R: BufRead + Send>(
     if timed.is_none() {
         info.rate_hz = opts.rate_hz.unwrap_or(0.0);
     }
-    let mut emit = |values: &[f64], temps: Option<&[f64]>, info: &mut StreamInfo| {
+    let mut emit = |values: &[f64], temps: Option<&[f64]>, gaps: u64, expected_rows: usize, info: &mut StreamInfo| {
         let rows = values.len() / ncols.max(1);
         info.samples += rows as u64;
-        info.gaps += values.iter().filter(|v| v.is_nan()).count() as u64;
-        sink(values, temps.filter(|_| with_temp));
+        info.gaps += gaps;
+        sink(values, temps.filter(|_| with_temp), expected_rows);
     };
-    while !block.is_empty() {
+    let count_gaps = |values: &[f64]| values.iter().filter(|v| v.is_nan()).count() as u64;
+    // The tasks' outputs, kept from block to block.
+    let mut parts: Vec<Parsed> = Vec::new();
+    let mut expected_rows = 0;
+    while block.len > 0 {
         // The block in byte ranges of whole lines, one per task; each task checks its UTF-8, finds its lines and
         // parses them, numbering from 1; the numbers are made absolute after, in order.
         // The next block is read (and decompressed) while this one is parsed.
-        let ranges = task_ranges(&block, 4 * rayon::current_num_threads());
-        let (parsed, read): (Vec<Parsed>, _) = rayon::join(
+        let bytes = block.bytes();
+        let ranges = task_ranges(bytes, 4 * rayon::current_num_threads());
+        parts.resize_with(ranges.len(), Parsed::default);
+        let ((), read) = rayon::join(
             || {
                 use rayon::prelude::*;
-                ranges
-                    .par_iter()
-                    .map(|&(a, b)| match std::str::from_utf8(&block[a..b]) {
-                        Ok(text) => parser.parse(text),
+                parts.par_iter_mut().zip(&ranges).for_each(|(part, &(a, b))| {
+                    part.clear();
+                    match std::str::from_utf8(&bytes[a..b]) {
+                        Ok(text) => parser.parse(text, part),
                         Err(e) => {
-                            let line = 1 + memchr::memchr_iter(b'\n', &block[a..a + e.valid_up_to()]).count() as u64;
-                            Parsed { error: Some(not_utf8(line)), ..Parsed::default() }
+                            let line = 1 + memchr::memchr_iter(b'\n', &bytes[a..a + e.valid_up_to()]).count() as u64;
+                            part.error = Some(not_utf8(line));
                         }
-                    })
-                    .collect()
+                    }
+                })
             },
-            || read_block(&mut reader, &mut next),
+            || next.read(&mut reader),
         );
-        for part in parsed {
+        if expected_rows == 0 {
+            // The rows the whole input will give, from this first block, so that a collector can make room once.
+            let rows: u64 = parts.iter().map(|p| p.lines).sum();
+            if let Some(total) = input_bytes {
+                expected_rows = (total as f64 / block.len as f64 * rows as f64 * 1.01) as usize + 16;
+            }
+        }
+        for part in &mut parts {
             let first = line_no + 1;
             let filtered = part.skips.iter().filter(|(_, k)| *k == Skip::Filtered).count() as u64;
             info.filtered_out += filtered;
@@ -689,7 +807,7 @@ fn read_csv_rows<R: BufRead + Send>(
             let values = &part.values[..rows as usize * ncols];
             let temps = &part.temps[..if with_temp { rows as usize } else { 0 }];
             match &mut timed {
-                None => emit(values, Some(temps), &mut info),
+                None => emit(values, Some(temps), part.gaps, expected_rows, &mut info),
                 Some(timed) => {
                     // The file line of each row: the task's lines less its skipped ones.
                     let mut skips = part.skips.iter().peekable();
@@ -705,13 +823,13 @@ fn read_csv_rows<R: BufRead + Send>(
                             t: part.times[k],
                             line,
                         };
-                        timed.row(row, path, &mut |v, t| emit(v, t, &mut info))?;
+                        timed.row(row, path, &mut |v, t| emit(v, t, count_gaps(v), expected_rows, &mut info))?;
                         line += 1;
                     }
                     info.rate_hz = timed.rate;
                 }
             }
-            if let Some(mut e) = part.error {
+            if let Some(mut e) = part.error.take() {
                 if let Some(line) = e.line_mut() {
                     *line += first - 1;
                 }
@@ -723,7 +841,7 @@ fn read_csv_rows<R: BufRead + Send>(
         std::mem::swap(&mut block, &mut next);
     }
     if let Some(timed) = &mut timed {
-        timed.finish(path, &mut |v, t| emit(v, t, &mut info))?;
+        timed.finish(path, &mut |v, t| emit(v, t, count_gaps(v), expected_rows, &mut info))?;
         info.rate_hz = timed.rate;
     }
     if info.samples == 0 {
@@ -1016,24 +1134,43 @@ mod tests {
     #[test]
     fn the_values_are_those_of_the_csv_crate() {
         // An independent reader (the csv crate with str::parse) on the same file, with gaps and odd spacing.
+        // Lines in many spellings, so that both the plain-row path and the careful one are taken: exponents
+        // short and long, 17 and 9 digits, plain decimals, huge and tiny magnitudes, spaces, CRLF, quoted and
+        // empty cells.
         let mut text = String::from("time, g ,temp\n");
         let mut s = 7u64;
-        for i in 0..5000 {
+        for i in 0..20000 {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            let g = (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
-            let cell = if i % 997 == 3 { String::new() } else { format!("{g:.17e}") };
-            text.push_str(&format!("{}, {cell} ,{}\n", i as f64 * 0.01, 20.0 + g));
+            let g = ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * 10f64.powi((s % 61) as i32 - 30);
+            let cell = match i % 11 {
+                _ if i % 997 == 3 => String::new(),
+                0 => format!("{g:.17e}"),
+                1 => format!("{g}"),
+                2 => format!("{g:.9e}"),
+                3 => format!(" {g:.6} "),
+                4 => format!("\"{g:e}\""),
+                5 => format!("{g:+.3E}"),
+                6 => format!("{:.25}", g.abs()),
+                7 => format!("{g:.30e}"),
+                _ => format!("{g:e}"),
+            };
+            let end = if i % 3 == 0 { "\r\n" } else { "\n" };
+            let time = if i % 7 == 0 { format!("\"{i}\"") } else { format!("{}", i as f64 * 0.01) };
+            text.push_str(&format!("{time},{cell},{:.4}{end}", 20.0 + g.clamp(-1.0, 1.0)));
         }
-        let r = read(&text, &opts(&["g"])).unwrap();
-        let mut reference = Vec::new();
+        let o = CsvOptions { temp_column: Some("temp".into()), ..opts(&["g"]) };
+        let r = read(&text, &o).unwrap();
+        let (mut reference, mut temps) = (Vec::new(), Vec::new());
         let mut rdr = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
         for rec in rdr.records() {
-            let cell = rec.unwrap()[1].to_string();
-            reference.push(if cell.is_empty() { f64::NAN } else { cell.parse::<f64>().unwrap() });
+            let rec = rec.unwrap();
+            reference.push(if rec[1].is_empty() { f64::NAN } else { rec[1].parse::<f64>().unwrap() });
+            temps.push(rec[2].parse::<f64>().unwrap());
         }
         assert_eq!(r.channels[0].len(), reference.len());
         for (a, b) in r.channels[0].iter().zip(&reference) {
             assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{a} vs {b}");
         }
+        assert_eq!(r.temp_c.as_deref(), Some(&temps[..]));
     }
 }

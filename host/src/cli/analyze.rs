@@ -146,11 +146,15 @@ impl Args {
         for (name, data) in rec.names.iter().zip(&rec.channels) {
             results.push(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?);
         }
-        let range = rec
-            .channels
-            .iter()
-            .flat_map(|c| c.iter().copied().filter(|v| v.is_finite()))
-            .fold(0.0f64, |a, v| a.max(v.abs()));
+        // The largest |rate| sets the simulated ADC's range of a model written with --model-out.
+        let range = || {
+            use rayon::prelude::*;
+            rec.channels
+                .par_iter()
+                .flat_map(|c| c.par_iter().copied().filter(|v| v.is_finite()))
+                .map(f64::abs)
+                .reduce(|| 0.0, f64::max)
+        };
         self.emit(&rec.source, rec.info.samples, rec.rate_hz, range, &results)
     }
 
@@ -160,7 +164,7 @@ impl Args {
         source: &str,
         samples: u64,
         rate_hz: f64,
-        range: f64,
+        range: impl FnOnce() -> f64,
         results: &[ChannelAnalysis],
     ) -> anyhow::Result<ExitCode> {
         let mut out = std::io::stdout().lock();
@@ -184,7 +188,7 @@ impl Args {
             std::fs::write(path, analyze::to_csv(results)).with_context(|| format!("writing {}", path.display()))?;
         }
         if let Some(path) = &self.model_out {
-            let model = analyze::model_from_fits(results, rate_hz, 4.0 * range.max(1e-3));
+            let model = analyze::model_from_fits(results, rate_hz, 4.0 * range().max(1e-3));
             std::fs::write(path, octavar::simulate::model_to_toml(&model))
                 .with_context(|| format!("writing {}", path.display()))?;
         }
@@ -292,6 +296,6 @@ impl Args {
         eprintln!("# {}", result.method);
         let range =
             result.channels.iter().flat_map(|c| c.fit_points.first().map(|p| p.dev * 10.0)).fold(0.0f64, f64::max);
-        self.emit(&result.source, result.samples, result.rate_hz, range, &result.channels)
+        self.emit(&result.source, result.samples, result.rate_hz, || range, &result.channels)
     }
 }
