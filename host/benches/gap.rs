@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use octavar::analyze::fine_channel;
 use octavar::gap::{diagnose, ensemble, GapInput, GapOptions, HoldoutCheck};
-use octavar::recording::{read_csv, CsvOptions, RateUnit};
+use octavar::io::csv::{read_csv, CsvOptions, RateUnit};
 use octavar_shared::sim::GyroSim;
 
 /// The floor, s per million samples.
@@ -47,7 +47,7 @@ fn main() {
     let adis = data.join("imu/adis16405_session1.csv.gz");
     if adis.is_file() {
         for axis in ["x", "y", "z"] {
-            let input = octavar::input::open(&adis).expect("open the ADIS session");
+            let input = octavar::io::input::open(&adis).expect("open the ADIS session");
             let opts = CsvOptions {
                 columns: vec![format!("gyro_{axis}_dps")],
                 rate_hz: Some(100.0),

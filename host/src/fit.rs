@@ -23,6 +23,7 @@
 use serde::Serialize;
 
 use crate::stats::edf::chi2_quantile;
+use crate::stats::DevPoint;
 
 /// (2 ln 2 / pi): the flicker floor of the Allan variance is this times B^2.
 pub const FLICKER_AVAR_FACTOR: f64 = 2.0 * std::f64::consts::LN_2 / std::f64::consts::PI;
@@ -111,6 +112,16 @@ pub struct FitPoint {
     pub avar: f64,
     /// Equivalent degrees of freedom of that estimate.
     pub edf: f64,
+}
+
+/// The fit's input from Allan deviation points: AVAR and EDF per tau, leaving out the points without a usable
+/// EDF or deviation (NaN, infinite, zero).
+pub fn fit_input(points: &[DevPoint]) -> Vec<FitPoint> {
+    points
+        .iter()
+        .filter(|p| p.edf.is_finite() && p.edf > 0.0 && p.dev.is_finite() && p.dev > 0.0)
+        .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
+        .collect()
 }
 
 /// Options of [`fit`].

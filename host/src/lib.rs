@@ -2,33 +2,35 @@
 //!
 //! The binary (`src/main.rs`, `src/cli/`) only parses flags, calls these functions and prints. The library has no
 //! clap, no stdout and no `process::exit`; errors are typed per module and locate the fault (file, line, column).
+//!
+//! The modules by job, each importing only those listed after it (and `octavar_shared`, below them all):
+//!
+//! | module      | job                                                                                 |
+//! |-------------|-------------------------------------------------------------------------------------|
+//! | `demo`      | the paper's experiment on the virtual bench: Table 1, figures, gap diagnoses        |
+//! | `gap`       | where a fitted model's simulation and a recording part, and why                     |
+//! | `plot`      | ADEV and gap figures (PNG, SVG) from plain series                                   |
+//! | `analyze`   | one channel's statistics and fit, its text/JSON/CSV writers, the streamed path      |
+//! | `device`    | recording a device, verifying captures, on-board statistics, a simulated device     |
+//! | `simulate`  | a gyro simulated from a fitted model (`shared::sim`)                                |
+//! | `fit`       | the noise terms N, B, K, R, Q from an Allan deviation                               |
+//! | `io`        | opening files and reading every format into samples (CSV, TDMS, bags, captures)     |
+//! | `stats`     | the Allan deviation family with intervals, noise identification                     |
 
 // `!(x > 0.0)` is how this crate rejects NaN along with the non-positive values; clippy's rewrite (`x <= 0.0`)
 // would let NaN through, so its lints against the form are off. Numeric kernels index several arrays in step,
 // which reads better than zipped iterators.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool, clippy::needless_range_loop)]
 
-pub mod accumulate;
 pub mod analyze;
-pub mod capture;
-pub mod csv_rows;
-pub mod decode;
 pub mod demo;
-pub mod device_sim;
+pub mod device;
 pub mod fit;
-pub mod formats;
 pub mod gap;
-pub mod input;
+pub mod io;
 pub mod plot;
-pub mod record;
-pub mod recording;
-pub mod ros2_bag;
 pub mod simulate;
-pub mod snapshot_stats;
 pub mod stats;
-pub mod streaming;
-pub mod tdms;
-pub mod verify;
 
 #[cfg(test)]
 mod test_signals;

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use octavar::gap::disturbances::Part;
 use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport};
-use octavar::recording::{read_csv, CsvOptions, RateUnit, RowFilter};
+use octavar::io::csv::{read_csv, CsvOptions, RateUnit, RowFilter};
 
 use crate::util::data_dir;
 
@@ -26,7 +26,7 @@ fn read(
     temp: Option<&str>,
     filter: Option<&str>,
 ) -> (Vec<f64>, Option<Vec<f64>>) {
-    let input = octavar::input::open(path).expect("open recording");
+    let input = octavar::io::input::open(path).expect("open recording");
     let opts = CsvOptions {
         columns: vec![column.to_string()],
         temp_column: temp.map(str::to_string),

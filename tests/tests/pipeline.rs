@@ -1,15 +1,15 @@
 //! The device path in one process: virtual gyros (shared::sim) -> the firmware's accumulation and frames
-//! (octavar::device_sim: one `OctaveAllan<8>` per gyro, hello, raw samples, snapshot rounds, status) -> a capture
+//! (octavar::device::simulator: one `OctaveAllan<8>` per gyro, hello, raw samples, snapshot rounds, status) -> a capture
 //! -> decode -> verify, with every snapshot bit for bit.
 
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use octavar::capture::CaptureWriter;
-use octavar::decode::{CaptureReader, Record, StreamDecoder};
-use octavar::device_sim::{DeviceConfig, DeviceSim};
-use octavar::record::{record, ReaderSource, RecordOptions};
-use octavar::verify::{verify, verify_path};
+use octavar::io::capture::CaptureWriter;
+use octavar::io::decode::{CaptureReader, Record, StreamDecoder};
+use octavar::device::simulator::{DeviceConfig, DeviceSim};
+use octavar::device::recorder::{record, ReaderSource, RecordOptions};
+use octavar::device::verify::{verify, verify_path};
 use octavar_shared::acc::{OctaveAllan, Snapshot};
 use octavar_shared::proto::Command;
 use octavar_shared::sensor::temperature_code;

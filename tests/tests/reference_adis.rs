@@ -3,7 +3,7 @@
 //! m = 2 .. 262144, within 1e-5 relative (avar's estimator omits one term of N - 2m + 1; the difference is at
 //! most 6e-6 here, see the data folder's notes).
 
-use octavar::recording::{read_csv, CsvOptions};
+use octavar::io::csv::{read_csv, CsvOptions};
 use octavar::stats::{estimate, DataKind, Series, Statistic};
 
 use crate::util;
@@ -12,7 +12,7 @@ use crate::util;
 fn adis16405_gyro_oadev_matches_the_published_maximal_overlap_avar() {
     let Some(dir) = util::data_dir() else { return };
     let imu = dir.join("imu");
-    let input = octavar::input::open(&imu.join("adis16405_session1.csv.gz")).unwrap();
+    let input = octavar::io::input::open(&imu.join("adis16405_session1.csv.gz")).unwrap();
     let channels = ["gyro_x_dps", "gyro_y_dps", "gyro_z_dps"];
     let opts = CsvOptions {
         columns: channels.iter().map(|c| c.to_string()).collect(),

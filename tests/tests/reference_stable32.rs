@@ -59,7 +59,7 @@ fn read_table(path: &Path) -> Vec<Row> {
 
 /// First number of every non-comment line (plain or gzip).
 fn read_column(path: &Path) -> Vec<f64> {
-    let input = octavar::input::open(path).unwrap();
+    let input = octavar::io::input::open(path).unwrap();
     let mut v = Vec::new();
     for line in input.reader.lines() {
         let line = line.unwrap();

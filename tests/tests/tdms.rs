@@ -4,8 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use octavar::recording::RateUnit;
-use octavar::tdms::{read_tdms, TdmsError};
+use octavar::io::csv::RateUnit;
+use octavar::io::tdms::{read_tdms, TdmsError};
 
 use crate::util;
 
@@ -189,8 +189,8 @@ fn truncated_and_garbage_files_are_errors() {
 
 #[test]
 fn the_command_s_read_path_takes_tdms_by_extension_with_a_temperature_channel() {
-    use octavar::formats::{read_recording, ReadError, ReadOptions, RecordingFormat};
-    use octavar::recording::CsvOptions;
+    use octavar::io::formats::{read_recording, ReadError, ReadOptions, RecordingFormat};
+    use octavar::io::csv::CsvOptions;
     let Some(dir) = write("segments", "formats") else { return };
     let path = dir.join("file.tdms");
     assert_eq!(RecordingFormat::of(&path, None), Some(RecordingFormat::Tdms));

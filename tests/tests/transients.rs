@@ -455,7 +455,7 @@ fn mask_sets_the_events_to_nan() {
 
 /// A gzipped CSV's columns by name (rows where `filter` holds), as text.
 fn read_columns(path: &Path, columns: &[&str], filter: Option<(&str, &str)>) -> Vec<Vec<String>> {
-    let input = octavar::input::open(path).expect("open recording");
+    let input = octavar::io::input::open(path).expect("open recording");
     let mut lines = input.reader.lines();
     let header = lines.next().unwrap().unwrap();
     let names: Vec<&str> = header.split(',').collect();

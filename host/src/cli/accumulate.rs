@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use octavar::accumulate::{accumulate, AccumulateOptions};
+use octavar::device::accumulate::{accumulate, AccumulateOptions};
 
 /// Run the exact octave Allan accumulator (the firmware's) over integer ADC codes and print every octave: m,
 /// tau_s, n (number of differences), the exact integer sum of squares, avar and adev, in codes.
@@ -32,7 +32,7 @@ pub struct Args {
 
 impl Args {
     pub fn run(self) -> anyhow::Result<ExitCode> {
-        let input = octavar::input::open(&self.input)?;
+        let input = octavar::io::input::open(&self.input)?;
         let opts =
             AccumulateOptions { column: self.column, rate_hz: self.rate, stride: self.stride, signed: self.signed };
         let report = accumulate(input.reader, &input.name, &opts)?;

@@ -7,9 +7,9 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use octavar::analyze::{self, AnalyzeOptions, ChannelAnalysis};
 use octavar::fit::FitOptions;
-use octavar::formats::{self, RecordingFormat};
+use octavar::io::formats::{self, RecordingFormat};
 use octavar::plot;
-use octavar::recording::CsvOptions;
+use octavar::io::csv::CsvOptions;
 use octavar::stats::{Statistic, TauSpec};
 
 use super::csv_args::CsvArgs;
@@ -73,7 +73,7 @@ pub struct Args {
     #[arg(long)]
     pub stream: bool,
     /// Stride S of the streamed OADEV: fully overlapping up to m = S, clusters every m/S samples above.
-    #[arg(long, default_value_t = octavar::streaming::DEFAULT_STRIDE, value_name = "S")]
+    #[arg(long, default_value_t = octavar::stats::streamed::DEFAULT_STRIDE, value_name = "S")]
     pub stride: usize,
 }
 
@@ -218,7 +218,7 @@ impl Args {
 
 /// Which streamed input `octavar analyze` reads.
 enum StreamKind {
-    Binary(octavar::streaming::BinaryFormat),
+    Binary(octavar::analyze::streamed::BinaryFormat),
     Capture,
     Csv,
 }
@@ -234,7 +234,7 @@ impl Args {
             Some(f) if f == "csv" => None,
             Some(f) if f == "tdms" || f == "mcap" => return Ok(None),
             Some(f) if f == "capture" => Some(StreamKind::Capture),
-            Some(f) => Some(StreamKind::Binary(octavar::streaming::BinaryFormat::parse(&f).with_context(|| {
+            Some(f) => Some(StreamKind::Binary(octavar::analyze::streamed::BinaryFormat::parse(&f).with_context(|| {
                 format!("--format {f:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le")
             })?)),
             None if ext == "cap" || ext == "capture" => Some(StreamKind::Capture),
@@ -254,7 +254,7 @@ impl Args {
 
     /// Analyse a streamed input in bounded memory, with a progress bar on stderr.
     fn run_stream(self, kind: StreamKind) -> anyhow::Result<ExitCode> {
-        use octavar::streaming::{self as st, StreamOptions};
+        use octavar::analyze::streamed::{self as st, StreamOptions};
         let unit = self.reading.rate_unit()?;
         let opts = StreamOptions {
             rate_hz: self.reading.rate.unwrap_or(f64::NAN),
@@ -277,16 +277,16 @@ impl Args {
                 if self.reading.rate.is_none() {
                     bail!("--rate HZ is required for a raw binary input");
                 }
-                let input = octavar::input::open(&self.input)?;
+                let input = octavar::io::input::open(&self.input)?;
                 st::analyze_binary(input.reader, &input.name, format, self.channels, &self.columns, &opts, &progress)?
             }
-            StreamKind::Capture => st::analyze_capture(octavar::decode::open(&self.input)?, &opts, &progress)?,
+            StreamKind::Capture => st::analyze_capture(octavar::io::decode::open(&self.input)?, &opts, &progress)?,
             StreamKind::Csv => {
                 if self.columns.is_empty() {
                     bail!("--column NAME is required for a CSV input (repeat it for several channels)");
                 }
                 let csv_opts = self.csv_options()?;
-                let input = octavar::input::open(&self.input)?;
+                let input = octavar::io::input::open(&self.input)?;
                 st::analyze_csv(input.reader, &input.name, &csv_opts, &opts, &|_| {})?
             }
         };

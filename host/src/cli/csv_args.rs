@@ -1,9 +1,9 @@
 //! The recording flags `analyze` and `gap` share: the sample rate or a time column, the unit, skipped rows and
 //! row filters, the CSV dialect, a bag's topic, and the read options they make.
 
-use octavar::csv_rows::Delimiter;
-use octavar::formats::ReadOptions;
-use octavar::recording::{CsvOptions, RateUnit, RowFilter};
+use octavar::io::csv::rows::Delimiter;
+use octavar::io::formats::ReadOptions;
+use octavar::io::csv::{CsvOptions, RateUnit, RowFilter};
 
 /// How to read a rate recording.
 #[derive(Debug, clap::Args)]

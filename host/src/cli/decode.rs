@@ -4,7 +4,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use octavar::decode::{self, DecodeSummary, ExportOptions};
+use octavar::io::decode::{self, DecodeSummary, ExportOptions};
 
 /// Decode a capture file (the bytes `octavar record` wrote): print a summary (frames, lost frames, CRC errors,
 /// the last snapshot of each channel), and optionally write CSV files and a JSON summary. Damaged frames are

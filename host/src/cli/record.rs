@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use octavar::capture::CaptureWriter;
-use octavar::record::{record, EndReason, LiveStats, ReaderSource, RecordOptions, SerialSource};
+use octavar::io::capture::CaptureWriter;
+use octavar::device::recorder::{record, EndReason, LiveStats, ReaderSource, RecordOptions, SerialSource};
 
 /// Raised by Ctrl-C (and by --duration): the recording ends cleanly.
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -80,7 +80,7 @@ impl Args {
         let mut line = StatusLine::new();
         let summary = match (&self.from, &self.port) {
             (Some(path), _) => {
-                let input = octavar::capture::open(path)?;
+                let input = octavar::io::capture::open(path)?;
                 let mut src = ReaderSource::new(&input.name, input.reader, Duration::from_millis(200));
                 if self.raw {
                     eprintln!("octavar: --raw ignored: commands cannot be sent to {}", input.name);

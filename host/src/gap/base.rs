@@ -5,7 +5,7 @@
 use octavar_shared::sim::GyroSim;
 
 use super::GapError;
-use crate::fit::{fit, FitOptions, FitPoint, NoiseFit};
+use crate::fit::{fit, FitOptions, fit_input, NoiseFit};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, TauSpec};
 
 /// The octave OADEV of a training part.
@@ -17,12 +17,7 @@ pub(crate) fn training_adev(training: &[f64], fs_hz: f64) -> Result<Vec<DevPoint
 /// The base fit of a training part: its octave OADEV and the IEEE 952 fit of it.
 pub(crate) fn fit_base(training: &[f64], fs_hz: f64, opts: &FitOptions) -> Result<(Vec<DevPoint>, NoiseFit), GapError> {
     let real_adev = training_adev(training, fs_hz)?;
-    let pts: Vec<FitPoint> = real_adev
-        .iter()
-        .filter(|p| p.edf.is_finite() && p.edf > 0.0)
-        .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
-        .collect();
-    let f = fit(&pts, opts)?;
+    let f = fit(&fit_input(&real_adev), opts)?;
     Ok((real_adev, f))
 }
 

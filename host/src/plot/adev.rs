@@ -371,7 +371,7 @@ fn adev_legend(series: &[Prepared<'_>], opts: &PlotOptions) -> Legend {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::{fit, FitOptions, FitPoint, FLICKER_AVAR_FACTOR};
+    use crate::fit::{fit, FitOptions, fit_input, FLICKER_AVAR_FACTOR};
     use crate::plot::test_util::{out_dir, png_size};
     use crate::stats::NoiseMethod;
 
@@ -407,9 +407,7 @@ mod tests {
             });
             m *= 2;
         }
-        let fp: Vec<FitPoint> =
-            points.iter().map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf }).collect();
-        let fit = fit(&fp, &FitOptions::default()).ok();
+        let fit = fit(&fit_input(&points), &FitOptions::default()).ok();
         AdevSeries { name: name.to_string(), points, fit }
     }
 

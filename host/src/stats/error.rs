@@ -6,6 +6,9 @@ use thiserror::Error;
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum StatsError {
+    /// A stride of the streamed engine that is not a power of two from 1 to 2^16.
+    #[error("stride {0}: use a power of two from 1 to 65536")]
+    BadStride(usize),
     /// The sample interval must be a positive, finite number of seconds.
     #[error("tau0 must be positive and finite, got {tau0_s} s")]
     BadTau0 {

@@ -16,6 +16,8 @@ pub mod noise_id;
 mod octave;
 mod ordered;
 pub mod series;
+pub mod streamed;
+pub mod strided;
 pub mod taus;
 
 pub use analysis::{analyze, analyze_series, edf_for, identify, strided_avar_edf, DevPoint, NoiseSpec, Options};

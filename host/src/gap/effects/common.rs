@@ -8,7 +8,7 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
-use crate::fit::{fit, FitOptions, FitPoint, Term};
+use crate::fit::{fit, FitOptions, fit_input, FitPoint, Term};
 use crate::gap::fill::with_gaps;
 pub(super) use crate::gap::spectral::{block_means, sine_tapers};
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
@@ -38,12 +38,7 @@ pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
     };
     let opts = Options::default();
     analyze_series(&s, Statistic::Oadev, &TauSpec::Octave, &opts)
-        .map(|rows| {
-            rows.iter()
-                .filter(|p| p.edf.is_finite() && p.edf > 0.0 && p.dev.is_finite() && p.dev > 0.0)
-                .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
-                .collect()
-        })
+        .map(|rows| fit_input(&rows))
         .unwrap_or_default()
 }
 

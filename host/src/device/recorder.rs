@@ -1,6 +1,6 @@
 //! Recording: bytes from a device (a serial port, a file or stdin) into a capture file, with live counts.
 //!
-//! [`record`] reads whatever arrives, appends it to the capture at once (see [`crate::capture`]), decodes it on
+//! [`record`] reads whatever arrives, appends it to the capture at once (see [`crate::io::capture`]), decodes it on
 //! the fly for the live [`LiveStats`] (frames, lost frames, CRC errors, samples, and the ADEV at tau = 1 s of the
 //! latest snapshot of each channel), and sends commands (raw streaming) through `proto::Encoder`. When the
 //! device goes away (a port error: unplugged, reset), the capture is kept and the same port is opened again
@@ -21,8 +21,8 @@ use std::time::{Duration, Instant};
 use octavar_shared::proto::{Command, Encoder, Hello};
 use serde::Serialize;
 
-use crate::capture::{CaptureError, CaptureSink, CaptureWriter};
-use crate::decode::{adev_codes_at, DecodeStats, Record, StreamDecoder};
+use crate::io::capture::{CaptureError, CaptureSink, CaptureWriter};
+use crate::io::decode::{adev_codes_at, DecodeStats, Record, StreamDecoder};
 use octavar_shared::sensor::dps_per_code;
 
 /// The averaging time of the live ADEV readout, s.
@@ -518,7 +518,7 @@ fn sleep_checking(d: Duration, stop: &AtomicBool) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device_sim::{device_frames, DeviceConfig};
+    use crate::device::simulator::{device_frames, DeviceConfig};
     use octavar_shared::proto::Decoder;
     use std::collections::VecDeque;
     use std::path::Path;
@@ -645,7 +645,7 @@ mod tests {
         assert_eq!(s.last_error, None);
         // The live counts are those of decoding the capture afterwards: the cut frame and the one it runs into
         // are one bad frame; the frames in between are counted as lost.
-        let mut offline = crate::decode::CaptureReader::new(&expected[..], "mem.cap");
+        let mut offline = crate::io::decode::CaptureReader::new(&expected[..], "mem.cap");
         let offline_sets: u64 = offline
             .by_ref()
             .filter_map(|d| match d.unwrap().record {

@@ -1,15 +1,15 @@
 //! Which reader a recording goes through, and the recording in memory whatever the format: CSV (also gzipped,
-//! or stdin), NI TDMS ([`crate::tdms`]), a ROS 2 bag in MCAP ([`crate::ros2_bag`]), raw little-endian samples,
+//! or stdin), NI TDMS ([`crate::io::tdms`]), a ROS 2 bag in MCAP ([`crate::io::ros2_bag`]), raw little-endian samples,
 //! or the raw samples of a device capture. `analyze` and `gap` read through here, so both take every format. The format is the `--format` flag,
 //! or else the file's extension (`.tdms`, `.mcap`), or else CSV.
 
 use std::io::Read;
 use std::path::Path;
 
-use crate::recording::{self, CsvOptions, RateUnit, Recording, RecordingError, StreamInfo};
-use crate::ros2_bag::{self, BagError};
-use crate::streaming::BinaryFormat;
-use crate::tdms::{self, TdmsError};
+use crate::io::csv::{CsvOptions, RateUnit, Recording, RecordingError, StreamInfo};
+use crate::io::ros2_bag::{self, BagError};
+use crate::analyze::streamed::BinaryFormat;
+use crate::io::tdms::{self, TdmsError};
 
 /// A recording's file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -123,8 +123,8 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
     }
     match format {
         RecordingFormat::Csv => {
-            let input = crate::input::open(path).map_err(|err| ReadError::Io { path: name.clone(), err })?;
-            Ok(recording::read_csv_sized(input.reader, &input.name, csv, input.size)?)
+            let input = crate::io::input::open(path).map_err(|err| ReadError::Io { path: name.clone(), err })?;
+            Ok(crate::io::csv::read_csv_sized(input.reader, &input.name, csv, input.size)?)
         }
         RecordingFormat::Tdms => {
             let mut rec = tdms::read_tdms(path, &csv.columns, csv.unit, csv.rate_hz)?;
@@ -167,11 +167,11 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
 /// channel (the temperature channel in degC), the rate from the hello, and the samples the device lost (a jump
 /// in the frames' hardware sample index) as NaN.
 fn read_capture(path: &Path, csv: &CsvOptions) -> Result<Recording, ReadError> {
-    use crate::decode::Record;
+    use crate::io::decode::Record;
     use octavar_shared::sensor::{Channel, GyroModel, SensorKind};
     let name = path.display().to_string();
     let capture_err = |what: String| ReadError::Capture { path: name.clone(), what };
-    let reader = crate::decode::open(path).map_err(|e| capture_err(e.to_string()))?;
+    let reader = crate::io::decode::open(path).map_err(|e| capture_err(e.to_string()))?;
     let mut hello = None;
     // Per channel index: its values so far (one per hardware sample index from the first frame on).
     let mut series: Vec<Vec<f64>> = Vec::new();
@@ -247,7 +247,7 @@ fn read_binary(path: &Path, format: BinaryFormat, opts: &ReadOptions) -> Result<
     let rate =
         opts.csv.rate_hz.filter(|r| r.is_finite() && *r > 0.0).ok_or(ReadError::NoRate { path: name.clone() })?;
     let channels = opts.channels.max(1);
-    let mut input = crate::input::open(path).map_err(|err| ReadError::Io { path: name.clone(), err })?;
+    let mut input = crate::io::input::open(path).map_err(|err| ReadError::Io { path: name.clone(), err })?;
     let mut bytes = Vec::new();
     input.reader.read_to_end(&mut bytes).map_err(|err| ReadError::Io { path: name.clone(), err })?;
     let set = format.size() * channels;

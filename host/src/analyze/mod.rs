@@ -5,6 +5,8 @@
 //! overlapping Allan variance at octave tau. Writers for the Stable32-style table, the JSON document, a CSV of
 //! every point, a `model.toml` for `simulate` and `gap`, and a Kalibr `imu.yaml`.
 
+pub mod streamed;
+
 use std::fmt::Write as _;
 
 use octavar_shared::sensor::{Channel, SensorKind, GENERIC};
@@ -13,7 +15,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use crate::fit::{fit, FitError, FitOptions, FitPoint, NoiseFit, Term};
+use crate::fit::{fit, FitError, FitOptions, fit_input, NoiseFit, Term};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
 
 /// What went wrong.
@@ -101,12 +103,7 @@ pub fn analyze_channel(
     let fit = if opts.no_fit {
         Err(FitError::TooFewPoints(0))
     } else {
-        let pts: Vec<FitPoint> = fit_points
-            .iter()
-            .filter(|p| p.edf.is_finite() && p.edf > 0.0)
-            .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
-            .collect();
-        fit(&pts, &opts.fit)
+        fit(&fit_input(&fit_points), &opts.fit)
     };
     Ok(ChannelAnalysis {
         name: name.to_string(),

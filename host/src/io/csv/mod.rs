@@ -6,11 +6,13 @@
 //! averaged in; the statistics skip every difference that touches one. A cell that is not a number, a missing
 //! column, an unknown unit or an empty file is an error that names the file, the line and the column.
 
+pub mod rows;
+
 use std::io::BufRead;
 
 use serde::Serialize;
 
-use crate::csv_rows::{clean_header, parse_number, parse_plain, split, trim_line_end, Delimiter, Dialect};
+use crate::io::csv::rows::{clean_header, parse_number, parse_plain, split, trim_line_end, Delimiter, Dialect};
 
 /// Units a rate column may be in; everything is converted to deg/s.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -609,7 +611,7 @@ impl Block {
 /// temperature when a temperature column was named. The rate is known before the first call.
 ///
 /// The dialect is [`CsvOptions::delimiter`] and [`CsvOptions::decimal_comma`], or detected from the header and
-/// the first rows (see [`crate::csv_rows::Dialect`]). Lines are read in blocks of about 8 MB and parsed on
+/// the first rows (see [`crate::io::csv::rows::Dialect`]). Lines are read in blocks of about 8 MB and parsed on
 /// every core while the next block is read; the samples are then handed on in order, so memory
 /// stays bounded (two blocks).
 ///

@@ -27,7 +27,7 @@ use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::McapError;
 use serde::Serialize;
 
-use crate::recording::{RateUnit, Recording, StreamInfo};
+use crate::io::csv::{RateUnit, Recording, StreamInfo};
 
 /// The ROS 2 message type read.
 pub const IMU_TYPE: &str = "sensor_msgs/msg/Imu";

@@ -9,7 +9,7 @@
 //!
 //! # Examples
 //! ```
-//! use octavar::capture::CaptureWriter;
+//! use octavar::io::capture::CaptureWriter;
 //! let dir = tempfile::tempdir().unwrap();
 //! let path = dir.path().join("run.cap");
 //! let mut w = CaptureWriter::create(&path, false).unwrap();

@@ -23,7 +23,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use crate::recording::{RateUnit, Recording, StreamInfo};
+use crate::io::csv::{RateUnit, Recording, StreamInfo};
 
 /// What went wrong, and where.
 #[derive(Debug, thiserror::Error)]

@@ -3,7 +3,7 @@
 //! by [`parse_plain`] (Clinger's exact fast path, eight digits at a time), everything else with `fast-float2` (a
 //! decimal comma read as a point where the dialect has one).
 //!
-//! The reader in [`crate::recording`] hands whole blocks of lines to [`parse_plain`], [`split`] and
+//! The reader in [`crate::io::csv`] hands whole blocks of lines to [`parse_plain`], [`split`] and
 //! [`parse_number`] on every core; this module only knows one cell or line at a time. Quoted cells (`"a,b"`, with `""` for a quote) are understood; a
 //! quoted cell that runs over a line end is not (a numeric recording has none), and is reported as an error.
 

@@ -1,6 +1,6 @@
 //! Decoding captures: bytes in any chunking, typed records out, with counts of everything that went wrong.
 //!
-//! A capture (see [`crate::capture`]) is decoded in a stream, in bounded memory, whatever its size:
+//! A capture (see [`crate::io::capture`]) is decoded in a stream, in bounded memory, whatever its size:
 //! [`StreamDecoder`] takes bytes and emits [`Decoded`] records (hello, raw samples, snapshots joined from their
 //! parts, status, estimates, field-log snapshots), each with the sequence number and byte offset of its frame.
 //! Damaged frames (CRC, COBS, length, body) and lost sequence numbers are counted in [`DecodeStats`], never
@@ -12,7 +12,7 @@
 //!
 //! # Examples
 //! ```
-//! use octavar::decode::{CaptureReader, Record};
+//! use octavar::io::decode::{CaptureReader, Record};
 //! use octavar_shared::proto::{Encoder, Frame, Status};
 //! let mut enc = Encoder::new();
 //! let status = Frame::Status(Status {
@@ -63,7 +63,7 @@ pub enum DecodeError {
     },
     /// The capture could not be opened.
     #[error(transparent)]
-    Open(#[from] crate::capture::CaptureError),
+    Open(#[from] crate::io::capture::CaptureError),
     /// The capture is empty.
     #[error("{name} is empty (0 bytes): nothing was recorded")]
     Empty {
@@ -623,7 +623,7 @@ impl<R: Read> Iterator for CaptureReader<R> {
 /// # Errors
 /// [`DecodeError::Open`] naming the path.
 pub fn open(path: &Path) -> Result<CaptureReader<Box<dyn Read + Send>>, DecodeError> {
-    let input = crate::capture::open(path)?;
+    let input = crate::io::capture::open(path)?;
     Ok(CaptureReader::new(input.reader, &input.name))
 }
 

@@ -18,11 +18,11 @@
 //!
 //! # Examples
 //! ```
-//! use octavar::decode::CaptureReader;
-//! use octavar::device_sim::{device_frames, DeviceConfig};
+//! use octavar::io::decode::CaptureReader;
+//! use octavar::device::simulator::{device_frames, DeviceConfig};
 //! let scans = (0..6_000u32).map(|i| [2048 + (i * 7 % 11) as u16, 2040, 2050, 2047, 1900]);
 //! let wire = device_frames(DeviceConfig::F405, 0x1f, scans);
-//! let report = octavar::verify::verify(CaptureReader::new(&wire[..], "run.cap")).unwrap();
+//! let report = octavar::device::verify::verify(CaptureReader::new(&wire[..], "run.cap")).unwrap();
 //! assert_eq!((report.checked, report.matched, report.mismatched_snapshots), (12, 12, 0));
 //! assert!(report.passed());
 //! ```
@@ -35,8 +35,8 @@ use octavar_shared::acc::{LevelSum, Snapshot, LEVELS};
 use octavar_shared::proto::{Samples, PROTOCOL_VERSION};
 use serde::Serialize;
 
-use crate::accumulate::StridedAllan;
-use crate::decode::{self, CaptureReader, DecodeError, DecodeStats, Decoded, FrameMeta, Record};
+use crate::device::accumulate::StridedAllan;
+use crate::io::decode::{self, CaptureReader, DecodeError, DecodeStats, Decoded, FrameMeta, Record};
 
 /// Codes per channel the replay holds ahead of the snapshots at most (beyond, it accumulates eagerly).
 pub const MAX_BUFFERED: usize = 1 << 20;
@@ -659,7 +659,7 @@ pub fn verify_path(path: &Path) -> Result<VerifyReport, VerifyError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device_sim::{DeviceConfig, DeviceSim};
+    use crate::device::simulator::{DeviceConfig, DeviceSim};
     use octavar_shared::proto::{Command, Encoder, Frame, SnapshotPart};
 
     fn scan(i: u32) -> [u16; 5] {

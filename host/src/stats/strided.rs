@@ -7,7 +7,6 @@
 
 use octavar_shared::acc::{Snapshot, LEVELS};
 
-use crate::fit::FitPoint;
 use crate::stats::edf::confidence_interval;
 use crate::stats::{strided_avar_edf, DevPoint, NoiseMethod};
 
@@ -64,15 +63,6 @@ pub(crate) fn octave_points(
         });
     }
     out
-}
-
-/// The points as fit input: AVAR and EDF per tau.
-pub fn fit_points(points: &[DevPoint]) -> Vec<FitPoint> {
-    points
-        .iter()
-        .filter(|p| p.edf.is_finite() && p.edf > 0.0)
-        .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
-        .collect()
 }
 
 /// alpha at level k from the AVAR slope to its neighbours (their average where both exist).

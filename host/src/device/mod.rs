@@ -1,0 +1,10 @@
+//! Working with a device: recording its frames into a capture, verifying a capture bit for bit against the exact
+//! accumulator, the on-board statistics of its snapshots, the accumulator over integer codes, and a simulated
+//! device that sends the firmware's exact byte stream.
+//!
+//! Above `io` (captures and frame decoding) and `stats`; below `cli` and `demo`.
+
+pub mod accumulate;
+pub mod recorder;
+pub mod simulator;
+pub mod verify;
