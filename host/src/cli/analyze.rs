@@ -218,7 +218,7 @@ impl Args {
 
 /// Which streamed input `octavar analyze` reads.
 enum StreamKind {
-    Binary(octavar::analyze::streamed::BinaryFormat),
+    Binary(octavar::io::binary::BinaryFormat),
     Capture,
     Csv,
 }
@@ -234,7 +234,7 @@ impl Args {
             Some(f) if f == "csv" => None,
             Some(f) if f == "tdms" || f == "mcap" => return Ok(None),
             Some(f) if f == "capture" => Some(StreamKind::Capture),
-            Some(f) => Some(StreamKind::Binary(octavar::analyze::streamed::BinaryFormat::parse(&f).with_context(|| {
+            Some(f) => Some(StreamKind::Binary(octavar::io::binary::BinaryFormat::parse(&f).with_context(|| {
                 format!("--format {f:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le")
             })?)),
             None if ext == "cap" || ext == "capture" => Some(StreamKind::Capture),

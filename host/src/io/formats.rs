@@ -8,7 +8,7 @@ use std::path::Path;
 
 use crate::io::csv::{CsvOptions, RateUnit, Recording, RecordingError, StreamInfo};
 use crate::io::ros2_bag::{self, BagError};
-use crate::analyze::streamed::BinaryFormat;
+use crate::io::binary::BinaryFormat;
 use crate::io::tdms::{self, TdmsError};
 
 /// A recording's file format.

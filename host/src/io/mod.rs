@@ -4,6 +4,7 @@
 //!
 //! Below `analyze`, `gap` and `device`; imports only `stats`-free pieces of its own and `octavar_shared`.
 
+pub mod binary;
 pub mod capture;
 pub mod csv;
 pub mod decode;

@@ -23,8 +23,9 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use super::analysis::{row, DevPoint, Options};
-use super::deviation::{estimate, far_sums, oadev_range_sums, Estimate, Statistic, FAR_PITCH, FAR_WIDTH};
+use super::point::{row, DevPoint, Options};
+use super::deviation::{estimate, Estimate, Statistic};
+use super::kernel::{far_sums, oadev_range_sums, FAR_PITCH, FAR_WIDTH};
 use super::error::StatsError;
 use super::noise_id::{acf_noise_id_from, b1_decide, NoiseMethod};
 use super::series::{
@@ -376,7 +377,8 @@ impl Record<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stats::analysis::{analyze, analyze_series, NoiseSpec};
+    use crate::stats::analysis::{analyze, analyze_series};
+    use crate::stats::point::NoiseSpec;
 
     /// A random walk of frequency on white frequency noise, with an offset (deterministic).
     fn data(n: usize) -> Vec<f64> {
@@ -442,7 +444,7 @@ mod tests {
         let m = 64 * COARSE;
         let (a, b) = (rec.identify(m, estimate(&series, Statistic::Oadev, m).unwrap().dev), {
             let e = estimate(&series, Statistic::Oadev, m).unwrap();
-            crate::stats::analysis::row(m, 0.5, series.n_phase(), Statistic::Oadev, e, &Options::default(), || {
+            crate::stats::point::row(m, 0.5, series.n_phase(), Statistic::Oadev, e, &Options::default(), || {
                 crate::stats::identify(&series, Statistic::Oadev, m)
             })
         });

@@ -20,7 +20,7 @@
 
 use rayon::prelude::*;
 
-use super::deviation::oadev_range_sums;
+use super::kernel::oadev_range_sums;
 use super::error::StatsError;
 use super::ordered::ordered_sums;
 

@@ -27,7 +27,7 @@
 
 use rayon::prelude::*;
 
-use crate::stats::deviation::oadev_range_sums;
+use crate::stats::kernel::oadev_range_sums;
 use crate::stats::strided::{octave_points, StridedShape};
 use crate::stats::{DevPoint, StatsError, Statistic};
 
