@@ -62,8 +62,8 @@ pub struct Args {
     /// part (their spread is the noise's); `predictive` adds a check against predictive ensembles, whose members
     /// each re-learn the model from a simulated training part, so their spread carries the error of the learnt
     /// parameters too (JSON `holdout_predictive`; it costs two more ensembles and the estimator on each member).
-    #[arg(long, value_name = "CHECK", value_enum, default_value_t = gap::HoldoutCheck::Plain)]
-    pub holdout_check: gap::HoldoutCheck,
+    #[arg(long, value_name = "CHECK", value_enum, default_value_t = HoldoutCheckArg::Plain)]
+    pub holdout_check: HoldoutCheckArg,
     /// Leave transient disturbances (bumps, bursts of spikes, seconds to minutes long) in the record; by default
     /// they are found in both parts, reported, and masked as gaps before the diagnosis.
     #[arg(long)]
@@ -116,7 +116,7 @@ impl Args {
         let opts = GapOptions {
             seeds: self.seeds,
             oversample: self.oversample as usize,
-            holdout_check: self.holdout_check,
+            holdout_check: self.holdout_check.into(),
             keep_transients: self.keep_transients,
             ..Default::default()
         };
@@ -167,5 +167,23 @@ pub(super) fn effects_text(report: &gap::GapReport) -> String {
     match report.effects() {
         e if e.is_empty() => "none".to_string(),
         e => e.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + "),
+    }
+}
+
+/// `--holdout-check`: the flag's values for [`gap::HoldoutCheck`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum HoldoutCheckArg {
+    /// Against the ensembles of the models learnt from the real training part.
+    Plain,
+    /// Also against predictive ensembles, whose members re-learn the model from a simulated training part.
+    Predictive,
+}
+
+impl From<HoldoutCheckArg> for gap::HoldoutCheck {
+    fn from(arg: HoldoutCheckArg) -> Self {
+        match arg {
+            HoldoutCheckArg::Plain => gap::HoldoutCheck::Plain,
+            HoldoutCheckArg::Predictive => gap::HoldoutCheck::Predictive,
+        }
     }
 }

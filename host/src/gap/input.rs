@@ -150,7 +150,7 @@ impl Default for GapOptions {
 }
 
 /// How the held-out gap is judged.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum HoldoutCheck {
     /// Against the ensembles of the models learnt from the real training part: their spread is the noise's.
