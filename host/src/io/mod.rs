@@ -10,5 +10,6 @@ pub mod csv;
 pub mod decode;
 pub mod formats;
 pub mod input;
+pub mod recording;
 pub mod ros2_bag;
 pub mod tdms;

@@ -1,0 +1,72 @@
+//! A recording in memory, whatever its format: one series per channel in deg/s with NaN for gaps, the rate and
+//! the temperature; and the units a rate channel may be written in.
+
+use serde::Serialize;
+
+use crate::io::csv::{RecordingError, StreamInfo};
+
+/// Units a rate column may be in; everything is converted to deg/s.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum RateUnit {
+    /// deg/s.
+    DegPerS,
+    /// rad/s.
+    RadPerS,
+    /// mrad/s.
+    MradPerS,
+    /// deg/h.
+    DegPerH,
+}
+
+impl RateUnit {
+    /// Every unit with the names it is known by.
+    pub const NAMES: [(&'static str, RateUnit); 8] = [
+        ("deg/s", RateUnit::DegPerS),
+        ("dps", RateUnit::DegPerS),
+        ("rad/s", RateUnit::RadPerS),
+        ("rads", RateUnit::RadPerS),
+        ("mrad/s", RateUnit::MradPerS),
+        ("mrads", RateUnit::MradPerS),
+        ("deg/h", RateUnit::DegPerH),
+        ("dph", RateUnit::DegPerH),
+    ];
+
+    /// Parse a unit name.
+    ///
+    /// # Errors
+    /// [`RecordingError::UnknownUnit`] listing the known names.
+    pub fn parse(name: &str) -> Result<RateUnit, RecordingError> {
+        let n = name.trim().to_ascii_lowercase();
+        Self::NAMES.iter().find(|(k, _)| *k == n).map(|(_, u)| *u).ok_or_else(|| RecordingError::UnknownUnit {
+            unit: name.to_string(),
+            known: "deg/s (dps), rad/s, mrad/s, deg/h (dph)".to_string(),
+        })
+    }
+
+    /// Multiply a value in this unit by this to get deg/s.
+    pub fn to_dps(self) -> f64 {
+        match self {
+            RateUnit::DegPerS => 1.0,
+            RateUnit::RadPerS => 180.0 / std::f64::consts::PI,
+            RateUnit::MradPerS => 0.18 / std::f64::consts::PI,
+            RateUnit::DegPerH => 1.0 / 3600.0,
+        }
+    }
+}
+
+/// A recording in memory: one series per column, in deg/s, NaN for gaps.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Recording {
+    /// Where it came from.
+    pub source: String,
+    /// Column names.
+    pub names: Vec<String>,
+    /// One series per column, deg/s.
+    pub channels: Vec<Vec<f64>>,
+    /// The temperature column, degC, if asked for.
+    pub temp_c: Option<Vec<f64>>,
+    /// Sample rate, Hz.
+    pub rate_hz: f64,
+    /// Counters of the read.
+    pub info: StreamInfo,
+}
