@@ -193,8 +193,8 @@ fn record_names_a_missing_port() {
 
 #[test]
 fn a_capture_s_raw_samples_are_a_recording_with_its_lost_samples_as_gaps() {
-    use octavar::io::formats::{read_recording, ReadOptions, RecordingFormat};
     use octavar::io::csv::CsvOptions;
+    use octavar::io::formats::{read_recording, ReadOptions, RecordingFormat};
     use octavar_shared::sensor::{temperature_c, Channel, ADXRS300};
     let dir = tempfile::tempdir().unwrap();
     let mut dev = DeviceSim::new(DeviceConfig::F405, 0x1f);

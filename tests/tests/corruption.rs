@@ -4,8 +4,8 @@
 
 use std::collections::BTreeMap;
 
-use octavar::io::decode::{CaptureReader, Decoded, Record};
 use octavar::device::verify::{verify, MismatchField, VerifyReport};
+use octavar::io::decode::{CaptureReader, Decoded, Record};
 use octavar_shared::acc::{OctaveAllan, Snapshot};
 use octavar_shared::proto::{encode_to_vec, Decoder, Frame, SnapshotPart};
 

@@ -5,11 +5,11 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
+use octavar::device::recorder::{record, ReaderSource, RecordOptions};
+use octavar::device::simulator::{DeviceConfig, DeviceSim};
+use octavar::device::verify::{verify, verify_path};
 use octavar::io::capture::CaptureWriter;
 use octavar::io::decode::{CaptureReader, Record, StreamDecoder};
-use octavar::device::simulator::{DeviceConfig, DeviceSim};
-use octavar::device::recorder::{record, ReaderSource, RecordOptions};
-use octavar::device::verify::{verify, verify_path};
 use octavar_shared::acc::{OctaveAllan, Snapshot};
 use octavar_shared::proto::Command;
 use octavar_shared::sensor::temperature_code;

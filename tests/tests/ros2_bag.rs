@@ -309,8 +309,8 @@ fn ros2_bag_truncated_and_garbage_files_are_errors() {
 
 #[test]
 fn the_command_s_read_path_takes_a_bag_by_extension_and_picks_axes() {
-    use octavar::io::formats::{read_recording, ReadError, ReadOptions, RecordingFormat};
     use octavar::io::csv::CsvOptions;
+    use octavar::io::formats::{read_recording, ReadError, ReadOptions, RecordingFormat};
     let dir = util::temp_dir("ros2-bag-formats");
     let Some(bag) = write_bag(&dir, "axes", json!({"topics": [imu("/imu/data", 500, 100.0)]})) else { return };
     assert_eq!(RecordingFormat::of(&bag, None), Some(RecordingFormat::Mcap));

@@ -189,8 +189,8 @@ fn truncated_and_garbage_files_are_errors() {
 
 #[test]
 fn the_command_s_read_path_takes_tdms_by_extension_with_a_temperature_channel() {
-    use octavar::io::formats::{read_recording, ReadError, ReadOptions, RecordingFormat};
     use octavar::io::csv::CsvOptions;
+    use octavar::io::formats::{read_recording, ReadError, ReadOptions, RecordingFormat};
     let Some(dir) = write("segments", "formats") else { return };
     let path = dir.join("file.tdms");
     assert_eq!(RecordingFormat::of(&path, None), Some(RecordingFormat::Tdms));

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use crate::fit::{fit, FitError, FitOptions, fit_input, NoiseFit, Term};
+use crate::fit::{fit, fit_input, FitError, FitOptions, NoiseFit, Term};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
 
 /// What went wrong.
@@ -100,11 +100,7 @@ pub fn analyze_channel(
         Some(p) => p,
         None => analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &dev_opts).map_err(err)?,
     };
-    let fit = if opts.no_fit {
-        Err(FitError::TooFewPoints(0))
-    } else {
-        fit(&fit_input(&fit_points), &opts.fit)
-    };
+    let fit = if opts.no_fit { Err(FitError::TooFewPoints(0)) } else { fit(&fit_input(&fit_points), &opts.fit) };
     Ok(ChannelAnalysis {
         name: name.to_string(),
         unit: "deg/s".to_string(),

@@ -9,14 +9,13 @@
 
 use std::io::{BufRead, Read};
 
-
 use crate::analyze::ChannelAnalysis;
-use crate::io::decode::{CaptureReader, DecodeError, Record};
-use crate::fit::{fit, FitError, FitOptions, fit_input};
+use crate::fit::{fit, fit_input, FitError, FitOptions};
 use crate::io::binary::BinaryFormat;
 use crate::io::csv::{CsvOptions, RecordingError};
+use crate::io::decode::{CaptureReader, DecodeError, Record};
 use crate::stats::streamed::{StreamOadev, StreamTotals, DEFAULT_STRIDE};
-use crate::stats::{DevPoint, StatsError, Statistic};
+use crate::stats::{DevPoint, Statistic, StatsError};
 
 /// What went wrong.
 #[derive(Debug, thiserror::Error)]
@@ -154,11 +153,7 @@ fn from_points(
     n_gaps: usize,
     opts: &StreamOptions,
 ) -> ChannelAnalysis {
-    let fit_result = if opts.no_fit {
-        Err(FitError::TooFewPoints(0))
-    } else {
-        fit(&fit_input(&points), &opts.fit)
-    };
+    let fit_result = if opts.no_fit { Err(FitError::TooFewPoints(0)) } else { fit(&fit_input(&points), &opts.fit) };
     ChannelAnalysis {
         name: name.to_string(),
         unit: "deg/s".to_string(),
@@ -465,7 +460,6 @@ pub fn analyze_capture<R: Read>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
 
     /// Uniform white noise of mean 3.
     fn white(n: usize, seed: u64) -> Vec<f64> {

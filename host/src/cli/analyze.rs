@@ -7,9 +7,9 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use octavar::analyze::{self, AnalyzeOptions, ChannelAnalysis};
 use octavar::fit::FitOptions;
+use octavar::io::csv::CsvOptions;
 use octavar::io::formats::{self, RecordingFormat};
 use octavar::plot;
-use octavar::io::csv::CsvOptions;
 use octavar::stats::{Statistic, TauSpec};
 
 use super::csv_args::CsvArgs;

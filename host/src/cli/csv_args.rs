@@ -2,8 +2,8 @@
 //! row filters, the CSV dialect, a bag's topic, and the read options they make.
 
 use octavar::io::csv::rows::Delimiter;
-use octavar::io::formats::ReadOptions;
 use octavar::io::csv::{CsvOptions, RateUnit, RowFilter};
+use octavar::io::formats::ReadOptions;
 
 /// How to read a rate recording.
 #[derive(Debug, clap::Args)]

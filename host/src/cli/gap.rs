@@ -6,10 +6,10 @@ use std::process::ExitCode;
 use std::sync::Mutex;
 
 use anyhow::{bail, Context};
-use octavar::io::formats::{self, RecordingFormat};
 use octavar::gap::{self, GapInput, GapOptions};
-use octavar::plot;
 use octavar::io::csv::Recording;
+use octavar::io::formats::{self, RecordingFormat};
+use octavar::plot;
 use octavar_shared::sensor::SensorKind;
 use octavar_shared::sim::{BenchSim, ChannelSim};
 

@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use octavar::io::capture::CaptureWriter;
 use octavar::device::recorder::{record, EndReason, LiveStats, ReaderSource, RecordOptions, SerialSource};
+use octavar::io::capture::CaptureWriter;
 
 /// Raised by Ctrl-C (and by --duration): the recording ends cleanly.
 static STOP: AtomicBool = AtomicBool::new(false);

@@ -5,7 +5,7 @@
 use octavar_shared::sim::GyroSim;
 
 use super::GapError;
-use crate::fit::{fit, FitOptions, fit_input, NoiseFit};
+use crate::fit::{fit, fit_input, FitOptions, NoiseFit};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, TauSpec};
 
 /// The octave OADEV of a training part.

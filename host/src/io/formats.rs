@@ -6,9 +6,9 @@
 use std::io::Read;
 use std::path::Path;
 
+use crate::io::binary::BinaryFormat;
 use crate::io::csv::{CsvOptions, RateUnit, Recording, RecordingError, StreamInfo};
 use crate::io::ros2_bag::{self, BagError};
-use crate::io::binary::BinaryFormat;
 use crate::io::tdms::{self, TdmsError};
 
 /// A recording's file format.

@@ -371,7 +371,7 @@ fn adev_legend(series: &[Prepared<'_>], opts: &PlotOptions) -> Legend {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::{fit, FitOptions, fit_input, FLICKER_AVAR_FACTOR};
+    use crate::fit::{fit, fit_input, FitOptions, FLICKER_AVAR_FACTOR};
     use crate::plot::test_util::{out_dir, png_size};
     use crate::stats::NoiseMethod;
 

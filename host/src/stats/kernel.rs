@@ -380,4 +380,3 @@ unsafe fn sumsq_o2_avx2(x: &[f64], m: usize, count: usize) -> f64 {
 unsafe fn sumsq_o3_avx2(x: &[f64], m: usize, count: usize) -> f64 {
     sumsq_o3_body(x, m, count)
 }
-

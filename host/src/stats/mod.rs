@@ -23,9 +23,9 @@ pub mod strided;
 pub mod taus;
 
 pub use analysis::{analyze, analyze_series, identify};
-pub use point::{edf_for, strided_avar_edf, DevPoint, NoiseSpec, Options};
 pub use deviation::{estimate, Estimate, Statistic};
 pub use error::StatsError;
 pub use noise_id::NoiseMethod;
+pub use point::{edf_for, strided_avar_edf, DevPoint, NoiseSpec, Options};
 pub use series::{DataKind, Series};
 pub use taus::TauSpec;

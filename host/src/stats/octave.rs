@@ -23,11 +23,11 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use super::point::{row, DevPoint, Options};
 use super::deviation::{estimate, Estimate, Statistic};
-use super::kernel::{far_sums, oadev_range_sums, FAR_PITCH, FAR_WIDTH};
 use super::error::StatsError;
+use super::kernel::{far_sums, oadev_range_sums, FAR_PITCH, FAR_WIDTH};
 use super::noise_id::{acf_noise_id_from, b1_decide, NoiseMethod};
+use super::point::{row, DevPoint, Options};
 use super::series::{
     mvar_from_coarse, DataKind, Series, COARSE, COARSE_MIN_POINTS, FUSED_MAX_M, GROUP_LEN, LANES, MAX_SAMPLE,
 };

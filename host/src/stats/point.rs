@@ -112,4 +112,3 @@ pub fn edf_for(stat: Statistic, alpha: i32, m: f64, n_phase: f64) -> f64 {
 pub fn strided_avar_edf(alpha: i32, m: f64, stride_factor: f64, n_phase: f64) -> f64 {
     greenhall_edf(alpha, 2, m, m, stride_factor.clamp(1.0, m), n_phase)
 }
-

@@ -20,8 +20,8 @@
 
 use rayon::prelude::*;
 
-use super::kernel::oadev_range_sums;
 use super::error::StatsError;
+use super::kernel::oadev_range_sums;
 use super::ordered::ordered_sums;
 
 /// Work unit of the parallel passes over the samples.

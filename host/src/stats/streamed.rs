@@ -29,7 +29,7 @@ use rayon::prelude::*;
 
 use crate::stats::kernel::oadev_range_sums;
 use crate::stats::strided::{octave_points, StridedShape};
-use crate::stats::{DevPoint, StatsError, Statistic};
+use crate::stats::{DevPoint, Statistic, StatsError};
 
 /// Start indices per chunk (a multiple of the coarse block).
 pub const CHUNK: usize = 1 << 21;
@@ -358,7 +358,6 @@ impl Coarse {
         }
     }
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -8,7 +8,7 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
-use crate::fit::{fit, FitOptions, fit_input, FitPoint, Term};
+use crate::fit::{fit, fit_input, FitOptions, FitPoint, Term};
 use crate::gap::fill::with_gaps;
 pub(super) use crate::gap::spectral::{block_means, sine_tapers};
 use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
@@ -37,9 +37,7 @@ pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
         return Vec::new();
     };
     let opts = Options::default();
-    analyze_series(&s, Statistic::Oadev, &TauSpec::Octave, &opts)
-        .map(|rows| fit_input(&rows))
-        .unwrap_or_default()
+    analyze_series(&s, Statistic::Oadev, &TauSpec::Octave, &opts).map(|rows| fit_input(&rows)).unwrap_or_default()
 }
 
 /// [`oadev_points`] of `x` with the runs `gaps` (filled in `x`) taken as gaps: a stretch filled by a line has no

@@ -141,7 +141,14 @@ impl LineParser<'_> {
     /// The row of the line at `start` when it is plain: the header's number of fields, each wanted cell a plain
     /// number ([`parse_plain`]) with at most spaces around it, no quotes, no filter to apply. Returns where the next
     /// line starts, or `None` (nothing pushed) for the careful path to read the line.
-    pub(super) fn plain_row(&self, bytes: &[u8], start: usize, d: u8, fields: &mut [f64], out: &mut Parsed) -> Option<usize> {
+    pub(super) fn plain_row(
+        &self,
+        bytes: &[u8],
+        start: usize,
+        d: u8,
+        fields: &mut [f64],
+        out: &mut Parsed,
+    ) -> Option<usize> {
         let roles = self.roles.as_deref()?;
         let point = if self.dialect.decimal_comma { b',' } else { b'.' };
         let skip_spaces = |mut p: usize| {
@@ -194,7 +201,12 @@ impl LineParser<'_> {
     }
 
     /// [`LineParser::parse`] line by line.
-    pub(super) fn parse_lines<'t>(&self, text: &'t str, cells: &mut Vec<&'t str>, out: &mut Parsed) -> Result<(), RecordingError> {
+    pub(super) fn parse_lines<'t>(
+        &self,
+        text: &'t str,
+        cells: &mut Vec<&'t str>,
+        out: &mut Parsed,
+    ) -> Result<(), RecordingError> {
         let mut start = 0;
         let ends = memchr::memchr_iter(b'\n', text.as_bytes()).chain((!text.ends_with('\n')).then_some(text.len()));
         for end in ends {

@@ -22,7 +22,6 @@ use lines::{task_ranges, Block, LineParser, Parsed, Skip};
 use rows::{clean_header, split, Delimiter, Dialect};
 use timed::{Timed, TimedRow};
 
-
 /// What went wrong, and where.
 #[derive(Debug, thiserror::Error)]
 pub enum RecordingError {

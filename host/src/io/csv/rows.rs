@@ -193,8 +193,8 @@ pub fn parse_number(cell: &str, decimal_comma: bool) -> Option<f64> {
 
 /// Powers of ten that an `f64` holds exactly: the range of the fast path in [`parse_plain`].
 const EXACT_POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19,
-    1e20, 1e21, 1e22,
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20,
+    1e21, 1e22,
 ];
 
 /// A plain decimal number at the start of `bytes` (`-1.25`, `4.569959756e-01`, `.5`, `3.`), with `decimal` as its
@@ -262,7 +262,11 @@ pub fn parse_plain(bytes: &[u8], decimal: u8) -> Option<(f64, usize)> {
     } else if mantissa <= 1 << 53 && scale.unsigned_abs() <= 22 {
         let m = mantissa as f64;
         let p = EXACT_POW10[scale.unsigned_abs() as usize];
-        if scale < 0 { m / p } else { m * p }
+        if scale < 0 {
+            m / p
+        } else {
+            m * p
+        }
     } else {
         let text = std::str::from_utf8(&bytes[usize::from(negative || bytes[0] == b'+')..i]).ok()?;
         parse_number(text, decimal == b',').filter(|v| v.is_finite())?
@@ -378,9 +382,28 @@ mod tests {
     #[test]
     fn plain_numbers_are_those_of_fast_float() {
         for text in [
-            "4.569959756e-01", "-3.5e-3", "0", "-0.0", "1", "+2.5", ".5", "5.", "1e22", "1E-22", "123456789012345678",
-            "9007199254740993", "0.30000000000000004", "1.7976931348623157e308", "4.9e-324", "2.2250738585072014e-308",
-            "0.000001234", "1234567890123456789", "1e+05", "00012.5000", "12345678.87654321", "0.0000000000000000001",
+            "4.569959756e-01",
+            "-3.5e-3",
+            "0",
+            "-0.0",
+            "1",
+            "+2.5",
+            ".5",
+            "5.",
+            "1e22",
+            "1E-22",
+            "123456789012345678",
+            "9007199254740993",
+            "0.30000000000000004",
+            "1.7976931348623157e308",
+            "4.9e-324",
+            "2.2250738585072014e-308",
+            "0.000001234",
+            "1234567890123456789",
+            "1e+05",
+            "00012.5000",
+            "12345678.87654321",
+            "0.0000000000000000001",
         ] {
             let (v, n) = parse_plain(text.as_bytes(), b'.').unwrap_or_else(|| panic!("{text}"));
             assert_eq!(n, text.len(), "{text}");
@@ -388,7 +411,9 @@ mod tests {
         }
         assert_eq!(parse_plain(b"1,25;7", b','), Some((1.25, 4)));
         assert_eq!(parse_plain(b"2.5,7", b'.'), Some((2.5, 3)));
-        for text in ["", "-", ".", "e5", "1e", "1e+", "inf", "nan", "12345678901234567890", "1e12345", "1.2345678901234567890"] {
+        for text in
+            ["", "-", ".", "e5", "1e", "1e+", "inf", "nan", "12345678901234567890", "1e12345", "1.2345678901234567890"]
+        {
             assert_eq!(parse_plain(text.as_bytes(), b'.'), None, "{text}");
         }
     }

@@ -59,7 +59,12 @@ impl Timed<'_> {
         Ok(())
     }
 
-    pub(super) fn deliver(&mut self, row: TimedRow<'_>, path: &str, emit: &mut RowSink<'_>) -> Result<(), RecordingError> {
+    pub(super) fn deliver(
+        &mut self,
+        row: TimedRow<'_>,
+        path: &str,
+        emit: &mut RowSink<'_>,
+    ) -> Result<(), RecordingError> {
         let temp = row.temp.map(|x| [x]);
         let temp = temp.as_ref().map(|x| &x[..]);
         if let Some(prev) = self.last_t {
@@ -83,7 +88,11 @@ impl Timed<'_> {
     }
 }
 
-pub(super) fn median_rate(rows: &[(u64, Vec<f64>, Option<f64>, f64)], path: &str, column: &str) -> Result<f64, RecordingError> {
+pub(super) fn median_rate(
+    rows: &[(u64, Vec<f64>, Option<f64>, f64)],
+    path: &str,
+    column: &str,
+) -> Result<f64, RecordingError> {
     let mut steps: Vec<f64> = rows.windows(2).map(|w| w[1].3 - w[0].3).collect();
     for (w, step) in rows.windows(2).zip(&steps) {
         if !(*step > 0.0) {
