@@ -1,0 +1,288 @@
+//! The diagnosis as a result: the chain of effects, where each gap lay, what each candidate bought on training and
+//! held-out data, what is left unexplained; as text for a person and as the JSON document scripts read.
+//!
+//! JSON keys (stable; scripts rely on them), in [`Document`]: `effect` (the chain's first effect, a vocabulary
+//! name, or `none`), `view`, `band_s` `[lo, hi]`, `sign` (`above`/`below`), `gap_before`, `gap_after`, `shrink`,
+//! `holdout` `{gap_before, gap_after, shrink, shrink_if_right}` (all of the first effect, at the base model's
+//! located band), `candidates` `[{effect, params, gap_after, shrink, ...}]` (the first step's ranking), `model`
+//! (the base model with every effect of the chain, as a `model.toml` channel's `gyro`), `effect_params` (the first
+//! effect's). The chain: `effects` `[{effect, params, view, band_s, sign, gap_before, gap_after, holdout:
+//! {gap_before, gap_after}, backfitted, found_params}]` in the order found (`params` as the final model carries
+//! them; where a backfitting round estimated the effect again, `backfitted` is true and `found_params` are the
+//! step's first values; the gaps are the step's own), and `holdout_total` `{gap_before, gap_after, shrink}`, the
+//! largest held-out gap over the chain's located bands, of the base model and of the whole chain, every
+//! parameter frozen. Also:
+//! `transients` `[{part, start_s, duration_s, peak_dps}]` (the disturbances masked as gaps, `start_s` from the
+//! start of their part), `verdict` (`no_gap`, `explained`, `unexplained`), `unexplained` (what the gap left after the chain looks like),
+//! `fit_strain` (the base fit's reduced chi-square when it is far above 1), `size`, `significant`, `explained`,
+//! `threshold`, `total_before`, `total_after`, `base_model`, `base_fit`, `views` (every view's gap on both parts,
+//! base and chain), `worst`, `views_detail`, `n_train`, `n_holdout`, `missing_samples` `{training, holdout}`,
+//! `fs_hz`, `seeds`; `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
+//! [`super::input::HoldoutCheck::Predictive`] (null without).
+//!
+//! This module holds the report's types, its assembly from the chain the diagnosis found and the accessors both
+//! writers share; `text` writes the report a person reads, `json` the document scripts read.
+
+mod json;
+mod text;
+
+use octavar_shared::sensor::Channel;
+use octavar_shared::sim::GyroSim;
+use serde::Serialize;
+
+pub use json::Document;
+
+use super::chain::{Model, Step};
+use super::compare::ViewGap;
+use super::describe::{shape_of, GapShape};
+use super::disturbances::{self, Masked};
+use super::effects::Effect;
+use super::judge::Evaluated;
+use super::rank::{self, CandidateResult, Location, PartGap};
+use crate::fit::NoiseFit;
+use crate::stats::DevPoint;
+
+/// The base fit's reduced chi-square above which the report says the IEEE five-term model cannot follow the
+/// training curve (its 3% model allowance included, a fit that can scores about 1).
+pub const FIT_STRAIN: f64 = 10.0;
+
+/// The diagnosis.
+#[derive(Clone, Debug)]
+pub struct GapReport {
+    /// The chain's first effect (`None`: no significant gap, or no candidate removes a quarter of it).
+    pub effect: Option<Effect>,
+    /// Whether the base gap is significant ([`rank::SIGNIFICANT_GAP`]).
+    pub significant: bool,
+    /// Where the base gap lies on the training part.
+    pub location: Option<Location>,
+    /// The worst view's gap on each part, of the base model and of the whole chain: `[training base, training
+    /// chain, holdout base, holdout chain]` (the holdout's NaN without one).
+    pub worst: [f64; 4],
+    /// Training gap at the base's located band, before and after the first effect.
+    pub training: PartGap,
+    /// Holdout gap at the same band, before and after the first effect (`None` without a holdout).
+    pub holdout: Option<PartGap>,
+    /// The whole chain held out, every parameter frozen: the largest held-out gap over the bands its steps
+    /// located (the base's band without a chain), of the base model and of the chain's model (`None` without a
+    /// holdout). The worst view of the holdout, wherever it lies, is [`GapReport::worst`].
+    pub holdout_total: Option<PartGap>,
+    /// With [`super::input::HoldoutCheck::Predictive`]: the holdout gap at the base's band against the predictive ensembles,
+    /// base and chain (see [`super::holdout`]).
+    pub holdout_predictive: Option<PartGap>,
+    /// The worst view's gap on the holdout against the predictive ensembles, base and chain (NaN without).
+    pub holdout_predictive_worst: [f64; 2],
+    /// Totals (RMS over views) on training, base and chain.
+    pub total: [f64; 2],
+    /// The first step's candidates, in vocabulary order.
+    pub candidates: Vec<CandidateResult>,
+    /// The chain of effects, in the order found.
+    pub chain: Vec<Step>,
+    /// The candidates tried on the chain's model when none of them removed a quarter of the gap it left (empty
+    /// when the chain ended for want of a significant gap, or found no effect).
+    pub last_tried: Vec<CandidateResult>,
+    /// The model with every effect of the chain.
+    pub model: Model,
+    /// What the significant gap left after the chain looks like (`None`: nothing significant is left).
+    pub unexplained: Option<GapShape>,
+    /// The base model.
+    pub base: GyroSim,
+    /// Its fit.
+    pub base_fit: NoiseFit,
+    /// The ADC channel of the base ensemble (`None`: the analog rate).
+    pub channel: Option<Channel>,
+    /// The base model's comparison.
+    pub base_eval: Evaluated,
+    /// The final model's comparison: the chain's, backfitted where the diagnosis kept that round (the base's
+    /// without a chain).
+    pub final_eval: Evaluated,
+    /// Real training OADEV (with intervals), for the plot.
+    pub real_adev: Vec<DevPoint>,
+    /// Sample rate, Hz.
+    pub fs_hz: f64,
+    /// Training samples.
+    pub n_train: usize,
+    /// Held-out samples.
+    pub n_holdout: usize,
+    /// Gaps (NaN samples: empty cells, NaN text, time jumps) in the training part and in the holdout. The views
+    /// leave them out, every ensemble member has the same ones, and the estimators see them filled linearly.
+    pub missing: [usize; 2],
+    /// The transient disturbances masked as gaps before the diagnosis, in time order (empty with
+    /// [`super::input::GapOptions::keep_transients`]).
+    pub transients: Vec<Masked>,
+    /// Ensemble size.
+    pub seeds: usize,
+    /// Whether a temperature channel was used.
+    pub has_temperature: bool,
+}
+
+/// What [`assemble`] needs.
+pub(crate) struct Parts {
+    pub fs_hz: f64,
+    pub n_train: usize,
+    pub n_holdout: usize,
+    pub missing: [usize; 2],
+    pub transients: Vec<Masked>,
+    pub seeds: usize,
+    pub has_temperature: bool,
+    pub channel: Option<Channel>,
+    pub base: GyroSim,
+    pub base_fit: NoiseFit,
+    pub real_adev: Vec<DevPoint>,
+    pub base_eval: Evaluated,
+    /// The comparison of the final model (the base's without a chain).
+    pub final_eval: Evaluated,
+    /// The first step's candidates.
+    pub candidates: Vec<CandidateResult>,
+    pub chain: Vec<Step>,
+    /// The candidates tried on the chain's model when none explained what it left.
+    pub last_tried: Vec<CandidateResult>,
+    /// The model with every effect of the chain.
+    pub model: Model,
+    /// The holdout views against the predictive ensembles: the base model's and the chain's (`None`: the plain
+    /// ones stand).
+    pub predictive: Option<(Vec<ViewGap>, Option<Vec<ViewGap>>)>,
+}
+
+/// Build the report from the chain the diagnosis found.
+pub(crate) fn assemble(p: Parts) -> GapReport {
+    let location = rank::locate(&p.base_eval.training);
+    let in_band = |v: &[ViewGap]| -> Option<f64> { location.as_ref().and_then(|l| rank::band_gap(v, l)) };
+    let gap_before = rank::gap_of(&p.base_eval.training);
+    let significant = gap_before > rank::SIGNIFICANT_GAP;
+    let has_holdout = !p.base_eval.holdout.is_empty();
+    let first = p.chain.first();
+    let last_eval = &p.final_eval;
+    let training = PartGap::new(gap_before, first.map_or(gap_before, |s| s.training.gap_after));
+    let holdout = if has_holdout { in_band(&p.base_eval.holdout) } else { None }.map(|b| {
+        let first_after = first.and_then(|s| s.candidates.iter().find(|c| c.effect == s.effect));
+        PartGap::new(b, first_after.and_then(|c| c.holdout_after).unwrap_or(b))
+    });
+    let hold_worst = if has_holdout { rank::gap_of(&p.base_eval.holdout) } else { f64::NAN };
+    let hold_worst_after = if has_holdout { rank::gap_of(&last_eval.holdout) } else { f64::NAN };
+    // The whole chain held out: at the bands its steps located (the base's band without a chain), the worst of
+    // them, for the base model and for the chain's.
+    let judged: Vec<&Location> =
+        if p.chain.is_empty() { location.iter().collect() } else { p.chain.iter().map(|s| &s.location).collect() };
+    let holdout_total = match (
+        rank::chain_gap(&p.base_eval.holdout, judged.iter().copied()),
+        rank::chain_gap(&last_eval.holdout, judged.iter().copied()),
+    ) {
+        (Some(b), Some(a)) if has_holdout => Some(PartGap::new(b, a)),
+        _ => None,
+    };
+    let (holdout_predictive, holdout_predictive_worst) = match &p.predictive {
+        Some((base, chain)) => {
+            let after = chain.as_ref().unwrap_or(if p.chain.is_empty() { base } else { &last_eval.holdout });
+            let gap = in_band(base).map(|b| PartGap::new(b, in_band(after).unwrap_or(b)));
+            (gap, [rank::gap_of(base), rank::gap_of(after)])
+        }
+        None => (None, [f64::NAN; 2]),
+    };
+    let worst_after = rank::gap_of(&last_eval.training);
+    let unexplained = if worst_after > rank::SIGNIFICANT_GAP {
+        rank::locate(&last_eval.training).and_then(|l| shape_of(&last_eval.training, &l))
+    } else {
+        None
+    };
+    GapReport {
+        effect: first.map(|s| s.effect),
+        significant,
+        location,
+        worst: [gap_before, worst_after, hold_worst, hold_worst_after],
+        training,
+        holdout,
+        holdout_total,
+        holdout_predictive,
+        holdout_predictive_worst,
+        total: [rank::total_of(&p.base_eval.training), rank::total_of(&last_eval.training)],
+        candidates: p.candidates,
+        model: p.model,
+        unexplained,
+        chain: p.chain,
+        last_tried: p.last_tried,
+        base: p.base,
+        base_fit: p.base_fit,
+        channel: p.channel,
+        base_eval: p.base_eval,
+        final_eval: p.final_eval,
+        real_adev: p.real_adev,
+        fs_hz: p.fs_hz,
+        n_train: p.n_train,
+        n_holdout: p.n_holdout,
+        missing: p.missing,
+        transients: p.transients,
+        seeds: p.seeds,
+        has_temperature: p.has_temperature,
+    }
+}
+
+/// The answer of a diagnosis, kept apart as the user needs them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The simulation of the fitted model agrees with the record.
+    NoGap,
+    /// A significant gap, and the chain leaves none.
+    Explained,
+    /// A significant gap is left that no candidate explains (after the chain, if it found any effect).
+    Unexplained,
+}
+
+impl GapReport {
+    /// The bands the held-out check of the whole chain is judged at: each step's location (the base's without a
+    /// chain).
+    pub fn judged_locations(&self) -> Vec<&Location> {
+        if self.chain.is_empty() {
+            self.location.iter().collect()
+        } else {
+            self.chain.iter().map(|s| &s.location).collect()
+        }
+    }
+
+    /// `input` as this diagnosis saw it: with its transients masked as gaps.
+    pub fn masked_input(&self, input: &super::input::GapInput) -> super::input::GapInput {
+        disturbances::masked(input, &self.transients)
+    }
+
+    /// The chain's first effect's name, or `none`.
+    pub fn effect_name(&self) -> &'static str {
+        self.effect.map_or("none", Effect::name)
+    }
+
+    /// The effects of the chain, in the order found.
+    pub fn effects(&self) -> Vec<Effect> {
+        self.chain.iter().map(|s| s.effect).collect()
+    }
+
+    /// The first step's candidate of the chain's first effect.
+    pub fn chosen(&self) -> Option<&CandidateResult> {
+        let e = self.effect?;
+        self.candidates.iter().find(|c| c.effect == e)
+    }
+
+    /// The recommended model: the base with every effect of the chain (parameters from training).
+    pub fn model(&self) -> &GyroSim {
+        &self.model.gyro
+    }
+
+    /// The comparison of the whole chain's model (the base's without a chain).
+    pub fn final_eval(&self) -> &Evaluated {
+        &self.final_eval
+    }
+
+    /// No gap, explained, or a gap left unexplained.
+    pub fn verdict(&self) -> Verdict {
+        match (self.significant, &self.unexplained) {
+            (false, _) => Verdict::NoGap,
+            (true, None) if !self.chain.is_empty() => Verdict::Explained,
+            _ => Verdict::Unexplained,
+        }
+    }
+
+    /// The base fit's reduced chi-square when it is above [`FIT_STRAIN`]: the IEEE terms cannot follow the
+    /// training curve.
+    pub fn fit_strain(&self) -> Option<f64> {
+        let r = self.base_fit.chi2 / self.base_fit.dof.max(1) as f64;
+        (r > FIT_STRAIN && r.is_finite()).then_some(r)
+    }
+}
