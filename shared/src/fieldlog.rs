@@ -47,6 +47,7 @@
 //! ```
 
 use crate::acc::{LevelSum, Snapshot, LEVELS};
+use crate::proto::framing::CRC;
 
 /// First word of every record ("OCTV" in ASCII, little-endian).
 pub const MAGIC: u32 = u32::from_le_bytes(*b"OCTV");
@@ -218,10 +219,10 @@ impl<F: LogFlash> FieldLog<F> {
         let base = slot * self.slot_words();
         let header = [MAGIC, seq, self.payload_words as u32];
         let crc = {
-            let mut c = Crc32::new();
-            c.update_words(&header[1..]);
-            c.update_words(payload);
-            c.finish()
+            let mut c = CRC.digest();
+            update_words(&mut c, &header[1..]);
+            update_words(&mut c, payload);
+            c.finalize()
         };
         let w = |e| LogError::Flash(e);
         self.flash.write(sector, base, &header).map_err(w)?;
@@ -295,57 +296,24 @@ impl<F: LogFlash> FieldLog<F> {
         if tail[1] != COMMIT {
             return Ok(None);
         }
-        let mut c = Crc32::new();
-        c.update_words(&header[1..]);
+        let mut c = CRC.digest();
+        update_words(&mut c, &header[1..]);
         let mut chunk = [0u32; 16];
         let mut at = 0;
         while at < self.payload_words {
             let n = (self.payload_words - at).min(chunk.len());
             self.flash.read(sector, base + 3 + at, &mut chunk[..n]).map_err(LogError::Flash)?;
-            c.update_words(&chunk[..n]);
+            update_words(&mut c, &chunk[..n]);
             at += n;
         }
-        Ok((c.finish() == tail[0]).then_some(header[1]))
+        Ok((c.finalize() == tail[0]).then_some(header[1]))
     }
 }
 
-/// CRC-32 (IEEE 802.3, reflected, init and final XOR all ones), bitwise: the log writes a few KiB per ten minutes.
-#[derive(Clone, Copy, Debug)]
-pub struct Crc32(u32);
-
-impl Default for Crc32 {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl Crc32 {
-    /// A fresh CRC.
-    pub const fn new() -> Self {
-        Self(0xFFFF_FFFF)
-    }
-
-    /// Feed bytes.
-    pub fn update(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 ^= u32::from(b);
-            for _ in 0..8 {
-                let mask = (self.0 & 1).wrapping_neg();
-                self.0 = (self.0 >> 1) ^ (0xEDB8_8320 & mask);
-            }
-        }
-    }
-
-    /// Feed words as their little-endian bytes.
-    pub fn update_words(&mut self, words: &[u32]) {
-        for w in words {
-            self.update(&w.to_le_bytes());
-        }
-    }
-
-    /// The CRC of everything fed.
-    pub const fn finish(&self) -> u32 {
-        !self.0
+/// Feed words to a CRC-32 (the frames' CRC-32/ISO-HDLC, [`crate::proto::crc32`]) as their little-endian bytes.
+fn update_words(crc: &mut crc::Digest<'_, u32>, words: &[u32]) {
+    for w in words {
+        crc.update(&w.to_le_bytes());
     }
 }
 
@@ -613,10 +581,11 @@ mod tests {
     }
 
     #[test]
-    fn crc32_matches_the_standard_check_value() {
-        let mut c = Crc32::new();
-        c.update(b"123456789");
-        assert_eq!(c.finish(), 0xCBF4_3926);
+    fn the_record_crc_is_crc32_of_the_words_little_endian() {
+        let mut c = CRC.digest();
+        update_words(&mut c, &[0x3433_3231, 0x3837_3635]);
+        c.update(b"9");
+        assert_eq!(c.finalize(), 0xCBF4_3926, "the standard check value of \"123456789\"");
     }
 
     #[test]

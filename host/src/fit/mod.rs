@@ -598,40 +598,9 @@ fn weighted_lsq(pts: &[FitPoint], var: &[f64], active: &[usize], bw: Option<f64>
     Some((theta, cov))
 }
 
-/// Gauss-Jordan inverse with partial pivoting of a small symmetric positive matrix; `None` if singular.
+/// The inverse of a small symmetric positive matrix; `None` if singular (a pivot below 1e-12).
 fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
-    let n = a.len();
-    let mut m: Vec<Vec<f64>> = a
-        .iter()
-        .enumerate()
-        .map(|(i, row)| {
-            let mut r = row.clone();
-            r.extend((0..n).map(|j| if i == j { 1.0 } else { 0.0 }));
-            r
-        })
-        .collect();
-    for col in 0..n {
-        let piv = (col..n).max_by(|&x, &y| m[x][col].abs().total_cmp(&m[y][col].abs()))?;
-        if m[piv][col].abs() < 1e-12 {
-            return None;
-        }
-        m.swap(col, piv);
-        let d = m[col][col];
-        for v in &mut m[col] {
-            *v /= d;
-        }
-        for r in 0..n {
-            if r != col {
-                let f = m[r][col];
-                if f != 0.0 {
-                    for c in 0..2 * n {
-                        m[r][c] -= f * m[col][c];
-                    }
-                }
-            }
-        }
-    }
-    Some(m.into_iter().map(|r| r[n..].to_vec()).collect())
+    crate::stats::linalg::invert(a, 1e-12)
 }
 
 /// The upper confidence bound of a term that the best model leaves out: fit with it forced in, unconstrained.

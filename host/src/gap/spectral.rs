@@ -188,17 +188,3 @@ pub(crate) fn block_means(x: &[f64], m: usize) -> Vec<f64> {
     let m = m.max(1);
     x.chunks_exact(m).map(|c| c.iter().sum::<f64>() / m as f64).collect()
 }
-
-/// The `p` quantile (nearest rank) of `v`, reordering it.
-pub(crate) fn quantile(v: &mut [f64], p: f64) -> f64 {
-    let k = ((v.len() - 1) as f64 * p).round() as usize;
-    let (_, m, _) = v.select_nth_unstable_by(k, f64::total_cmp);
-    *m
-}
-
-/// The median of `v` (the upper one of an even count), reordering it.
-pub(crate) fn median(v: &mut [f64]) -> f64 {
-    let mid = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
-    *m
-}

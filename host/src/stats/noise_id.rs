@@ -182,38 +182,14 @@ fn detrend(x: &mut [f64], deg: usize) {
             }
         }
     }
-    let Some(coef) = solve(ata, atb, k) else { return };
+    let a = ata[..k].iter().map(|row| row[..k].to_vec()).collect();
+    let Some(coef) = super::linalg::solve(a, atb[..k].to_vec(), 0.0) else { return };
     for (i, v) in x.iter_mut().enumerate() {
         let ti = t(i);
         let p = [1.0, ti, ti * ti];
         let fit: f64 = (0..k).map(|r| coef[r] * p[r]).sum();
         *v -= fit;
     }
-}
-
-/// Gaussian elimination with partial pivoting on a k x k system (k <= 3).
-fn solve(mut a: [[f64; 3]; 3], mut b: [f64; 3], k: usize) -> Option<[f64; 3]> {
-    for col in 0..k {
-        let piv = (col..k).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
-        if a[piv][col] == 0.0 {
-            return None;
-        }
-        a.swap(col, piv);
-        b.swap(col, piv);
-        for r in col + 1..k {
-            let f = a[r][col] / a[col][col];
-            for c in col..k {
-                a[r][c] -= f * a[col][c];
-            }
-            b[r] -= f * b[col];
-        }
-    }
-    let mut x = [0.0; 3];
-    for r in (0..k).rev() {
-        let s: f64 = (r + 1..k).map(|c| a[r][c] * x[c]).sum();
-        x[r] = (b[r] - s) / a[r][r];
-    }
-    Some(x)
 }
 
 /// Expected B1 ratio for `n` averages and tau exponent `mu` of the Allan variance (Howe, Beard, Greenhall,

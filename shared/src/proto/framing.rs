@@ -23,7 +23,7 @@ use serde::Serialize;
 use super::{CRC_LEN, MAX_BODY, MAX_FRAME, MAX_PACKET, SEQ_LEN};
 
 /// CRC-32/ISO-HDLC: polynomial 0x04C11DB7, reflected, init and xorout 0xFFFFFFFF (zlib's `crc32`).
-const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+pub(crate) const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
 /// The CRC-32 of `bytes` as frames use it (CRC-32/ISO-HDLC; `crc32(b"123456789") == 0xCBF43926`).
 pub fn crc32(bytes: &[u8]) -> u32 {

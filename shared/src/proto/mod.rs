@@ -75,7 +75,7 @@
 mod command;
 mod decoder;
 mod frame;
-mod framing;
+pub(crate) mod framing;
 mod size;
 mod snapshot;
 

@@ -20,16 +20,7 @@ pub(super) fn mean(x: &[f64]) -> f64 {
     x.iter().sum::<f64>() / x.len() as f64
 }
 
-/// Median of a copy (O(n) selection).
-pub(super) fn median(x: &[f64]) -> f64 {
-    if x.is_empty() {
-        return f64::NAN;
-    }
-    let mut v = x.to_vec();
-    let k = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(k, f64::total_cmp);
-    *m
-}
+pub(super) use crate::stats::robust::median;
 
 /// The overlapping Allan variance at octave tau, with Greenhall EDFs, as fit points.
 pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {

@@ -287,32 +287,9 @@ pub(super) fn log_chi2(pts: &[FitPoint], model: impl Fn(usize) -> f64) -> f64 {
         .sum()
 }
 
-/// Gaussian elimination with partial pivoting; `None` when singular.
-pub(super) fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
-    let n = b.len();
-    for c in 0..n {
-        let piv = (c..n).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))?;
-        if !(a[piv][c].abs() > 1e-13) {
-            return None;
-        }
-        a.swap(c, piv);
-        b.swap(c, piv);
-        for r in c + 1..n {
-            let f = a[r][c] / a[c][c];
-            if f != 0.0 {
-                for k in c..n {
-                    a[r][k] -= f * a[c][k];
-                }
-                b[r] -= f * b[c];
-            }
-        }
-    }
-    let mut x = vec![0.0; n];
-    for r in (0..n).rev() {
-        let s: f64 = (r + 1..n).map(|k| a[r][k] * x[k]).sum();
-        x[r] = (b[r] - s) / a[r][r];
-    }
-    Some(x)
+/// Solve the normal equations of an effect's fit; `None` when singular (a pivot of at most 1e-13).
+pub(super) fn solve(a: Vec<Vec<f64>>, b: Vec<f64>) -> Option<Vec<f64>> {
+    crate::stats::linalg::solve(a, b, 1e-13)
 }
 
 /// Number of base-term columns ([`base_columns`]); an effect's own column comes after them.

@@ -202,15 +202,7 @@ pub(super) fn normal_sf(z: f64) -> f64 {
     0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)
 }
 
-pub(super) fn median(x: &[f64]) -> f64 {
-    if x.is_empty() {
-        return f64::NAN;
-    }
-    let mut v = x.to_vec();
-    let k = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(k, f64::total_cmp);
-    *m
-}
+pub(super) use crate::stats::robust::median;
 
 pub(super) fn mean(x: &[f64]) -> f64 {
     if x.is_empty() {

@@ -14,7 +14,7 @@
 //! would turn any 2% error of the fitted N into the worst gap of the whole diagnosis.
 
 use super::PointInfo;
-use crate::gap::spectral::{median, quantile};
+use crate::stats::robust::{median_in_place as median, quantile_in_place as quantile};
 
 /// Tail threshold of the distribution view, robust sigmas.
 pub const TAIL_SIGMA: f64 = 5.0;

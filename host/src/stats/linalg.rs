@@ -1,0 +1,94 @@
+//! The small dense linear algebra of the fits: solving a few normal equations and inverting a small covariance,
+//! by elimination with partial pivoting (systems of at most a dozen unknowns, where this is exact enough and
+//! nothing is gained from a library).
+
+/// Solve `a x = b` by Gaussian elimination with partial pivoting; `None` when a pivot is not larger than
+/// `min_pivot` in magnitude (singular, or too close to it to trust).
+pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>, min_pivot: f64) -> Option<Vec<f64>> {
+    let n = b.len();
+    for c in 0..n {
+        let piv = (c..n).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))?;
+        if !(a[piv][c].abs() > min_pivot) {
+            return None;
+        }
+        a.swap(c, piv);
+        b.swap(c, piv);
+        for r in c + 1..n {
+            let f = a[r][c] / a[c][c];
+            if f != 0.0 {
+                for k in c..n {
+                    a[r][k] -= f * a[c][k];
+                }
+                b[r] -= f * b[c];
+            }
+        }
+    }
+    let mut x = vec![0.0; n];
+    for r in (0..n).rev() {
+        let s: f64 = (r + 1..n).map(|k| a[r][k] * x[k]).sum();
+        x[r] = (b[r] - s) / a[r][r];
+    }
+    Some(x)
+}
+
+/// The inverse of a small square matrix by Gauss-Jordan elimination with partial pivoting; `None` when a pivot
+/// is smaller than `min_pivot` in magnitude.
+pub fn invert(a: &[Vec<f64>], min_pivot: f64) -> Option<Vec<Vec<f64>>> {
+    let n = a.len();
+    let mut m: Vec<Vec<f64>> = a
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let mut r = row.clone();
+            r.extend((0..n).map(|j| if i == j { 1.0 } else { 0.0 }));
+            r
+        })
+        .collect();
+    for col in 0..n {
+        let piv = (col..n).max_by(|&x, &y| m[x][col].abs().total_cmp(&m[y][col].abs()))?;
+        if m[piv][col].abs() < min_pivot {
+            return None;
+        }
+        m.swap(col, piv);
+        let d = m[col][col];
+        for v in &mut m[col] {
+            *v /= d;
+        }
+        for r in 0..n {
+            if r != col {
+                let f = m[r][col];
+                if f != 0.0 {
+                    for c in 0..2 * n {
+                        m[r][c] -= f * m[col][c];
+                    }
+                }
+            }
+        }
+    }
+    Some(m.into_iter().map(|r| r[n..].to_vec()).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_small_system_is_solved_and_inverted() {
+        let a = vec![vec![4.0, 1.0, 2.0], vec![1.0, 5.0, 3.0], vec![2.0, 3.0, 6.0]];
+        let x_true = [1.0, -2.0, 0.5];
+        let b: Vec<f64> = a.iter().map(|r| r.iter().zip(&x_true).map(|(p, q)| p * q).sum()).collect();
+        let x = solve(a.clone(), b, 0.0).unwrap();
+        for (u, v) in x.iter().zip(&x_true) {
+            assert!((u - v).abs() < 1e-12);
+        }
+        let inv = invert(&a, 1e-12).unwrap();
+        for i in 0..3 {
+            for j in 0..3 {
+                let p: f64 = (0..3).map(|k| a[i][k] * inv[k][j]).sum();
+                assert!((p - f64::from(u8::from(i == j))).abs() < 1e-12);
+            }
+        }
+        assert!(solve(vec![vec![1.0, 2.0], vec![2.0, 4.0]], vec![1.0, 2.0], 1e-13).is_none());
+        assert!(invert(&[vec![1.0, 2.0], vec![2.0, 4.0]], 1e-12).is_none());
+    }
+}
