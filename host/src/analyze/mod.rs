@@ -5,7 +5,10 @@
 //! overlapping Allan variance at octave tau. Writers for the Stable32-style table, the JSON document, a CSV of
 //! every point, a `model.toml` for `simulate` and `gap`, and a Kalibr `imu.yaml`.
 
+pub mod json;
 pub mod streamed;
+
+pub use json::{to_json, Document};
 
 use std::fmt::Write as _;
 
@@ -13,7 +16,6 @@ use octavar_shared::sensor::{Channel, SensorKind, GENERIC};
 use octavar_shared::sim::{BenchSim, ChannelSim, GyroSim};
 use rayon::prelude::*;
 use serde::Serialize;
-use serde_json::{json, Value};
 
 use crate::fit::{fit, fit_input, FitError, FitOptions, NoiseFit, Term};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
@@ -111,56 +113,6 @@ pub fn analyze_channel(
         fit_points,
         fit,
     })
-}
-
-/// The JSON document: `{"channels": [{"name", "unit", "tau0_s", "n_samples", "stats": {"<stat>": [{"m", "tau_s",
-/// "n", "dev", "lo", "hi", "alpha"}]}, "fit": {"N": {"value", "lo", "hi", "unit", "identifiable"}, ...}}]}`.
-pub fn to_json(channels: &[ChannelAnalysis]) -> Value {
-    let chans: Vec<Value> = channels
-        .iter()
-        .map(|c| {
-            let mut stats = serde_json::Map::new();
-            for (s, pts) in &c.stats {
-                let rows: Vec<Value> = pts
-                    .iter()
-                    .map(|p| {
-                        json!({"m": p.m, "tau_s": p.tau_s, "n": p.n, "dev": p.dev, "lo": finite(p.lo),
-                               "hi": finite(p.hi), "alpha": p.alpha, "edf": finite(p.edf)})
-                    })
-                    .collect();
-                stats.insert(s.name().to_ascii_lowercase(), Value::Array(rows));
-            }
-            let fit = match &c.fit {
-                Ok(f) => {
-                    let mut m = serde_json::Map::new();
-                    for t in Term::ALL {
-                        let e = f.term(t);
-                        let (alt_unit, k) = t.alt_unit();
-                        m.insert(
-                            t.name().to_string(),
-                            json!({"value": e.value, "lo": e.lo, "hi": e.hi, "unit": e.unit,
-                                   "identifiable": e.identifiable, "alt": {"unit": alt_unit,
-                                   "value": e.value.map(|v| v * k)}}),
-                        );
-                    }
-                    m.insert("chi2".into(), json!(f.chi2));
-                    m.insert("dof".into(), json!(f.dof));
-                    m.insert("confidence".into(), json!(f.confidence));
-                    m.insert("tau_range_s".into(), json!(f.tau_range_s));
-                    m.insert("classic".into(), serde_json::to_value(&f.classic).unwrap_or(Value::Null));
-                    Value::Object(m)
-                }
-                Err(e) => json!({"error": e.to_string()}),
-            };
-            json!({"name": c.name, "unit": c.unit, "tau0_s": c.tau0_s, "n_samples": c.n_samples,
-                   "n_gaps": c.n_gaps, "stats": stats, "fit": fit})
-        })
-        .collect();
-    json!({ "channels": chans })
-}
-
-fn finite(v: f64) -> Option<f64> {
-    v.is_finite().then_some(v)
 }
 
 /// The Stable32-style table of one statistic: AF, tau, #, alpha, min sigma, sigma, max sigma.
@@ -335,20 +287,30 @@ mod tests {
         let n = f.n.value.unwrap();
         assert!((n / n_true - 1.0).abs() < 0.02, "N {n}");
         assert!(f.n.lo.unwrap() <= n_true && n_true <= f.n.hi.unwrap(), "{:?}", f.n);
-        let j = to_json(std::slice::from_ref(&a));
+        // The document's keys are an interface (users' scripts read them): every object's keys, exactly.
+        let j = serde_json::to_value(to_json(std::slice::from_ref(&a))).unwrap();
+        let keys = |v: &serde_json::Value| -> Vec<String> {
+            let mut k: Vec<String> = v.as_object().unwrap().keys().cloned().collect();
+            k.sort();
+            k
+        };
         let ch = &j["channels"][0];
-        for k in ["name", "unit", "tau0_s", "n_samples", "stats", "fit"] {
-            assert!(ch.get(k).is_some(), "missing {k}");
-        }
-        let p = &ch["stats"]["oadev"][0];
-        for k in ["m", "tau_s", "n", "dev", "lo", "hi", "alpha"] {
-            assert!(p.get(k).is_some(), "missing {k}");
-        }
+        assert_eq!(keys(&j), ["channels"]);
+        assert_eq!(keys(ch), ["fit", "n_gaps", "n_samples", "name", "stats", "tau0_s", "unit"]);
+        assert_eq!(keys(&ch["stats"]), ["adev", "oadev"]);
+        assert_eq!(keys(&ch["stats"]["oadev"][0]), ["alpha", "dev", "edf", "hi", "lo", "m", "n", "tau_s"]);
+        assert_eq!(
+            keys(&ch["fit"]),
+            ["B", "K", "N", "Q", "R", "chi2", "classic", "confidence", "dof", "tau_range_s"]
+        );
         for t in ["N", "B", "K", "R", "Q"] {
-            for k in ["value", "lo", "hi", "unit", "identifiable"] {
-                assert!(ch["fit"][t].get(k).is_some(), "missing fit.{t}.{k}");
-            }
+            assert_eq!(keys(&ch["fit"][t]), ["alt", "hi", "identifiable", "lo", "unit", "value"], "fit.{t}");
+            assert_eq!(keys(&ch["fit"][t]["alt"]), ["unit", "value"], "fit.{t}.alt");
         }
+        assert_eq!(keys(&ch["fit"]["classic"]), keys(&serde_json::to_value(&f.classic).unwrap()));
+        let unfitted = ChannelAnalysis { fit: Err(FitError::TooFewPoints(1)), ..a.clone() };
+        let j = serde_json::to_value(to_json(std::slice::from_ref(&unfitted))).unwrap();
+        assert_eq!(keys(&j["channels"][0]["fit"]), ["error"]);
         assert_eq!(ch["fit"]["N"]["unit"], "deg/sqrt(s)");
         let y = kalibr_yaml(&a, fs).unwrap();
         let gnd: f64 = y.lines().find_map(|l| l.strip_prefix("gyroscope_noise_density: ")).unwrap().parse().unwrap();

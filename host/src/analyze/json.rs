@@ -1,0 +1,160 @@
+//! The JSON document `octavar analyze --json` writes, as types: per channel its statistics (one row per tau,
+//! NaN written as null) and its noise-term fit (each term with its interval and second unit, the fit's quality
+//! and the classic readouts), or why there is no fit.
+//!
+//! `{"channels": [{"name", "unit", "tau0_s", "n_samples", "n_gaps", "stats": {"<stat>": [{"m", "tau_s", "n",
+//! "dev", "lo", "hi", "alpha", "edf"}]}, "fit": {"N": {"value", "lo", "hi", "unit", "identifiable", "alt":
+//! {"unit", "value"}}, ..., "chi2", "dof", "confidence", "tau_range_s", "classic"} or {"error"}}]}`.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use super::ChannelAnalysis;
+use crate::fit::{ClassicReadouts, NoiseFit, Term};
+use crate::stats::DevPoint;
+
+/// The whole document.
+#[derive(Debug, Serialize)]
+pub struct Document<'a> {
+    /// One entry per channel, in the order analysed.
+    pub channels: Vec<ChannelDoc<'a>>,
+}
+
+/// One channel.
+#[derive(Debug, Serialize)]
+pub struct ChannelDoc<'a> {
+    pub name: &'a str,
+    pub unit: &'a str,
+    pub tau0_s: f64,
+    pub n_samples: usize,
+    pub n_gaps: usize,
+    /// By the statistic's lower-case name (`oadev`, `mdev`, ...).
+    pub stats: BTreeMap<String, Vec<PointDoc>>,
+    pub fit: FitDoc<'a>,
+}
+
+/// One row of a statistic; the bounds and EDF are null where they were not computed.
+#[derive(Debug, Serialize)]
+pub struct PointDoc {
+    pub m: u64,
+    pub tau_s: f64,
+    pub n: u64,
+    pub dev: f64,
+    pub lo: Option<f64>,
+    pub hi: Option<f64>,
+    pub alpha: i32,
+    pub edf: Option<f64>,
+}
+
+/// The fit, or why there is none.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+pub enum FitDoc<'a> {
+    Fit(FitTerms<'a>),
+    Error { error: String },
+}
+
+/// The five terms and the fit's quality.
+#[derive(Debug, Serialize)]
+pub struct FitTerms<'a> {
+    #[serde(rename = "Q")]
+    pub q: TermDoc,
+    #[serde(rename = "N")]
+    pub n: TermDoc,
+    #[serde(rename = "B")]
+    pub b: TermDoc,
+    #[serde(rename = "K")]
+    pub k: TermDoc,
+    #[serde(rename = "R")]
+    pub r: TermDoc,
+    pub chi2: f64,
+    pub dof: usize,
+    pub confidence: f64,
+    pub tau_range_s: [f64; 2],
+    pub classic: &'a ClassicReadouts,
+}
+
+/// One term: the value and interval in its IEEE 952 unit, and the value in its customary second unit.
+#[derive(Debug, Serialize)]
+pub struct TermDoc {
+    pub value: Option<f64>,
+    pub lo: Option<f64>,
+    pub hi: Option<f64>,
+    pub unit: &'static str,
+    pub identifiable: bool,
+    pub alt: AltDoc,
+}
+
+/// A term's value in its second unit (deg/sqrt(h) for N, deg/h for B, ...).
+#[derive(Debug, Serialize)]
+pub struct AltDoc {
+    pub unit: &'static str,
+    pub value: Option<f64>,
+}
+
+/// The document of `channels`.
+pub fn to_json(channels: &[ChannelAnalysis]) -> Document<'_> {
+    Document { channels: channels.iter().map(channel).collect() }
+}
+
+fn channel(c: &ChannelAnalysis) -> ChannelDoc<'_> {
+    let stats = c.stats.iter().map(|(s, pts)| (s.name().to_ascii_lowercase(), pts.iter().map(point).collect()));
+    let fit = match &c.fit {
+        Ok(f) => FitDoc::Fit(terms(f)),
+        Err(e) => FitDoc::Error { error: e.to_string() },
+    };
+    ChannelDoc {
+        name: &c.name,
+        unit: &c.unit,
+        tau0_s: c.tau0_s,
+        n_samples: c.n_samples,
+        n_gaps: c.n_gaps,
+        stats: stats.collect(),
+        fit,
+    }
+}
+
+fn point(p: &DevPoint) -> PointDoc {
+    PointDoc {
+        m: p.m,
+        tau_s: p.tau_s,
+        n: p.n,
+        dev: p.dev,
+        lo: finite(p.lo),
+        hi: finite(p.hi),
+        alpha: p.alpha,
+        edf: finite(p.edf),
+    }
+}
+
+fn terms(f: &NoiseFit) -> FitTerms<'_> {
+    let term = |t: Term| {
+        let e = f.term(t);
+        let (unit, k) = t.alt_unit();
+        TermDoc {
+            value: e.value,
+            lo: e.lo,
+            hi: e.hi,
+            unit: e.unit,
+            identifiable: e.identifiable,
+            alt: AltDoc { unit, value: e.value.map(|v| v * k) },
+        }
+    };
+    FitTerms {
+        q: term(Term::Q),
+        n: term(Term::N),
+        b: term(Term::B),
+        k: term(Term::K),
+        r: term(Term::R),
+        chi2: f.chi2,
+        dof: f.dof,
+        confidence: f.confidence,
+        tau_range_s: f.tau_range_s,
+        classic: &f.classic,
+    }
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
