@@ -299,10 +299,7 @@ mod tests {
         assert_eq!(keys(ch), ["fit", "n_gaps", "n_samples", "name", "stats", "tau0_s", "unit"]);
         assert_eq!(keys(&ch["stats"]), ["adev", "oadev"]);
         assert_eq!(keys(&ch["stats"]["oadev"][0]), ["alpha", "dev", "edf", "hi", "lo", "m", "n", "tau_s"]);
-        assert_eq!(
-            keys(&ch["fit"]),
-            ["B", "K", "N", "Q", "R", "chi2", "classic", "confidence", "dof", "tau_range_s"]
-        );
+        assert_eq!(keys(&ch["fit"]), ["B", "K", "N", "Q", "R", "chi2", "classic", "confidence", "dof", "tau_range_s"]);
         for t in ["N", "B", "K", "R", "Q"] {
             assert_eq!(keys(&ch["fit"][t]), ["alt", "hi", "identifiable", "lo", "unit", "value"], "fit.{t}");
             assert_eq!(keys(&ch["fit"][t]["alt"]), ["unit", "value"], "fit.{t}.alt");

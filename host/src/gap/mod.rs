@@ -108,7 +108,49 @@ mod tests {
             text.starts_with("gap diagnosis: 4096 training samples (3 missing) at 100 Hz, 4096 held out (1 missing)"),
             "{text}"
         );
-        assert_eq!(r.to_json()["missing_samples"], serde_json::json!({"training": 3, "holdout": 1}));
+        let doc = r.to_json();
+        assert_eq!(doc["missing_samples"], serde_json::json!({"training": 3, "holdout": 1}));
+        // The report's keys are an interface (users' scripts read them): exactly these.
+        let mut keys: Vec<&str> = doc.as_object().unwrap().keys().map(String::as_str).collect();
+        keys.sort_unstable();
+        let want = [
+            "band_s",
+            "base_fit",
+            "base_model",
+            "candidates",
+            "effect",
+            "effect_params",
+            "effects",
+            "explained",
+            "fit_strain",
+            "fs_hz",
+            "gap_after",
+            "gap_before",
+            "holdout",
+            "holdout_predictive",
+            "holdout_total",
+            "missing_samples",
+            "model",
+            "model_channel",
+            "n_holdout",
+            "n_train",
+            "seeds",
+            "shrink",
+            "sign",
+            "significant",
+            "size",
+            "threshold",
+            "total_after",
+            "total_before",
+            "transients",
+            "unexplained",
+            "verdict",
+            "view",
+            "views",
+            "views_detail",
+            "worst",
+        ];
+        assert_eq!(keys, want);
 
         // The holdout keeps one sample in 20 (sample 6000 was a gap already): 204 that are not gaps.
         for (i, v) in x.iter_mut().enumerate().skip(4096) {
