@@ -1,0 +1,149 @@
+//! The grid, the building of a recording from a topic's samples, and the CDR decoding of hand-built messages.
+
+use super::scan::Sample;
+use super::*;
+use crate::io::csv::RateUnit;
+
+#[test]
+fn grid_steps_jitter_and_gaps() {
+    let ms = 1_000_000i64; // 200 Hz: 5 ms periods
+    assert_eq!(grid_positions(&[], 200.0), Vec::<u64>::new());
+    assert_eq!(grid_positions(&[7], 200.0), vec![0]);
+    // Regular, then jittered steps up to 1.5 periods: one sample each.
+    let t = [0, 5 * ms, 10 * ms, 13 * ms, 20 * ms, 27 * ms + ms / 2];
+    assert_eq!(grid_positions(&t, 200.0), vec![0, 1, 2, 3, 4, 5]);
+    // 1.6 periods: one missing; 3 periods: two; 2.5 rounds to 3 (two missing); 10.4 periods: nine.
+    let t = [0, 8 * ms, 23 * ms, 35 * ms + ms / 2, 87 * ms + ms / 2];
+    assert_eq!(grid_positions(&t, 200.0), vec![0, 2, 5, 8, 18]);
+    // Steps that are not positive count as one sample.
+    assert_eq!(grid_positions(&[10, 10, 5], 200.0), vec![0, 1, 2]);
+    // Stamps far from zero (since the epoch) lose nothing.
+    let base = 1_700_000_000_123_456_789i64;
+    let t: Vec<i64> = [0, 1, 2, 5, 6].iter().map(|k| base + k * 5 * ms).collect();
+    assert_eq!(grid_positions(&t, 200.0), vec![0, 1, 2, 5, 6]);
+}
+
+/// A CDR_LE `sensor_msgs/msg/Imu` written byte by byte: the encapsulation header, then fields aligned to their
+/// size counted from after the header.
+fn hand_built(frame_id: &str, w: [f64; 3]) -> Vec<u8> {
+    let mut b = vec![0x00, 0x01, 0x00, 0x00];
+    let body = |b: &Vec<u8>| b.len() - 4;
+    b.extend(1_700_000_123i32.to_le_bytes()); // stamp.sec
+    b.extend(456_789_012u32.to_le_bytes()); // stamp.nanosec
+    b.extend((frame_id.len() as u32 + 1).to_le_bytes());
+    b.extend(frame_id.as_bytes());
+    b.push(0);
+    while body(&b) % 8 != 0 {
+        b.push(0xAA); // padding before the first float64 (its content is not read)
+    }
+    fn f(b: &mut Vec<u8>, v: f64) {
+        b.extend(v.to_le_bytes());
+    }
+    for v in [0.1, 0.2, 0.3, 0.9] {
+        f(&mut b, v); // orientation
+    }
+    for i in 0..9 {
+        f(&mut b, i as f64); // orientation_covariance
+    }
+    for v in w {
+        f(&mut b, v);
+    }
+    for i in 0..9 {
+        f(&mut b, 10.0 + i as f64);
+    }
+    for v in [0.0, 0.0, 9.81] {
+        f(&mut b, v);
+    }
+    for i in 0..9 {
+        f(&mut b, 20.0 + i as f64);
+    }
+    b
+}
+
+fn topic(stamps: &[i64]) -> Topic {
+    let samples = stamps
+        .iter()
+        .enumerate()
+        .map(|(i, &t)| Sample { stamp_ns: t, log_time: 1000 + i as u64 * 10, w: [i as f64, 0.0, -1.0] })
+        .collect::<Vec<_>>();
+    Topic { name: "/imu".into(), imu: true, messages: stamps.len() as u64, samples, ..Topic::default() }
+}
+
+#[test]
+fn build_sorts_drops_repeats_and_places_gaps() {
+    let ms = 1_000_000;
+    // Logged out of order (3 before 2), 4 repeated, 6 missing; the rate is the median step, 1 ms.
+    let b = build("b.mcap".into(), topic(&[0, ms, 3 * ms, 2 * ms, 4 * ms, 4 * ms, 5 * ms, 7 * ms]), None).unwrap();
+    assert_eq!((b.out_of_order, b.duplicates, b.messages), (1, 1, 8));
+    assert_eq!(b.recording.rate_hz, 1000.0);
+    assert_eq!(b.time_source, TimeSource::HeaderStamp);
+    let k = RateUnit::RadPerS.to_dps();
+    let want = [0.0, 1.0, 3.0, 2.0, 4.0, 6.0, f64::NAN, 7.0];
+    let x = &b.recording.channels[0];
+    assert_eq!(x.len(), want.len());
+    for (i, (g, w)) in x.iter().zip(want).enumerate() {
+        assert!(g.to_bits() == (w * k).to_bits() || (g.is_nan() && w.is_nan()), "{i}: {x:?}");
+    }
+    assert_eq!((b.recording.info.samples, b.recording.info.gaps), (8, 3));
+    // An even count of steps: the median is the mean of the middle two (1 and 3 ms).
+    let b = build("b.mcap".into(), topic(&[0, ms, 4 * ms]), None).unwrap();
+    assert_eq!(b.recording.rate_hz, 500.0);
+    // Every stamp zero: the log times (10 ns apart) instead.
+    let b = build("b.mcap".into(), topic(&[0, 0, 0, 0]), None).unwrap();
+    assert_eq!((b.time_source, b.start_ns, b.recording.rate_hz), (TimeSource::LogTime, 1000, 1e8));
+    // One message needs a rate; none is an error.
+    assert!(matches!(build("b".into(), topic(&[5]), None), Err(BagError::TooFewMessages { .. })));
+    assert_eq!(build("b".into(), topic(&[5]), Some(100.0)).unwrap().recording.info.samples, 1);
+    assert!(matches!(build("b".into(), topic(&[]), Some(100.0)), Err(BagError::TooFewMessages { .. })));
+    // A clock jump of a day at 1 kHz is refused rather than filled with 86 million NaN.
+    let mut stamps: Vec<i64> = (0..1000).map(|i| i * ms).collect();
+    stamps.push(86_400_000 * ms);
+    let err = build("b".into(), topic(&stamps), None).unwrap_err();
+    assert!(matches!(err, BagError::ClockJump { messages: 1001, .. }), "{err}");
+}
+
+#[test]
+fn decodes_a_hand_built_message() {
+    for frame in ["imu_link", "", "abc", "imu"] {
+        let b = hand_built(frame, [0.01, -0.02, 1.5e-4]);
+        let m = decode_imu(&b).unwrap();
+        assert_eq!(m.header.stamp, msg::Time { sec: 1_700_000_123, nanosec: 456_789_012 });
+        assert_eq!(m.header.frame_id, frame);
+        assert_eq!(m.orientation, msg::Quaternion { x: 0.1, y: 0.2, z: 0.3, w: 0.9 });
+        assert_eq!(m.orientation_covariance[8], 8.0);
+        assert_eq!(m.angular_velocity, msg::Vector3 { x: 0.01, y: -0.02, z: 1.5e-4 });
+        assert_eq!(m.angular_velocity_covariance[0], 10.0);
+        assert_eq!(m.linear_acceleration.z, 9.81);
+        assert_eq!(m.linear_acceleration_covariance[8], 28.0);
+    }
+    // Big-endian: the same fields, each byte-swapped.
+    let mut be = vec![0x00, 0x00, 0x00, 0x00];
+    be.extend(7i32.to_be_bytes());
+    be.extend(8u32.to_be_bytes());
+    be.extend(1u32.to_be_bytes());
+    be.extend([0, 0, 0, 0]); // the empty string's NUL and padding to 8
+    for i in 0..(4 + 9 + 3 + 9 + 3 + 9) {
+        be.extend((i as f64).to_be_bytes());
+    }
+    let m = decode_imu(&be).unwrap();
+    assert_eq!((m.header.stamp.sec, m.header.stamp.nanosec), (7, 8));
+    assert_eq!(m.angular_velocity, msg::Vector3 { x: 13.0, y: 14.0, z: 15.0 });
+}
+
+#[test]
+fn rejects_what_is_not_an_imu() {
+    let b = hand_built("imu_link", [1.0, 2.0, 3.0]);
+    assert!(decode_imu(&b[..3]).unwrap_err().contains("shorter than"));
+    assert!(decode_imu(&b[..b.len() - 1]).is_err());
+    assert!(decode_imu(&b[..40]).is_err());
+    let mut xcdr2 = b.clone();
+    xcdr2[1] = 0x07;
+    assert!(decode_imu(&xcdr2).unwrap_err().contains("not plain CDR"));
+    let mut longer = b.clone();
+    longer.extend([0u8; 16]);
+    assert!(decode_imu(&longer).unwrap_err().contains("left over"));
+    // A string length past the end of the message.
+    let mut bad = b;
+    bad[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert!(decode_imu(&bad).is_err());
+}
