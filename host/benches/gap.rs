@@ -10,7 +10,8 @@ use std::time::Instant;
 
 use octavar::analyze::fine_channel;
 use octavar::gap::{diagnose, ensemble, GapInput, GapOptions, HoldoutCheck};
-use octavar::io::csv::{read_csv, CsvOptions, RateUnit};
+use octavar::io::csv::{read_csv, CsvOptions};
+use octavar::io::recording::RateUnit;
 use octavar_shared::sim::GyroSim;
 
 /// The floor, s per million samples.

@@ -14,7 +14,8 @@ use std::time::Instant;
 
 use octavar::gap::disturbances::Part;
 use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport};
-use octavar::io::csv::{read_csv, CsvOptions, RateUnit, RowFilter};
+use octavar::io::csv::{read_csv, CsvOptions, RowFilter};
+use octavar::io::recording::RateUnit;
 
 use crate::util::data_dir;
 

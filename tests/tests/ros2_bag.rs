@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use octavar::io::csv::Recording;
+use octavar::io::recording::Recording;
 use octavar::io::ros2_bag::{imu_topics, read_imu_bag, BagError, TimeSource};
 use serde_json::{json, Value};
 

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use octavar::io::csv::RateUnit;
+use octavar::io::recording::RateUnit;
 use octavar::io::tdms::{read_tdms, TdmsError};
 
 use crate::util;

@@ -2,8 +2,9 @@
 //! row filters, the CSV dialect, a bag's topic, and the read options they make.
 
 use octavar::io::csv::rows::Delimiter;
-use octavar::io::csv::{CsvOptions, RateUnit, RowFilter};
+use octavar::io::csv::{CsvOptions, RowFilter};
 use octavar::io::formats::ReadOptions;
+use octavar::io::recording::RateUnit;
 
 /// How to read a rate recording.
 #[derive(Debug, clap::Args)]

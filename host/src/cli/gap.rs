@@ -7,8 +7,8 @@ use std::sync::Mutex;
 
 use anyhow::{bail, Context};
 use octavar::gap::{self, GapInput, GapOptions};
-use octavar::io::csv::Recording;
 use octavar::io::formats::{self, RecordingFormat};
+use octavar::io::recording::Recording;
 use octavar::plot;
 use octavar_shared::sensor::SensorKind;
 use octavar_shared::sim::{BenchSim, ChannelSim};

@@ -7,7 +7,8 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::io::binary::BinaryFormat;
-use crate::io::csv::{CsvOptions, RateUnit, Recording, RecordingError, StreamInfo};
+use crate::io::csv::{CsvOptions, RecordingError, StreamInfo};
+use crate::io::recording::{RateUnit, Recording};
 use crate::io::ros2_bag::{self, BagError};
 use crate::io::tdms::{self, TdmsError};
 

@@ -17,7 +17,7 @@ use std::io::BufRead;
 
 use serde::Serialize;
 
-pub use crate::io::recording::{RateUnit, Recording};
+use crate::io::recording::{RateUnit, Recording};
 use lines::{task_ranges, Block, LineParser, Parsed, Skip};
 use rows::{clean_header, split, Delimiter, Dialect};
 use timed::{Timed, TimedRow};

@@ -4,7 +4,8 @@
 
 use super::scan::Topic;
 use super::{BagError, ImuBag, TimeSource};
-use crate::io::csv::{RateUnit, Recording, StreamInfo};
+use crate::io::csv::StreamInfo;
+use crate::io::recording::{RateUnit, Recording};
 
 /// Place samples on a sample grid from their timestamps: the position of each sample, the first at 0.
 ///

@@ -28,7 +28,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::io::csv::Recording;
+use crate::io::recording::Recording;
 
 use grid::build;
 pub use grid::grid_positions;

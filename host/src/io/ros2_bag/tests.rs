@@ -2,7 +2,7 @@
 
 use super::scan::Sample;
 use super::*;
-use crate::io::csv::RateUnit;
+use crate::io::recording::RateUnit;
 
 #[test]
 fn grid_steps_jitter_and_gaps() {

@@ -29,7 +29,8 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use crate::io::csv::{RateUnit, Recording, StreamInfo};
+use crate::io::csv::StreamInfo;
+use crate::io::recording::{RateUnit, Recording};
 
 use data::{is_numeric, type_name};
 use metadata::Prop;

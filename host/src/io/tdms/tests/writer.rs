@@ -1,7 +1,7 @@
 //! A TDMS writer written from NI's description of the format, enough to build every case the reader handles, with
 //! the helpers the tests make values with and compare them by.
 
-use crate::io::csv::{RateUnit, Recording};
+use crate::io::recording::{RateUnit, Recording};
 use crate::io::tdms::data::TYPE_STRING;
 use crate::io::tdms::metadata::{INDEX_DAQMX_FORMAT_CHANGING, INDEX_NO_DATA, INDEX_SAME_AS_PREVIOUS};
 use crate::io::tdms::segment::{TOC_BIG_ENDIAN, TOC_INTERLEAVED, TOC_META_DATA, TOC_NEW_OBJ_LIST, TOC_RAW_DATA};
