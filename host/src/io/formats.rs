@@ -7,8 +7,8 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::io::binary::BinaryFormat;
-use crate::io::csv::{CsvOptions, RecordingError, StreamInfo};
-use crate::io::recording::{RateUnit, Recording};
+use crate::io::csv::{CsvOptions, RecordingError};
+use crate::io::recording::{RateUnit, Recording, StreamInfo};
 use crate::io::ros2_bag::{self, BagError};
 use crate::io::tdms::{self, TdmsError};
 

@@ -3,7 +3,15 @@
 
 use serde::Serialize;
 
-use crate::io::csv::{RecordingError, StreamInfo};
+/// A unit octavar does not know.
+#[derive(Debug, thiserror::Error)]
+#[error("unknown unit {unit:?}: octavar knows {known}")]
+pub struct UnknownUnit {
+    /// The name given.
+    pub unit: String,
+    /// The names octavar knows.
+    pub known: String,
+}
 
 /// Units a rate column may be in; everything is converted to deg/s.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -34,10 +42,10 @@ impl RateUnit {
     /// Parse a unit name.
     ///
     /// # Errors
-    /// [`RecordingError::UnknownUnit`] listing the known names.
-    pub fn parse(name: &str) -> Result<RateUnit, RecordingError> {
+    /// [`UnknownUnit`] listing the known names.
+    pub fn parse(name: &str) -> Result<RateUnit, UnknownUnit> {
         let n = name.trim().to_ascii_lowercase();
-        Self::NAMES.iter().find(|(k, _)| *k == n).map(|(_, u)| *u).ok_or_else(|| RecordingError::UnknownUnit {
+        Self::NAMES.iter().find(|(k, _)| *k == n).map(|(_, u)| *u).ok_or_else(|| UnknownUnit {
             unit: name.to_string(),
             known: "deg/s (dps), rad/s, mrad/s, deg/h (dph)".to_string(),
         })
@@ -69,4 +77,19 @@ pub struct Recording {
     pub rate_hz: f64,
     /// Counters of the read.
     pub info: StreamInfo,
+}
+
+/// What a streamed read found.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct StreamInfo {
+    /// Column names read, in order.
+    pub columns: Vec<String>,
+    /// Sample rate, Hz.
+    pub rate_hz: f64,
+    /// Samples delivered (rows kept plus gap samples inserted), per channel.
+    pub samples: u64,
+    /// Samples that are NaN (empty cells, NaN text, time gaps), summed over channels.
+    pub gaps: u64,
+    /// Rows dropped by the filters.
+    pub filtered_out: u64,
 }

@@ -15,9 +15,7 @@ mod tests;
 
 use std::io::BufRead;
 
-use serde::Serialize;
-
-use crate::io::recording::{RateUnit, Recording};
+use crate::io::recording::{RateUnit, Recording, StreamInfo, UnknownUnit};
 use lines::{task_ranges, Block, LineParser, Parsed, Skip};
 use rows::{clean_header, split, Delimiter, Dialect};
 use timed::{Timed, TimedRow};
@@ -55,8 +53,8 @@ pub enum RecordingError {
     #[error("{path}: no samples (the file is empty, or every row was filtered out)")]
     Empty { path: String },
     /// A unit octavar does not know.
-    #[error("unknown unit {unit:?}: octavar knows {known}")]
-    UnknownUnit { unit: String, known: String },
+    #[error(transparent)]
+    UnknownUnit(#[from] UnknownUnit),
     /// No sample rate: neither --rate nor a time column.
     #[error("{path}: no sample rate: give --rate HZ or --time-column NAME")]
     NoRate { path: String },
@@ -166,21 +164,6 @@ impl Default for CsvOptions {
             flexible: false,
         }
     }
-}
-
-/// What a streamed read found.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-pub struct StreamInfo {
-    /// Column names read, in order.
-    pub columns: Vec<String>,
-    /// Sample rate, Hz.
-    pub rate_hz: f64,
-    /// Samples delivered (rows kept plus gap samples inserted), per channel.
-    pub samples: u64,
-    /// Samples that are NaN (empty cells, NaN text, time gaps), summed over channels.
-    pub gaps: u64,
-    /// Rows dropped by the filters.
-    pub filtered_out: u64,
 }
 
 /// Read a whole CSV recording into memory.

@@ -4,8 +4,7 @@
 
 use super::scan::Topic;
 use super::{BagError, ImuBag, TimeSource};
-use crate::io::csv::StreamInfo;
-use crate::io::recording::{RateUnit, Recording};
+use crate::io::recording::{RateUnit, Recording, StreamInfo};
 
 /// Place samples on a sample grid from their timestamps: the position of each sample, the first at 0.
 ///

@@ -4,14 +4,14 @@
 
 use std::collections::HashMap;
 
-use super::data::{type_name, type_size, TYPE_DAQMX, TYPE_STRING};
-use super::segment::{Fault, FileReader};
+use super::data::{type_name, TYPE_STRING};
+use super::format::Fault;
 
 // Raw data index headers with a meaning of their own.
 pub(super) const INDEX_NO_DATA: u32 = 0xFFFF_FFFF;
 pub(super) const INDEX_SAME_AS_PREVIOUS: u32 = 0;
 pub(super) const INDEX_DAQMX_FORMAT_CHANGING: u32 = 0x6912_0000;
-const INDEX_DAQMX_DIGITAL_LINE: u32 = 0x6913_0000;
+pub(super) const INDEX_DAQMX_DIGITAL_LINE: u32 = 0x6913_0000;
 
 /// A property's value.
 #[derive(Clone, Debug, PartialEq)]
@@ -62,7 +62,7 @@ pub(super) struct Object {
     /// The requested column whose series this channel's values go to.
     pub(super) slot: Option<usize>,
     /// Position in the current segment's object list.
-    in_list: Option<usize>,
+    pub(super) in_list: Option<usize>,
 }
 
 /// A bounded reader of a segment's metadata.
@@ -102,7 +102,7 @@ impl<'a> Cursor<'a> {
         self.array::<8>(what).map(u64::from_le_bytes)
     }
 
-    fn string(&mut self, what: &str) -> Result<String, Fault> {
+    pub(super) fn string(&mut self, what: &str) -> Result<String, Fault> {
         let at = self.pos;
         let n = self.u32(what)? as usize;
         if self.end - self.pos < n {
@@ -115,7 +115,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// A property value of data type `code`.
-    fn prop(&mut self, code: u32, name: &str) -> Result<Prop, Fault> {
+    pub(super) fn prop(&mut self, code: u32, name: &str) -> Result<Prop, Fault> {
         let what = format!("property {name:?}");
         let at = self.pos;
         Ok(match code {
@@ -153,134 +153,6 @@ impl<'a> Cursor<'a> {
                 })
             }
         })
-    }
-}
-
-impl FileReader<'_> {
-    /// The object with this path, registered on first sight.
-    fn object_id(&mut self, path: String, at: usize) -> Result<usize, Fault> {
-        if let Some(&id) = self.by_path.get(&path) {
-            return Ok(id);
-        }
-        let Some((group, channel)) = parse_path(&path) else {
-            return Err(Fault::Corrupt { offset: at, message: format!("{path:?} is not a TDMS object path") });
-        };
-        let mut slot = None;
-        if let (Some(g), Some(c)) = (&group, &channel) {
-            let display = format!("{g}/{c}");
-            if let Some(&s) = self.wanted.get(display.as_str()) {
-                if let Some(other) = self.slot_object[s] {
-                    return Err(Fault::Ambiguous {
-                        column: display,
-                        first: self.objects[other].path.clone(),
-                        second: path,
-                    });
-                }
-                slot = Some(s);
-            }
-        }
-        let id = self.objects.len();
-        if let Some(s) = slot {
-            self.slot_object[s] = Some(id);
-        }
-        self.by_path.insert(path.clone(), id);
-        self.objects.push(Object { path, group, channel, props: HashMap::new(), index: None, slot, in_list: None });
-        Ok(id)
-    }
-
-    /// Read a segment's metadata, updating the object list and the objects' indexes and properties.
-    pub(super) fn read_metadata(&mut self, cur: &mut Cursor, new_list: bool) -> Result<(), Fault> {
-        if new_list {
-            for &(id, _) in &self.list {
-                self.objects[id].in_list = None;
-            }
-            self.list.clear();
-        }
-        let count = cur.u32("the object count")?;
-        for _ in 0..count {
-            let at = cur.pos;
-            let path = cur.string("an object path")?;
-            let id = self.object_id(path, at)?;
-            let index_at = cur.pos;
-            let header = cur.u32("a raw data index")?;
-            let has_data = match header {
-                INDEX_NO_DATA => false,
-                INDEX_SAME_AS_PREVIOUS => {
-                    if self.objects[id].index.is_none() {
-                        return Err(Fault::Corrupt {
-                            offset: index_at,
-                            message: format!(
-                                "{} reuses the previous raw data index, but none came before",
-                                self.name(id)
-                            ),
-                        });
-                    }
-                    true
-                }
-                INDEX_DAQMX_FORMAT_CHANGING | INDEX_DAQMX_DIGITAL_LINE => {
-                    return Err(Fault::Daqmx { offset: index_at, object: self.name(id) })
-                }
-                _ => {
-                    let data_type = cur.u32("a data type")?;
-                    let dimension = cur.u32("an array dimension")?;
-                    let values = cur.u64("a value count")?;
-                    if data_type == TYPE_DAQMX {
-                        return Err(Fault::Daqmx { offset: index_at, object: self.name(id) });
-                    }
-                    if data_type == 0 && values != 0 {
-                        return Err(Fault::Corrupt {
-                            offset: index_at + 4,
-                            message: format!("{} has {values} values of type void", self.name(id)),
-                        });
-                    }
-                    if dimension != 1 {
-                        return Err(Fault::Corrupt {
-                            offset: index_at + 8,
-                            message: format!(
-                                "{} has array dimension {dimension}, where TDMS has only 1",
-                                self.name(id)
-                            ),
-                        });
-                    }
-                    let bytes = if data_type == TYPE_STRING {
-                        cur.u64("a string data size")?
-                    } else if values == 0 {
-                        0
-                    } else {
-                        match type_size(data_type).and_then(|s| s.checked_mul(values)) {
-                            Some(b) => b,
-                            None => {
-                                return Err(Fault::Corrupt {
-                                    offset: index_at + 4,
-                                    message: format!(
-                                        "{} has {values} values of type {}, whose size is unknown or too large",
-                                        self.name(id),
-                                        type_name(data_type)
-                                    ),
-                                })
-                            }
-                        }
-                    };
-                    self.objects[id].index = Some(RawIndex { data_type, values, bytes });
-                    true
-                }
-            };
-            match self.objects[id].in_list {
-                Some(i) => self.list[i].1 = has_data,
-                None => {
-                    self.objects[id].in_list = Some(self.list.len());
-                    self.list.push((id, has_data));
-                }
-            }
-            let props = cur.u32("a property count")?;
-            for _ in 0..props {
-                let name = cur.string("a property name")?;
-                let code = cur.u32("a property's data type")?;
-                let value = cur.prop(code, &name)?;
-                self.objects[id].props.insert(name, value);
-            }
-        }
-        Ok(())
     }
 }
 

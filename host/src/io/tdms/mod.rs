@@ -19,6 +19,7 @@
 //! (counted from 1) and the byte offset.
 
 mod data;
+mod format;
 mod metadata;
 mod scaling;
 mod segment;
@@ -29,8 +30,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use crate::io::csv::StreamInfo;
-use crate::io::recording::{RateUnit, Recording};
+use crate::io::recording::{RateUnit, Recording, StreamInfo};
 
 use data::{is_numeric, type_name};
 use metadata::Prop;

@@ -1,34 +1,20 @@
 //! The walk over a TDMS file's segments: each segment's lead-in (tag, table of contents, version, lengths) checked
 //! against the file, its metadata and raw data handed on, a file whose last segment was never finished read to
 //! its end, and every fault located by segment and byte offset. [`FileReader`] holds what the segments so far have
-//! said; its metadata, raw data and scaling parts are in the sibling modules.
+//! said: it reads each segment's object list and properties (with the types of [`super::metadata`]) and where each
+//! requested channel's values lie in its raw data ([`super::data`] decodes them).
 
 use std::collections::HashMap;
 
-use super::data::Job;
-use super::metadata::{Cursor, Object};
+use super::data::*;
+use super::format::*;
+use super::metadata::*;
 use super::TdmsError;
 
-// The lead-in's table of contents flags.
-pub(super) const TOC_META_DATA: u32 = 1 << 1;
-pub(super) const TOC_NEW_OBJ_LIST: u32 = 1 << 2;
-pub(super) const TOC_RAW_DATA: u32 = 1 << 3;
-pub(super) const TOC_INTERLEAVED: u32 = 1 << 5;
-pub(super) const TOC_BIG_ENDIAN: u32 = 1 << 6;
-pub(super) const TOC_DAQMX_RAW_DATA: u32 = 1 << 7;
 /// Bytes of a segment's lead-in: tag, table of contents, version, next segment offset, raw data offset.
 const LEAD_IN: usize = 28;
 /// The next segment offset of a segment whose writer never finished it: the segment runs to the end of the file.
 const LENGTH_UNWRITTEN: u64 = u64::MAX;
-
-/// A fault in a segment, before the file's name and the segment are put to it.
-pub(super) enum Fault {
-    Corrupt { offset: usize, message: String },
-    Truncated { offset: usize, message: String },
-    Daqmx { offset: usize, object: String },
-    NotNumeric { channel: String, data_type: String },
-    Ambiguous { column: String, first: String, second: String },
-}
 
 /// The parser's state across segments.
 pub(super) struct FileReader<'a> {
@@ -223,5 +209,252 @@ fn show_bytes(b: &[u8]) -> String {
         format!("{:?}", String::from_utf8_lossy(b))
     } else {
         b.iter().map(|c| format!("{c:02x}")).collect::<Vec<_>>().join(" ")
+    }
+}
+
+impl FileReader<'_> {
+    /// The object with this path, registered on first sight.
+    fn object_id(&mut self, path: String, at: usize) -> Result<usize, Fault> {
+        if let Some(&id) = self.by_path.get(&path) {
+            return Ok(id);
+        }
+        let Some((group, channel)) = parse_path(&path) else {
+            return Err(Fault::Corrupt { offset: at, message: format!("{path:?} is not a TDMS object path") });
+        };
+        let mut slot = None;
+        if let (Some(g), Some(c)) = (&group, &channel) {
+            let display = format!("{g}/{c}");
+            if let Some(&s) = self.wanted.get(display.as_str()) {
+                if let Some(other) = self.slot_object[s] {
+                    return Err(Fault::Ambiguous {
+                        column: display,
+                        first: self.objects[other].path.clone(),
+                        second: path,
+                    });
+                }
+                slot = Some(s);
+            }
+        }
+        let id = self.objects.len();
+        if let Some(s) = slot {
+            self.slot_object[s] = Some(id);
+        }
+        self.by_path.insert(path.clone(), id);
+        self.objects.push(Object { path, group, channel, props: HashMap::new(), index: None, slot, in_list: None });
+        Ok(id)
+    }
+
+    /// Read a segment's metadata, updating the object list and the objects' indexes and properties.
+    pub(super) fn read_metadata(&mut self, cur: &mut Cursor, new_list: bool) -> Result<(), Fault> {
+        if new_list {
+            for &(id, _) in &self.list {
+                self.objects[id].in_list = None;
+            }
+            self.list.clear();
+        }
+        let count = cur.u32("the object count")?;
+        for _ in 0..count {
+            let at = cur.pos;
+            let path = cur.string("an object path")?;
+            let id = self.object_id(path, at)?;
+            let index_at = cur.pos;
+            let header = cur.u32("a raw data index")?;
+            let has_data = match header {
+                INDEX_NO_DATA => false,
+                INDEX_SAME_AS_PREVIOUS => {
+                    if self.objects[id].index.is_none() {
+                        return Err(Fault::Corrupt {
+                            offset: index_at,
+                            message: format!(
+                                "{} reuses the previous raw data index, but none came before",
+                                self.name(id)
+                            ),
+                        });
+                    }
+                    true
+                }
+                INDEX_DAQMX_FORMAT_CHANGING | INDEX_DAQMX_DIGITAL_LINE => {
+                    return Err(Fault::Daqmx { offset: index_at, object: self.name(id) })
+                }
+                _ => {
+                    let data_type = cur.u32("a data type")?;
+                    let dimension = cur.u32("an array dimension")?;
+                    let values = cur.u64("a value count")?;
+                    if data_type == TYPE_DAQMX {
+                        return Err(Fault::Daqmx { offset: index_at, object: self.name(id) });
+                    }
+                    if data_type == 0 && values != 0 {
+                        return Err(Fault::Corrupt {
+                            offset: index_at + 4,
+                            message: format!("{} has {values} values of type void", self.name(id)),
+                        });
+                    }
+                    if dimension != 1 {
+                        return Err(Fault::Corrupt {
+                            offset: index_at + 8,
+                            message: format!(
+                                "{} has array dimension {dimension}, where TDMS has only 1",
+                                self.name(id)
+                            ),
+                        });
+                    }
+                    let bytes = if data_type == TYPE_STRING {
+                        cur.u64("a string data size")?
+                    } else if values == 0 {
+                        0
+                    } else {
+                        match type_size(data_type).and_then(|s| s.checked_mul(values)) {
+                            Some(b) => b,
+                            None => {
+                                return Err(Fault::Corrupt {
+                                    offset: index_at + 4,
+                                    message: format!(
+                                        "{} has {values} values of type {}, whose size is unknown or too large",
+                                        self.name(id),
+                                        type_name(data_type)
+                                    ),
+                                })
+                            }
+                        }
+                    };
+                    self.objects[id].index = Some(RawIndex { data_type, values, bytes });
+                    true
+                }
+            };
+            match self.objects[id].in_list {
+                Some(i) => self.list[i].1 = has_data,
+                None => {
+                    self.objects[id].in_list = Some(self.list.len());
+                    self.list.push((id, has_data));
+                }
+            }
+            let props = cur.u32("a property count")?;
+            for _ in 0..props {
+                let name = cur.string("a property name")?;
+                let code = cur.u32("a property's data type")?;
+                let value = cur.prop(code, &name)?;
+                self.objects[id].props.insert(name, value);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl FileReader<'_> {
+    /// Decode the requested channels' values in the raw data `start..end` of a segment.
+    pub(super) fn read_data(&mut self, toc: u32, start: usize, end: usize, unwritten: bool) -> Result<(), Fault> {
+        let mut with_data = Vec::new();
+        let mut chunk = 0u64;
+        for &(id, has) in &self.list {
+            if !has {
+                continue;
+            }
+            let Some(index) = self.objects[id].index else { continue };
+            if index.values == 0 {
+                continue;
+            }
+            chunk = chunk.checked_add(index.bytes).ok_or_else(|| Fault::Corrupt {
+                offset: start,
+                message: "the channels' data sizes overflow".to_string(),
+            })?;
+            with_data.push((id, index));
+        }
+        let total = (end - start) as u64;
+        if chunk == 0 {
+            if total != 0 {
+                return Err(Fault::Corrupt {
+                    offset: start,
+                    message: format!("{total} bytes of raw data, but no channel has data in this segment"),
+                });
+            }
+            return Ok(());
+        }
+        let (chunks, rest) = (total / chunk, total % chunk);
+        if rest != 0 && !unwritten {
+            return Err(Fault::Corrupt {
+                offset: start,
+                message: format!(
+                    "{total} bytes of raw data are not a whole number of chunks of {chunk} bytes (the channels' \
+                     values)"
+                ),
+            });
+        }
+        for &(id, index) in &with_data {
+            let o = &self.objects[id];
+            if o.slot.is_some() && !is_numeric(index.data_type) {
+                return Err(Fault::NotNumeric {
+                    channel: format!("{}/{}", o.group.as_deref().unwrap_or(""), o.channel.as_deref().unwrap_or("")),
+                    data_type: type_name(index.data_type),
+                });
+            }
+        }
+        let big = toc & TOC_BIG_ENDIAN != 0;
+        if toc & TOC_INTERLEAVED != 0 {
+            let values = with_data[0].1.values;
+            let mut width = 0usize;
+            for &(id, index) in &with_data {
+                if index.values != values {
+                    return Err(Fault::Corrupt {
+                        offset: start,
+                        message: format!(
+                            "interleaved data whose channels differ in length ({} has {values} values, {} has {})",
+                            self.name(with_data[0].0),
+                            self.name(id),
+                            index.values
+                        ),
+                    });
+                }
+                match type_size(index.data_type) {
+                    Some(s) if index.data_type != TYPE_STRING => width += s as usize,
+                    _ => {
+                        return Err(Fault::Corrupt {
+                            offset: start,
+                            message: format!(
+                                "interleaved data with {} of type {}, which has no fixed size",
+                                self.name(id),
+                                type_name(index.data_type)
+                            ),
+                        })
+                    }
+                }
+            }
+            // Whole rows only: an unfinished segment may stop inside a chunk.
+            let rows = (end - start) / width;
+            let mut offset = start;
+            for &(id, index) in &with_data {
+                if let Some(slot) = self.objects[id].slot {
+                    let data_type = index.data_type;
+                    let job =
+                        Job { slot, data_type, big, start: offset, stride: width, count: rows, runs: 1, run_stride: 0 };
+                    self.add(job);
+                }
+                offset += type_size(index.data_type).unwrap_or(0) as usize;
+            }
+        } else if chunks > 0 {
+            // Every value counted here lies inside `start..end`, so the sizes fit in usize.
+            let mut offset = start;
+            for &(id, index) in &with_data {
+                if let Some(slot) = self.objects[id].slot {
+                    let job = Job {
+                        slot,
+                        data_type: index.data_type,
+                        big,
+                        start: offset,
+                        stride: type_size(index.data_type).unwrap_or(1) as usize,
+                        count: index.values as usize,
+                        runs: chunks as usize,
+                        run_stride: chunk as usize,
+                    };
+                    self.add(job);
+                }
+                offset += index.bytes as usize;
+            }
+        }
+        Ok(())
+    }
+
+    fn add(&mut self, job: Job) {
+        self.lengths[job.slot] += job.count * job.runs;
+        self.jobs.push(job);
     }
 }

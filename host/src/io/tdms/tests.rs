@@ -4,8 +4,8 @@
 mod scaling;
 mod writer;
 
+use super::format::{TOC_BIG_ENDIAN, TOC_DAQMX_RAW_DATA, TOC_INTERLEAVED, TOC_NEW_OBJ_LIST};
 use super::metadata::{object_path, parse_path};
-use super::segment::{TOC_BIG_ENDIAN, TOC_DAQMX_RAW_DATA, TOC_INTERLEAVED, TOC_NEW_OBJ_LIST};
 use super::*;
 use writer::*;
 

@@ -2,7 +2,7 @@
 //! the scales octavar refuses.
 
 use super::writer::*;
-use crate::io::tdms::segment::TOC_NEW_OBJ_LIST;
+use crate::io::tdms::format::TOC_NEW_OBJ_LIST;
 
 /// A file with one i16 channel "g/x" holding -2, 0, 3, 1000 and these properties (and group `group_props`).
 fn scaled_file(props: Vec<(&str, Pv)>, group_props: Vec<(&str, Pv)>) -> Vec<u8> {

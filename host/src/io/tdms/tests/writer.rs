@@ -3,8 +3,8 @@
 
 use crate::io::recording::{RateUnit, Recording};
 use crate::io::tdms::data::TYPE_STRING;
+use crate::io::tdms::format::{TOC_BIG_ENDIAN, TOC_INTERLEAVED, TOC_META_DATA, TOC_NEW_OBJ_LIST, TOC_RAW_DATA};
 use crate::io::tdms::metadata::{INDEX_DAQMX_FORMAT_CHANGING, INDEX_NO_DATA, INDEX_SAME_AS_PREVIOUS};
-use crate::io::tdms::segment::{TOC_BIG_ENDIAN, TOC_INTERLEAVED, TOC_META_DATA, TOC_NEW_OBJ_LIST, TOC_RAW_DATA};
 use crate::io::tdms::{read_bytes, TdmsError};
 
 /// A raw data index to write.
