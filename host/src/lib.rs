@@ -3,19 +3,20 @@
 //! The binary (`src/main.rs`, `src/cli/`) only parses flags, calls these functions and prints. The library has no
 //! clap, no stdout and no `process::exit`; errors are typed per module and locate the fault (file, line, column).
 //!
-//! The modules by job, each importing only those listed after it (and `octavar_shared`, below them all):
+//! The modules by job, each importing only modules on the rows below it (and `octavar_shared`, below them all);
+//! `farm-studio look host` shows no circle and no upward import:
 //!
-//! | module      | job                                                                                 |
-//! |-------------|-------------------------------------------------------------------------------------|
-//! | `demo`      | the paper's experiment on the virtual bench: Table 1, figures, gap diagnoses        |
-//! | `gap`       | where a fitted model's simulation and a recording part, and why                     |
-//! | `plot`      | ADEV and gap figures (PNG, SVG) from plain series                                   |
-//! | `analyze`   | one channel's statistics and fit, its text/JSON/CSV writers, the streamed path      |
-//! | `device`    | recording a device, verifying captures, on-board statistics, a simulated device     |
-//! | `simulate`  | a gyro simulated from a fitted model (`shared::sim`)                                |
-//! | `fit`       | the noise terms N, B, K, R, Q from an Allan deviation                               |
-//! | `io`        | opening files and reading every format into samples (CSV, TDMS, bags, captures)     |
-//! | `stats`     | the Allan deviation family with intervals, noise identification                     |
+//! | row | module     | job                                                                                  |
+//! |-----|------------|--------------------------------------------------------------------------------------|
+//! | 1   | `demo`     | the paper's experiment on the virtual bench: Table 1, figures, gap diagnoses         |
+//! | 1   | `plot`     | ADEV and gap figures (PNG, SVG)                                                      |
+//! | 2   | `gap`      | where a fitted model's simulation and a recording part, and why                      |
+//! | 2   | `analyze`  | one channel's statistics and fit, its text/JSON/CSV writers, the streamed path       |
+//! | 2   | `device`   | recording a device, verifying captures, the code accumulator, a simulated device     |
+//! | 2   | `simulate` | a gyro simulated from a fitted model (`shared::sim`)                                 |
+//! | 3   | `fit`      | the noise terms N, B, K, R, Q from an Allan deviation                                |
+//! | 3   | `io`       | opening files and reading every format into samples (CSV, TDMS, bags, captures)      |
+//! | 4   | `stats`    | the Allan deviation family with intervals, noise identification, small numerics      |
 
 // `!(x > 0.0)` is how this crate rejects NaN along with the non-positive values; clippy's rewrite (`x <= 0.0`)
 // would let NaN through, so its lints against the form are off. Numeric kernels index several arrays in step,
