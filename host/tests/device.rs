@@ -62,6 +62,23 @@ fn verify_and_decode_a_simulated_device() {
     assert_eq!(v["snapshots"][2]["samples"], 6000);
     assert_eq!(v["statuses"].as_array().unwrap().len(), 3);
     assert_eq!(v["estimates"].as_array().unwrap().len(), 3);
+    // The summary's keys are an interface (users' scripts read them): exactly these.
+    let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    let want = [
+        "csv_files",
+        "estimates",
+        "estimates_every",
+        "field_log",
+        "hello",
+        "samples_per_channel",
+        "snapshots",
+        "source",
+        "stats",
+        "statuses",
+        "statuses_every",
+    ];
+    assert_eq!(keys, want);
 
     // JSON to stdout; the same report for verify.
     let o = octavar(&["decode", "-", "--json", "-"], Some(&capture_bytes()));
