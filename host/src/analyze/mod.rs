@@ -177,25 +177,29 @@ pub fn fit_report(f: &NoiseFit) -> String {
 
 /// Every point of every statistic as CSV: `channel,stat,m,tau_s,n,alpha,lo,dev,hi,edf`.
 pub fn to_csv(channels: &[ChannelAnalysis]) -> String {
+    points_csv(channels.iter().flat_map(|c| c.stats.iter().map(|(stat, pts)| (c.name.as_str(), *stat, &pts[..]))))
+}
+
+/// The CSV of deviation points: a header, then one row per point of each (channel, statistic, points), as
+/// `analyze --csv` and the demo's `adev.csv` write it (`channel,stat,m,tau_s,n,alpha,lo,dev,hi,edf`).
+pub fn points_csv<'a>(series: impl IntoIterator<Item = (&'a str, Statistic, &'a [DevPoint])>) -> String {
     let mut s = String::from("channel,stat,m,tau_s,n,alpha,lo,dev,hi,edf\n");
-    for c in channels {
-        for (stat, pts) in &c.stats {
-            for p in pts {
-                let _ = writeln!(
-                    s,
-                    "{},{},{},{},{},{},{},{},{},{}",
-                    c.name,
-                    stat.name().to_ascii_lowercase(),
-                    p.m,
-                    p.tau_s,
-                    p.n,
-                    p.alpha,
-                    p.lo,
-                    p.dev,
-                    p.hi,
-                    p.edf
-                );
-            }
+    for (channel, stat, pts) in series {
+        for p in pts {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{},{},{},{},{},{}",
+                channel,
+                stat.name().to_ascii_lowercase(),
+                p.m,
+                p.tau_s,
+                p.n,
+                p.alpha,
+                p.lo,
+                p.dev,
+                p.hi,
+                p.edf
+            );
         }
     }
     s
@@ -312,6 +316,15 @@ mod tests {
         let y = kalibr_yaml(&a, fs).unwrap();
         let gnd: f64 = y.lines().find_map(|l| l.strip_prefix("gyroscope_noise_density: ")).unwrap().parse().unwrap();
         assert!((gnd / (n * std::f64::consts::PI / 180.0) - 1.0).abs() < 1e-5);
+        // The CSV of every point: its header, and one row per point of each statistic, in order.
+        let csv = to_csv(std::slice::from_ref(&a));
+        let mut lines = csv.lines();
+        assert_eq!(lines.next(), Some("channel,stat,m,tau_s,n,alpha,lo,dev,hi,edf"));
+        let first = &a.stats[0].1[0];
+        let row: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!((row[0], row[1], row[2]), ("gx", "adev", "1"));
+        assert_eq!(row[7].parse::<f64>().unwrap(), first.dev);
+        assert_eq!(csv.lines().count(), 1 + a.stats.iter().map(|(_, p)| p.len()).sum::<usize>());
         let m = model_from_fits(std::slice::from_ref(&a), fs, 1.0);
         assert_eq!(m.channels[0].gyro.n_deg_per_rt_s, n);
     }

@@ -87,15 +87,9 @@ impl Args {
         std::fs::write(&path, serde_json::to_string_pretty(&rows)?)
             .with_context(|| format!("writing {}", path.display()))?;
         let path = self.out.join("adev.csv");
-        let mut csv = String::from("channel,m,tau_s,n,adev_dps,lo_dps,hi_dps,alpha,edf\n");
-        for r in &results {
-            for p in &r.points {
-                csv += &format!(
-                    "{},{},{},{},{},{},{},{},{}\n",
-                    r.paper.label, p.m, p.tau_s, p.n, p.dev, p.lo, p.hi, p.alpha, p.edf
-                );
-            }
-        }
+        let csv = octavar::analyze::points_csv(
+            results.iter().map(|r| (r.paper.label, octavar::stats::Statistic::Oadev, &r.points[..])),
+        );
         std::fs::write(&path, csv).with_context(|| format!("writing {}", path.display()))?;
         let series: Vec<plot::AdevSeries> = results
             .iter()
