@@ -51,7 +51,7 @@ pub struct PointDoc {
 #[derive(Debug, Serialize)]
 #[serde(untagged)]
 pub enum FitDoc<'a> {
-    Fit(FitTerms<'a>),
+    Fit(Box<FitTerms<'a>>),
     Error { error: String },
 }
 
@@ -101,7 +101,7 @@ pub fn to_json(channels: &[ChannelAnalysis]) -> Document<'_> {
 fn channel(c: &ChannelAnalysis) -> ChannelDoc<'_> {
     let stats = c.stats.iter().map(|(s, pts)| (s.name().to_ascii_lowercase(), pts.iter().map(point).collect()));
     let fit = match &c.fit {
-        Ok(f) => FitDoc::Fit(terms(f)),
+        Ok(f) => FitDoc::Fit(Box::new(terms(f))),
         Err(e) => FitDoc::Error { error: e.to_string() },
     };
     ChannelDoc {

@@ -413,12 +413,10 @@ fn read_csv_rows<R: BufRead + Send>(
             },
             || next.read(&mut reader),
         );
-        if expected_rows == 0 {
+        if let (0, Some(total)) = (expected_rows, input_bytes) {
             // The rows the whole input will give, from this first block, so that a collector can make room once.
             let rows: u64 = parts.iter().map(|p| p.lines).sum();
-            if let Some(total) = input_bytes {
-                expected_rows = (total as f64 / block.len as f64 * rows as f64 * 1.01) as usize + 16;
-            }
+            expected_rows = (total as f64 / block.len as f64 * rows as f64 * 1.01) as usize + 16;
         }
         for part in &mut parts {
             let first = line_no + 1;
