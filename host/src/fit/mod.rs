@@ -26,9 +26,13 @@
 //! The classic graphical readouts are given beside it for comparison: N where the curve's slope is closest to
 //! -1/2, read at tau = 1 s; K where it is closest to +1/2, read at tau = 3 s; B = floor / 0.6643.
 
+mod covariance;
+mod intervals;
+
 use serde::Serialize;
 
-use crate::stats::edf::chi2_quantile;
+pub use covariance::{avar_covariance, EstimateShape};
+
 use crate::stats::DevPoint;
 
 /// (2 ln 2 / pi): the flicker floor of the Allan variance is this times B^2.
@@ -118,6 +122,16 @@ pub struct FitPoint {
     pub avar: f64,
     /// Equivalent degrees of freedom of that estimate.
     pub edf: f64,
+    /// Where the estimate's differences lie in the record, when known: the intervals then account for the
+    /// correlation between taus ([`avar_covariance`]).
+    pub shape: Option<EstimateShape>,
+}
+
+impl FitPoint {
+    /// A point whose estimator shape is unknown (the intervals then treat each tau as independent).
+    pub fn new(tau_s: f64, avar: f64, edf: f64) -> Self {
+        FitPoint { tau_s, avar, edf, shape: None }
+    }
 }
 
 /// The fit's input from Allan deviation points: AVAR and EDF per tau, leaving out the points without a usable
@@ -126,7 +140,16 @@ pub fn fit_input(points: &[DevPoint]) -> Vec<FitPoint> {
     points
         .iter()
         .filter(|p| p.edf.is_finite() && p.edf > 0.0 && p.dev.is_finite() && p.dev > 0.0)
-        .map(|p| FitPoint { tau_s: p.tau_s, avar: p.dev * p.dev, edf: p.edf })
+        .map(|p| FitPoint {
+            tau_s: p.tau_s,
+            avar: p.dev * p.dev,
+            edf: p.edf,
+            shape: (p.m > 0 && p.n > 0 && p.stride > 0).then_some(EstimateShape {
+                m: p.m as f64,
+                terms: p.n as f64,
+                stride: p.stride as f64,
+            }),
+        })
         .collect()
 }
 
@@ -345,39 +368,15 @@ pub fn fit(points: &[FitPoint], opts: &FitOptions) -> Result<NoiseFit, FitError>
         best = refined;
     }
 
-    let p_active = best.active.len();
-    let dof = pts.len().saturating_sub(p_active);
-    let inflation = if dof > 0 { (best.chi2 / dof as f64).max(1.0) } else { 1.0 };
-    let z = normal_quantile(0.5 + opts.confidence / 2.0);
-    let mut estimates: Vec<TermEstimate> = Vec::with_capacity(5);
-    for t in Term::ALL {
-        let j = t as usize;
-        let unit = t.unit();
-        let est = if let Some(pos) = best.active.iter().position(|&a| a == j) {
-            let theta = best.theta[j];
-            let sd = (best.cov[pos][pos] * inflation).max(0.0).sqrt();
-            let identifiable = theta > 2.0 * sd;
-            let hi = (theta + z * sd).sqrt();
-            if identifiable {
-                TermEstimate {
-                    value: Some(theta.sqrt()),
-                    lo: Some((theta - z * sd).max(0.0).sqrt()),
-                    hi: Some(hi),
-                    unit,
-                    identifiable,
-                }
-            } else {
-                TermEstimate { value: None, lo: None, hi: Some(hi), unit, identifiable }
-            }
-        } else if allowed.contains(&j) {
-            // Not in the best model: bound it by a fit that forces it in.
-            let bound = upper_bound_when_forced(&pts, &var_of, &best.active, j, z, inflation, bw);
-            TermEstimate { value: None, lo: None, hi: bound, unit, identifiable: false }
-        } else {
-            TermEstimate { value: None, lo: None, hi: None, unit, identifiable: false }
-        };
-        estimates.push(est);
-    }
+    let dof = pts.len().saturating_sub(best.active.len());
+    let estimates = intervals::estimates(&intervals::Inputs {
+        pts: &pts,
+        best: &best,
+        e2,
+        var_of: &var_of,
+        allowed: &allowed,
+        opts,
+    });
     let mut squares = [0.0; 5];
     for &j in &best.active {
         squares[j] = best.theta[j];
@@ -601,32 +600,6 @@ fn weighted_lsq(pts: &[FitPoint], var: &[f64], active: &[usize], bw: Option<f64>
 /// The inverse of a small symmetric positive matrix; `None` if singular (a pivot below 1e-12).
 fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
     crate::stats::linalg::invert(a, 1e-12)
-}
-
-/// The upper confidence bound of a term that the best model leaves out: fit with it forced in, unconstrained.
-fn upper_bound_when_forced(
-    pts: &[FitPoint],
-    var: &[f64],
-    active: &[usize],
-    j: usize,
-    z: f64,
-    inflation: f64,
-    bw: Option<f64>,
-) -> Option<f64> {
-    let mut with = active.to_vec();
-    with.push(j);
-    with.sort_unstable();
-    let (theta, cov) = weighted_lsq(pts, var, &with, bw)?;
-    let pos = with.iter().position(|&a| a == j)?;
-    let sd = (cov[pos][pos] * inflation).max(0.0).sqrt();
-    let hi = theta[pos].max(0.0) + z * sd;
-    Some(hi.max(0.0).sqrt())
-}
-
-/// The standard normal quantile, from the chi-square quantile with one degree of freedom.
-fn normal_quantile(p: f64) -> f64 {
-    // For p > 0.5: z = sqrt(chi2_1(2p - 1)).
-    chi2_quantile(2.0 * p - 1.0, 1.0).sqrt()
 }
 
 fn classic_readouts(pts: &[FitPoint]) -> ClassicReadouts {

@@ -1,5 +1,6 @@
 //! Tests of the noise-term fit: closed-form curves recovered, identifiability, intervals.
 
+use super::intervals::normal_quantile;
 use super::*;
 
 /// Exact model curves at octave tau with a given EDF: the fit must return the coefficients.
@@ -8,7 +9,7 @@ fn curve(sq: [f64; 5], edf: impl Fn(f64) -> f64) -> Vec<FitPoint> {
         .map(|k| {
             let tau = 1e-3 * 2f64.powi(k);
             let avar = predict(&sq, tau, None);
-            FitPoint { tau_s: tau, avar, edf: edf(tau) }
+            FitPoint::new(tau, avar, edf(tau))
         })
         .collect()
 }
@@ -35,7 +36,7 @@ fn a_term_that_never_dominates_is_not_identifiable() {
     let pts: Vec<FitPoint> = (0..15)
         .map(|j| {
             let tau = 1e-3 * 2f64.powi(j);
-            FitPoint { tau_s: tau, avar: n * n / tau + kk * kk * tau / 3.0, edf: 1e4 / tau }
+            FitPoint::new(tau, n * n / tau + kk * kk * tau / 3.0, 1e4 / tau)
         })
         .collect();
     let f = fit(&pts, &FitOptions::default()).unwrap();
@@ -55,7 +56,7 @@ fn a_simulation_of_the_fit_draws_the_fitted_curve() {
             let tau: f64 = 1e-2 * 2f64.powi(j);
             let gm = sigma * sigma * 2.0 * t / tau
                 * (1.0 - t / (2.0 * tau) * (3.0 - 4.0 * (-tau / t).exp() + (-2.0 * tau / t).exp()));
-            FitPoint { tau_s: tau, avar: n * n / tau + FLICKER_AVAR_FACTOR * b * b + gm, edf: 1e4 / tau }
+            FitPoint::new(tau, n * n / tau + FLICKER_AVAR_FACTOR * b * b + gm, 1e4 / tau)
         })
         .collect();
     let f = fit(&pts, &FitOptions::default()).unwrap();
@@ -93,7 +94,7 @@ fn known_bandwidth_shapes_the_white_term() {
     let pts: Vec<FitPoint> = (0..14)
         .map(|k| {
             let tau = 5e-4 * 2f64.powi(k);
-            FitPoint { tau_s: tau, avar: n * n / tau * lowpass_white_factor(tau / t), edf: 1e6 / tau }
+            FitPoint::new(tau, n * n / tau * lowpass_white_factor(tau / t), 1e6 / tau)
         })
         .collect();
     let shaped = fit(&pts, &FitOptions { bandwidth_hz: Some(600.0), ..Default::default() }).unwrap();
@@ -106,7 +107,7 @@ fn known_bandwidth_shapes_the_white_term() {
 
 #[test]
 fn too_few_points() {
-    let pts = [FitPoint { tau_s: 1.0, avar: 1.0, edf: 3.0 }];
+    let pts = [FitPoint::new(1.0, 1.0, 3.0)];
     assert_eq!(fit(&pts, &FitOptions::default()), Err(FitError::TooFewPoints(1)));
 }
 

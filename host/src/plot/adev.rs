@@ -398,6 +398,7 @@ mod tests {
                 m,
                 tau_s: tau,
                 n: (len as u64).saturating_sub(2 * m - 1),
+                stride: 1,
                 dev,
                 alpha: 0,
                 noise_method: NoiseMethod::Default,

@@ -62,6 +62,15 @@ impl Statistic {
         }
     }
 
+    /// Samples between the starts of consecutive terms at averaging factor m: m for the non-overlapping
+    /// statistics, 1 for the overlapping ones.
+    pub fn stride(self, m: usize) -> usize {
+        match self {
+            Statistic::Adev | Statistic::Hdev => m,
+            Statistic::Oadev | Statistic::Mdev | Statistic::Tdev | Statistic::Ohdev | Statistic::Totdev => 1,
+        }
+    }
+
     /// Stable32's stop ratio: generated tau lists end at m <= N_freq / ratio (see [`super::taus`]).
     pub fn stop_ratio(self) -> u64 {
         match self {

@@ -68,6 +68,38 @@ pub fn invert(a: &[Vec<f64>], min_pivot: f64) -> Option<Vec<Vec<f64>>> {
     Some(m.into_iter().map(|r| r[n..].to_vec()).collect())
 }
 
+/// The lower Cholesky factor `L` of a symmetric positive definite matrix (`a = L L^T`); `None` when a pivot is
+/// not positive (the matrix is not positive definite to rounding).
+pub fn cholesky(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
+    let n = a.len();
+    let mut l = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..=i {
+            let s: f64 = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
+            if i == j {
+                if !(s > 0.0) {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    Some(l)
+}
+
+/// `L^-1 b` for a lower triangular `L` (forward substitution): with `L` the Cholesky factor of a covariance,
+/// this whitens `b`.
+pub fn forward_solve(l: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
+    let mut x = vec![0.0; b.len()];
+    for i in 0..b.len() {
+        let s: f64 = (0..i).map(|k| l[i][k] * x[k]).sum();
+        x[i] = (b[i] - s) / l[i][i];
+    }
+    x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -90,5 +122,24 @@ mod tests {
         }
         assert!(solve(vec![vec![1.0, 2.0], vec![2.0, 4.0]], vec![1.0, 2.0], 1e-13).is_none());
         assert!(invert(&[vec![1.0, 2.0], vec![2.0, 4.0]], 1e-12).is_none());
+    }
+
+    #[test]
+    fn cholesky_factors_and_whitens() {
+        let a = vec![vec![4.0, 2.0, 0.4], vec![2.0, 5.0, 1.0], vec![0.4, 1.0, 3.0]];
+        let l = cholesky(&a).unwrap();
+        for i in 0..3 {
+            for j in 0..3 {
+                let p: f64 = (0..3).map(|k| l[i][k] * l[j][k]).sum();
+                assert!((p - a[i][j]).abs() < 1e-12);
+            }
+        }
+        // b^T a^-1 b = |L^-1 b|^2.
+        let b = [1.0, -1.0, 2.0];
+        let w = forward_solve(&l, &b);
+        let inv = invert(&a, 1e-12).unwrap();
+        let q: f64 = (0..3).map(|i| (0..3).map(|j| b[i] * inv[i][j] * b[j]).sum::<f64>()).sum();
+        assert!((w.iter().map(|v| v * v).sum::<f64>() - q).abs() < 1e-12);
+        assert!(cholesky(&[vec![1.0, 2.0], vec![2.0, 1.0]]).is_none());
     }
 }

@@ -43,6 +43,9 @@ pub struct DevPoint {
     pub tau_s: f64,
     /// Number of terms averaged (Stable32's `#`).
     pub n: u64,
+    /// Samples between the starts of consecutive terms: 1 for the overlapping statistics, m for the
+    /// non-overlapping ones, m / S for an octave accumulator of stride S.
+    pub stride: u64,
     /// The deviation.
     pub dev: f64,
     /// Noise type used for the interval (power-law alpha of S_y); 0 when intervals are off.
@@ -72,6 +75,7 @@ pub(crate) fn row(
         m: m as u64,
         tau_s: m as f64 * tau0_s,
         n: est.n as u64,
+        stride: stat.stride(m) as u64,
         dev: est.dev,
         alpha: 0,
         noise_method: NoiseMethod::Default,

@@ -54,6 +54,7 @@ pub(crate) fn octave_points(
             m: 1u64 << k,
             tau_s: tau_s(m),
             n: pairs(k),
+            stride: ((1u64 << k) / shape.stride).max(1),
             dev,
             alpha,
             noise_method: NoiseMethod::Default,

@@ -1,0 +1,283 @@
+//! The confidence intervals of the fitted terms and the upper bounds of the terms the data cannot determine.
+//!
+//! Where the points carry their estimator's shape ([`EstimateShape`], as every octave OADEV does), the errors of
+//! the Allan variances are taken as they are: correlated across taus, with the covariance of
+//! [`avar_covariance`] at the fitted model.
+//!
+//! - **Fitted terms.** The estimate is the log-domain fit, whose weights treat each tau as independent. Its
+//!   covariance under the correlated errors is the sandwich `A^-1 J^T W S W J A^-1` (`J` the Jacobian of
+//!   `ln model` in the logs of the squares, `W` the fit's weights, `S` the covariance of `ln AVAR` plus the
+//!   model-error floor on its diagonal, `A = J^T W J`), inflated by the generalised reduced chi-square
+//!   `r^T S^-1 r / dof` when the model fits worse than `S` says. The interval is symmetric in the log of the
+//!   square, `theta exp(+-z sd_u)`, as a scale estimate's error is, and never reaches zero.
+//! - **Upper bounds.** A term the data do not determine is bounded by a generalised least squares fit in the
+//!   squares with the term forced in, unconstrained: `max(theta_j, 0) + z sd_j` at the one-sided confidence.
+//!   The covariance is taken with the term at the bound itself (the test of "theta_j = bound" is made under that
+//!   hypothesis), iterated to a fixed point; a bound computed with the term at zero would be too tight, since a
+//!   larger term also scatters its own estimates more.
+//!
+//! Points without a shape (a curve typed in by hand, a test) keep the independent-error intervals: the linear
+//! covariance of the squares from each point's own EDF.
+
+use super::covariance::{avar_covariance, EstimateShape};
+use super::{predict, FitOptions, FitPoint, Solution, Term, TermEstimate};
+use crate::stats::edf::chi2_quantile;
+use crate::stats::linalg::{cholesky, forward_solve, invert, solve};
+
+/// What the intervals are built from.
+pub(super) struct Inputs<'a> {
+    pub pts: &'a [FitPoint],
+    pub best: &'a Solution,
+    /// The squared model-error floor (relative, in AVAR).
+    pub e2: f64,
+    /// The independent variances of the points at the final model (the fallback's weights).
+    pub var_of: &'a [f64],
+    pub allowed: &'a [usize],
+    pub opts: &'a FitOptions,
+}
+
+/// The five terms' estimates, in [`Term`] order.
+pub(super) fn estimates(inp: &Inputs) -> Vec<TermEstimate> {
+    let z = normal_quantile(0.5 + inp.opts.confidence / 2.0);
+    let z1 = normal_quantile(inp.opts.confidence);
+    let correlated = Correlated::new(inp);
+    let best = inp.best;
+    let bw = inp.opts.bandwidth_hz;
+    let independent_inflation = {
+        let dof = inp.pts.len().saturating_sub(best.active.len());
+        if dof > 0 {
+            (best.chi2 / dof as f64).max(1.0)
+        } else {
+            1.0
+        }
+    };
+    let sandwich = correlated.as_ref().and_then(|c| c.sandwich(best));
+    Term::ALL
+        .iter()
+        .map(|&t| {
+            let j = t as usize;
+            let unit = t.unit();
+            let none = TermEstimate { value: None, lo: None, hi: None, unit, identifiable: false };
+            if let Some(pos) = best.active.iter().position(|&a| a == j) {
+                let theta = best.theta[j];
+                if let (Some(c), Some(sw)) = (&correlated, &sandwich) {
+                    // sd of ln(theta), inflated.
+                    let sd_u = (sw.cov_u[pos][pos] * sw.inflation).max(0.0).sqrt();
+                    if sd_u < 0.5 {
+                        return TermEstimate {
+                            value: Some(theta.sqrt()),
+                            lo: Some((theta * (-z * sd_u).exp()).sqrt()),
+                            hi: Some((theta * (z * sd_u).exp()).sqrt()),
+                            unit,
+                            identifiable: true,
+                        };
+                    }
+                    let hi = c.upper_bound(best, &best.active, j, z1, sw.inflation);
+                    return TermEstimate { hi, ..none };
+                }
+                let sd = (best.cov[pos][pos] * independent_inflation).max(0.0).sqrt();
+                let hi = (theta + z * sd).sqrt();
+                if theta > 2.0 * sd {
+                    TermEstimate {
+                        value: Some(theta.sqrt()),
+                        lo: Some((theta - z * sd).max(0.0).sqrt()),
+                        hi: Some(hi),
+                        unit,
+                        identifiable: true,
+                    }
+                } else {
+                    TermEstimate { hi: Some(hi), ..none }
+                }
+            } else if inp.allowed.contains(&j) {
+                // Not in the best model: bound it by a fit that forces it in.
+                let mut with = best.active.clone();
+                with.push(j);
+                with.sort_unstable();
+                let hi = match (&correlated, &sandwich) {
+                    (Some(c), Some(sw)) => c.upper_bound(best, &with, j, z1, sw.inflation),
+                    _ => forced_bound(inp.pts, inp.var_of, &with, j, z, independent_inflation, bw),
+                };
+                TermEstimate { hi, ..none }
+            } else {
+                none
+            }
+        })
+        .collect()
+}
+
+/// The correlated-error machinery: the points' shapes and sampling interval.
+struct Correlated<'a> {
+    inp: &'a Inputs<'a>,
+    shapes: Vec<EstimateShape>,
+    tau0_s: f64,
+}
+
+/// The covariance of the log-domain estimate and its inflation.
+struct Sandwich {
+    /// Covariance of ln(theta) of the active terms (in `active` order), not inflated.
+    cov_u: Vec<Vec<f64>>,
+    /// max(1, generalised reduced chi-square).
+    inflation: f64,
+}
+
+impl<'a> Correlated<'a> {
+    /// `None` unless every point has a shape and they agree on tau0.
+    fn new(inp: &'a Inputs<'a>) -> Option<Self> {
+        let shapes: Vec<EstimateShape> = inp.pts.iter().map(|p| p.shape).collect::<Option<_>>()?;
+        let tau0_s = inp.pts[0].tau_s / shapes[0].m;
+        let agree = inp.pts.iter().zip(&shapes).all(|(p, s)| (p.tau_s / s.m / tau0_s - 1.0).abs() < 1e-9);
+        (agree && tau0_s > 0.0 && tau0_s.is_finite()).then_some(Correlated { inp, shapes, tau0_s })
+    }
+
+    /// The covariance of ln AVAR at the model `theta` (plus the model-error floor), and the model's AVAR.
+    fn log_covariance(&self, theta: &[f64; 5]) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
+        let bw = self.inp.opts.bandwidth_hz;
+        let f: Vec<f64> = self.inp.pts.iter().map(|p| predict(theta, p.tau_s, bw)).collect();
+        if f.iter().any(|v| !(*v > 0.0 && v.is_finite())) {
+            return None;
+        }
+        let c = avar_covariance(&self.shapes, self.tau0_s, theta);
+        let s: Vec<Vec<f64>> = (0..f.len())
+            .map(|k| (0..f.len()).map(|l| c[k][l] / (f[k] * f[l]) + if k == l { self.inp.e2 } else { 0.0 }).collect())
+            .collect();
+        Some((s, f))
+    }
+
+    /// The sandwich covariance of the log-domain estimate (see the module doc).
+    fn sandwich(&self, best: &Solution) -> Option<Sandwich> {
+        let (s, f) = self.log_covariance(&best.theta)?;
+        let pts = self.inp.pts;
+        let bw = self.inp.opts.bandwidth_hz;
+        let p = best.active.len();
+        let w2: Vec<f64> = pts.iter().map(|q| 1.0 / (2.0 / q.edf + self.inp.e2)).collect();
+        let jac: Vec<Vec<f64>> = pts
+            .iter()
+            .zip(&f)
+            .map(|(q, fk)| {
+                best.active.iter().map(|&j| best.theta[j] * Term::ALL[j].basis_with(q.tau_s, bw) / fk).collect()
+            })
+            .collect();
+        let mut a = vec![vec![0.0; p]; p];
+        for (row, w) in jac.iter().zip(&w2) {
+            for i in 0..p {
+                for k in 0..p {
+                    a[i][k] += w * row[i] * row[k];
+                }
+            }
+        }
+        let a_inv = invert(&a, 1e-300)?;
+        // G = J^T W: p x n; middle = G S G^T.
+        let g: Vec<Vec<f64>> = (0..p).map(|i| jac.iter().zip(&w2).map(|(row, w)| w * row[i]).collect()).collect();
+        let n = pts.len();
+        let mut middle = vec![vec![0.0; p]; p];
+        for i in 0..p {
+            let gs: Vec<f64> = (0..n).map(|l| (0..n).map(|k| g[i][k] * s[k][l]).sum()).collect();
+            for k in 0..p {
+                middle[i][k] = (0..n).map(|l| gs[l] * g[k][l]).sum();
+            }
+        }
+        let cov_u: Vec<Vec<f64>> = (0..p)
+            .map(|i| {
+                (0..p)
+                    .map(|k| {
+                        (0..p).map(|x| (0..p).map(|y| a_inv[i][x] * middle[x][y] * a_inv[y][k]).sum::<f64>()).sum()
+                    })
+                    .collect()
+            })
+            .collect();
+        // Generalised chi-square of the log residuals.
+        let r: Vec<f64> = pts.iter().zip(&f).map(|(q, fk)| q.avar.ln() - fk.ln()).collect();
+        let l = cholesky(&s)?;
+        let chi2: f64 = forward_solve(&l, &r).iter().map(|v| v * v).sum();
+        let dof = n.saturating_sub(p);
+        let inflation = if dof > 0 { (chi2 / dof as f64).max(1.0) } else { 1.0 };
+        Some(Sandwich { cov_u, inflation })
+    }
+
+    /// The one-sided upper bound of term `j` from the generalised least squares over `with` (which holds `j`),
+    /// the covariance taken with the term at the bound (see the module doc).
+    fn upper_bound(&self, best: &Solution, with: &[usize], j: usize, z1: f64, inflation: f64) -> Option<f64> {
+        let mut model = best.theta;
+        let mut bound: Option<f64> = None;
+        for _ in 0..12 {
+            if let Some(b) = bound {
+                model[j] = b;
+            }
+            let (theta_j, sd_j) = self.gls_term(&model, with, j)?;
+            let next = theta_j.max(0.0) + z1 * (sd_j * sd_j * inflation).sqrt();
+            if !(next > 0.0 && next.is_finite()) {
+                return None;
+            }
+            let done = bound.is_some_and(|b| (next / b - 1.0).abs() < 1e-3);
+            bound = Some(next);
+            if done {
+                break;
+            }
+        }
+        bound.map(f64::sqrt)
+    }
+
+    /// The generalised least squares estimate of the squares over `with`, the covariance from the model `model`:
+    /// term `j`'s estimate and standard deviation.
+    fn gls_term(&self, model: &[f64; 5], with: &[usize], j: usize) -> Option<(f64, f64)> {
+        let (s, f) = self.log_covariance(model)?;
+        let l = cholesky(&s)?;
+        let bw = self.inp.opts.bandwidth_hz;
+        let pts = self.inp.pts;
+        // Relative rows: y / f = sum_c theta_c basis_c / f, whitened by L^-1.
+        let y = forward_solve(&l, &pts.iter().zip(&f).map(|(q, fk)| q.avar / fk).collect::<Vec<_>>());
+        let cols: Vec<Vec<f64>> = with
+            .iter()
+            .map(|&c| {
+                let col: Vec<f64> =
+                    pts.iter().zip(&f).map(|(q, fk)| Term::ALL[c].basis_with(q.tau_s, bw) / fk).collect();
+                forward_solve(&l, &col)
+            })
+            .collect();
+        let p = with.len();
+        let scale: Vec<f64> = cols.iter().map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt()).collect();
+        if scale.iter().any(|s| !(*s > 0.0 && s.is_finite())) {
+            return None;
+        }
+        let a: Vec<Vec<f64>> =
+            (0..p).map(|i| (0..p).map(|k| dot(&cols[i], &cols[k]) / (scale[i] * scale[k])).collect()).collect();
+        let b: Vec<f64> = (0..p).map(|i| dot(&cols[i], &y) / scale[i]).collect();
+        let pos = with.iter().position(|&c| c == j)?;
+        let theta = solve(a.clone(), b, 1e-12)?;
+        let inv = invert(&a, 1e-12)?;
+        Some((theta[pos] / scale[pos], inv[pos][pos].max(0.0).sqrt() / scale[pos]))
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// The independent-error upper bound of a term the best model leaves out: the weighted linear fit with it
+/// forced in, unconstrained.
+fn forced_bound(
+    pts: &[FitPoint],
+    var: &[f64],
+    with: &[usize],
+    j: usize,
+    z: f64,
+    inflation: f64,
+    bw: Option<f64>,
+) -> Option<f64> {
+    let (theta, cov) = super::weighted_lsq(pts, var, with, bw)?;
+    let pos = with.iter().position(|&a| a == j)?;
+    let sd = (cov[pos][pos] * inflation).max(0.0).sqrt();
+    let hi = theta[pos].max(0.0) + z * sd;
+    Some(hi.max(0.0).sqrt())
+}
+
+/// The standard normal quantile at `p` (0 < p < 1).
+pub(super) fn normal_quantile(p: f64) -> f64 {
+    // z = +-sqrt(chi2_1(|2p - 1|)).
+    let z = chi2_quantile((2.0 * p - 1.0).abs(), 1.0).sqrt();
+    if p >= 0.5 {
+        z
+    } else {
+        -z
+    }
+}
