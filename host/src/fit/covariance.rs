@@ -22,6 +22,10 @@
 //! Cov(A_a, A_b) = 2 sum_t sum_u R(s_a t - s_b u)^2 / (4 tau_a^2 tau_b^2 M_a M_b).
 //! ```
 //!
+//! `R` is linear in the squares, so the covariance is a quadratic form in them: [`CovarianceBasis`] sums the
+//! products of the terms' own cross-covariances once, and gives the matrix for any squares at the cost of a
+//! few multiplications (the upper bounds of the fit ask for it at many models).
+//!
 //! The double sum is a sum over lags weighted by how many pairs share each lag. It is summed term by term where
 //! the lags are few, and otherwise integrated piecewise with Gauss-Legendre between the points where `R` or
 //! the weight bends (`R` is a polynomial between them for white noise and random walk, so the rule is exact
@@ -42,58 +46,58 @@ pub struct EstimateShape {
     pub stride: f64,
 }
 
-/// The noise of the angle: the squares of the five terms' coefficients (ramp unused).
-#[derive(Clone, Copy, Debug)]
-struct Angle {
-    q2: f64,
-    n2: f64,
-    b2: f64,
-    k2: f64,
-}
+/// The noise terms with a covariance, in [`Term`] order: Q, N, B, K.
+const NOISE_TERMS: usize = 4;
 
-impl Angle {
-    /// The continuous part of the generalised covariance, deg^2, at lag `h` seconds.
-    fn g(&self, h: f64) -> f64 {
-        let a = h.abs();
-        let flicker = if a > 0.0 { self.b2 / (2.0 * std::f64::consts::PI) * a * a * a.ln() } else { 0.0 };
-        -0.5 * self.n2 * a + flicker + self.k2 * a * a * a / 12.0
-    }
+/// The pairs (t, u), t <= u, of noise terms, in the order of a basis entry.
+const TERM_PAIRS: [(usize, usize); 10] =
+    [(0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3)];
+
+/// The continuous part of each term's generalised covariance for a unit square, deg^2, at lag `h` seconds:
+/// N, B and K (angle quantization is a spike at zero, handled apart).
+#[inline]
+fn g_terms(h: f64) -> [f64; 3] {
+    let a = h.abs();
+    let flicker = if a > 0.0 { a * a * a.ln() / (2.0 * std::f64::consts::PI) } else { 0.0 };
+    [-0.5 * a, flicker, a * a * a / 12.0]
 }
 
 const C: [f64; 3] = [1.0, -2.0, 1.0];
 
 /// The pair of estimates whose covariance is summed.
-struct Pair<'a> {
-    angle: &'a Angle,
+struct Pair {
     tau0: f64,
     ma: f64,
     mb: f64,
 }
 
-impl Pair<'_> {
-    /// The cross-covariance of the two second differences at lag `l` samples (continuous part).
-    fn r(&self, l: f64) -> f64 {
-        let mut s = 0.0;
+impl Pair {
+    /// Each term's cross-covariance of the two second differences at lag `l` samples, for unit squares
+    /// (Q, N, B, K); `with_q` adds the quantization spike where a pair of the nine points coincides.
+    fn r(&self, l: f64, with_q: bool) -> [f64; NOISE_TERMS] {
+        let mut r = [0.0; NOISE_TERMS];
         for (k, ck) in C.iter().enumerate() {
             for (j, cj) in C.iter().enumerate() {
-                s += ck * cj * self.angle.g((l + k as f64 * self.ma - j as f64 * self.mb) * self.tau0);
-            }
-        }
-        s
-    }
-
-    /// The angle-quantization part of the cross-covariance at lag `l`: nonzero where a pair of the nine points
-    /// coincides.
-    fn r_q(&self, l: f64) -> f64 {
-        let mut s = 0.0;
-        for (k, ck) in C.iter().enumerate() {
-            for (j, cj) in C.iter().enumerate() {
-                if (l + k as f64 * self.ma - j as f64 * self.mb).abs() < 0.5 {
-                    s += ck * cj * self.angle.q2;
+                let lag = l + k as f64 * self.ma - j as f64 * self.mb;
+                let c = ck * cj;
+                let g = g_terms(lag * self.tau0);
+                r[1] += c * g[0];
+                r[2] += c * g[1];
+                r[3] += c * g[2];
+                if with_q && lag.abs() < 0.5 {
+                    r[0] += c;
                 }
             }
         }
-        s
+        r
+    }
+}
+
+/// The products of the terms' cross-covariances at one lag, weighted, added to `acc`.
+#[inline]
+fn accumulate(acc: &mut [f64; 10], r: &[f64; NOISE_TERMS], weight: f64) {
+    for (a, &(t, u)) in acc.iter_mut().zip(&TERM_PAIRS) {
+        *a += weight * r[t] * r[u];
     }
 }
 
@@ -120,101 +124,134 @@ const DIRECT_SPAN: f64 = 512.0;
 /// The flicker term's tails are followed out to this many core spans on each side.
 const FLICKER_TAIL_SPANS: f64 = 32.0;
 
-/// `sum_t sum_u R(s_a t - s_b u)^2`: the sum of squared cross-covariances over the pairs of differences.
-fn pair_sum(pair: &Pair, a: &EstimateShape, b: &EstimateShape) -> f64 {
+/// Gauss-Legendre pieces per part between breakpoints.
+const PIECES: usize = 2;
+
+/// `sum_t sum_u R_x(s_a t - s_b u) R_y(s_a t - s_b u)` for every pair of terms (x, y): the sums of products of
+/// cross-covariances over the pairs of differences.
+fn pair_sums(pair: &Pair, a: &EstimateShape, b: &EstimateShape) -> [f64; 10] {
     let len_a = a.terms * a.stride;
     let len_b = b.terms * b.stride;
     let (ma, mb) = (pair.ma, pair.mb);
     // The core: lags where the two differences share points, outside which R vanishes but for flicker.
     let (lo, hi) = (-2.0 * ma, 2.0 * mb);
     let weight = |l: f64| overlap(l, len_a, len_b);
-    let (mut s, tail_lo, tail_hi) = if a.stride == 1.0 && b.stride == 1.0 && hi - lo <= DIRECT_SPAN {
-        let mut s = 0.0;
+    let mut acc = [0.0; 10];
+    let (tail_lo, tail_hi) = if a.stride == 1.0 && b.stride == 1.0 && hi - lo <= DIRECT_SPAN {
         let mut l = lo.max(-len_b);
         while l <= hi.min(len_a) {
-            let r = pair.r(l) + pair.r_q(l);
-            s += r * r * weight(l);
+            accumulate(&mut acc, &pair.r(l, true), weight(l));
             l += 1.0;
         }
-        (s, lo - 0.5, hi + 0.5)
+        (lo - 0.5, hi + 0.5)
     } else {
         let mut cuts: Vec<f64> = (0..3).flat_map(|k| (0..3).map(move |j| j as f64 * mb - k as f64 * ma)).collect();
-        let mut s = integrate(pair, lo, hi, &mut cuts, len_a, len_b);
-        // Angle quantization: a few isolated lags, where it adds 2 R R_q + R_q^2.
-        if pair.angle.q2 > 0.0 {
-            cuts.dedup_by(|x, y| (*x - *y).abs() < 0.5);
-            for &l in &cuts {
-                let rq = pair.r_q(l);
-                s += (2.0 * pair.r(l) * rq + rq * rq) * weight(l);
+        integrate(&mut acc, pair, lo, hi, &cuts, len_a, len_b);
+        // Angle quantization: a spike at a few isolated lags, summed there.
+        cuts.sort_by(f64::total_cmp);
+        cuts.dedup_by(|x, y| (*x - *y).abs() < 0.5);
+        for &l in &cuts {
+            let r = pair.r(l, true);
+            let w = weight(l);
+            for (x, &(t, u)) in acc.iter_mut().zip(&TERM_PAIRS) {
+                if t == 0 {
+                    // R_q sits in the Q component only: its products with every term at this lag.
+                    *x += w * r[0] * r[u];
+                }
             }
         }
-        (s, lo, hi)
+        (lo, hi)
     };
-    if pair.angle.b2 > 0.0 {
-        let span = hi - lo;
-        let mut t = 0.0;
-        let mut step = span;
-        while t < FLICKER_TAIL_SPANS * span {
-            s += integrate(pair, tail_lo - t - step, tail_lo - t, &mut Vec::new(), len_a, len_b);
-            s += integrate(pair, tail_hi + t, tail_hi + t + step, &mut Vec::new(), len_a, len_b);
-            t += step;
-            step *= 2.0;
-        }
+    let span = hi - lo;
+    let mut t = 0.0;
+    let mut step = span;
+    while t < FLICKER_TAIL_SPANS * span {
+        integrate(&mut acc, pair, tail_lo - t - step, tail_lo - t, &[], len_a, len_b);
+        integrate(&mut acc, pair, tail_hi + t, tail_hi + t + step, &[], len_a, len_b);
+        t += step;
+        step *= 2.0;
     }
-    s / (a.stride * b.stride)
+    let s = a.stride * b.stride;
+    acc.map(|v| v / s)
 }
 
-/// The integral of `R(l)^2 overlap(l)` over `[x0, x1]`, split at `cuts` (sorted in place) and where the overlap
-/// weight bends, Gauss-Legendre on four pieces of each part.
-fn integrate(pair: &Pair, x0: f64, x1: f64, cuts: &mut Vec<f64>, len_a: f64, len_b: f64) -> f64 {
+/// Adds the integral of the products `R_x(l) R_y(l) overlap(l)` over `[x0, x1]` to `acc`, split at `cuts` and
+/// where the overlap weight bends, Gauss-Legendre on [`PIECES`] pieces of each part (continuous terms only).
+fn integrate(acc: &mut [f64; 10], pair: &Pair, x0: f64, x1: f64, cuts: &[f64], len_a: f64, len_b: f64) {
     let (x0, x1) = (x0.max(-len_b), x1.min(len_a));
     if x1 <= x0 {
-        return 0.0;
+        return;
     }
     let mut at: Vec<f64> = cuts.iter().copied().chain([0.0, len_a - len_b]).filter(|c| *c > x0 && *c < x1).collect();
     at.push(x0);
     at.push(x1);
     at.sort_by(f64::total_cmp);
     at.dedup();
-    cuts.sort_by(f64::total_cmp);
-    let mut s = 0.0;
     for w in at.windows(2) {
-        let h = (w[1] - w[0]) / 4.0;
-        for p in 0..4 {
+        let h = (w[1] - w[0]) / PIECES as f64;
+        for p in 0..PIECES {
             let c = w[0] + h * (p as f64 + 0.5);
             for (x, wt) in GL8 {
                 let l = c + 0.5 * h * x;
-                let r = pair.r(l);
-                s += 0.5 * h * wt * r * r * overlap(l, len_a, len_b);
+                accumulate(acc, &pair.r(l, false), 0.5 * h * wt * overlap(l, len_a, len_b));
             }
         }
     }
-    s
+}
+
+/// The covariance of Allan variance estimates as a quadratic form in the squares: per pair of estimates, the
+/// sums of products of the terms' cross-covariances (see the module doc).
+#[derive(Clone, Debug)]
+pub struct CovarianceBasis {
+    n: usize,
+    /// Row-major upper triangle of the matrix: per entry, the ten products' sums, normalised.
+    entries: Vec<[f64; 10]>,
+}
+
+impl CovarianceBasis {
+    /// The basis for estimates of the given shapes in a record sampled every `tau0_s` seconds.
+    pub fn new(shapes: &[EstimateShape], tau0_s: f64) -> Self {
+        let n = shapes.len();
+        let mut entries = Vec::with_capacity(n * (n + 1) / 2);
+        for i in 0..n {
+            for j in i..n {
+                let (a, b) = (&shapes[i], &shapes[j]);
+                let pair = Pair { tau0: tau0_s, ma: a.m, mb: b.m };
+                let ta = a.m * tau0_s;
+                let tb = b.m * tau0_s;
+                let norm = 2.0 / (4.0 * ta * ta * tb * tb * a.terms * b.terms);
+                entries.push(pair_sums(&pair, a, b).map(|v| v * norm));
+            }
+        }
+        CovarianceBasis { n, entries }
+    }
+
+    /// The covariance matrix, (deg/s)^4, for the squares `squares` (Q^2, N^2, B^2, K^2, R^2 in [`Term`] order).
+    pub fn at(&self, squares: &[f64; 5]) -> Vec<Vec<f64>> {
+        let th = [
+            squares[Term::Q as usize],
+            squares[Term::N as usize],
+            squares[Term::B as usize],
+            squares[Term::K as usize],
+        ];
+        let coef: [f64; 10] = TERM_PAIRS.map(|(t, u)| th[t] * th[u] * if t == u { 1.0 } else { 2.0 });
+        let mut cov = vec![vec![0.0; self.n]; self.n];
+        let mut e = self.entries.iter();
+        for i in 0..self.n {
+            for j in i..self.n {
+                let v: f64 = e.next().expect("an entry per pair").iter().zip(&coef).map(|(s, c)| s * c).sum();
+                cov[i][j] = v;
+                cov[j][i] = v;
+            }
+        }
+        cov
+    }
 }
 
 /// The covariance matrix of Allan variance estimates of the given shapes, (deg/s)^4, for a record sampled every
 /// `tau0_s` seconds of a gyro with the fitted squares `squares` (Q^2, N^2, B^2, K^2, R^2 in [`Term`] order).
 pub fn avar_covariance(shapes: &[EstimateShape], tau0_s: f64, squares: &[f64; 5]) -> Vec<Vec<f64>> {
-    let angle = Angle {
-        q2: squares[Term::Q as usize],
-        n2: squares[Term::N as usize],
-        b2: squares[Term::B as usize],
-        k2: squares[Term::K as usize],
-    };
-    let n = shapes.len();
-    let mut cov = vec![vec![0.0; n]; n];
-    for i in 0..n {
-        for j in i..n {
-            let (a, b) = (&shapes[i], &shapes[j]);
-            let pair = Pair { angle: &angle, tau0: tau0_s, ma: a.m, mb: b.m };
-            let ta = a.m * tau0_s;
-            let tb = b.m * tau0_s;
-            let c = 2.0 * pair_sum(&pair, a, b) / (4.0 * ta * ta * tb * tb * a.terms * b.terms);
-            cov[i][j] = c;
-            cov[j][i] = c;
-        }
-    }
-    cov
+    CovarianceBasis::new(shapes, tau0_s).at(squares)
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //!
 //! Where the points carry their estimator's shape ([`EstimateShape`], as every octave OADEV does), the errors of
 //! the Allan variances are taken as they are: correlated across taus, with the covariance of
-//! [`avar_covariance`] at the fitted model.
+//! [`super::avar_covariance`] at the fitted model.
 //!
 //! - **Fitted terms.** The estimate is the log-domain fit, whose weights treat each tau as independent. Its
 //!   covariance under the correlated errors is the sandwich `A^-1 J^T W S W J A^-1` (`J` the Jacobian of
@@ -19,7 +19,7 @@
 //! Points without a shape (a curve typed in by hand, a test) keep the independent-error intervals: the linear
 //! covariance of the squares from each point's own EDF.
 
-use super::covariance::{avar_covariance, EstimateShape};
+use super::covariance::{CovarianceBasis, EstimateShape};
 use super::{predict, FitOptions, FitPoint, Solution, Term, TermEstimate};
 use crate::stats::edf::chi2_quantile;
 use crate::stats::linalg::{cholesky, forward_solve, invert, solve};
@@ -105,11 +105,10 @@ pub(super) fn estimates(inp: &Inputs) -> Vec<TermEstimate> {
         .collect()
 }
 
-/// The correlated-error machinery: the points' shapes and sampling interval.
+/// The correlated-error machinery: the covariance basis of the points' estimates.
 struct Correlated<'a> {
     inp: &'a Inputs<'a>,
-    shapes: Vec<EstimateShape>,
-    tau0_s: f64,
+    basis: CovarianceBasis,
 }
 
 /// The covariance of the log-domain estimate and its inflation.
@@ -126,7 +125,8 @@ impl<'a> Correlated<'a> {
         let shapes: Vec<EstimateShape> = inp.pts.iter().map(|p| p.shape).collect::<Option<_>>()?;
         let tau0_s = inp.pts[0].tau_s / shapes[0].m;
         let agree = inp.pts.iter().zip(&shapes).all(|(p, s)| (p.tau_s / s.m / tau0_s - 1.0).abs() < 1e-9);
-        (agree && tau0_s > 0.0 && tau0_s.is_finite()).then_some(Correlated { inp, shapes, tau0_s })
+        (agree && tau0_s > 0.0 && tau0_s.is_finite())
+            .then(|| Correlated { inp, basis: CovarianceBasis::new(&shapes, tau0_s) })
     }
 
     /// The covariance of ln AVAR at the model `theta` (plus the model-error floor), and the model's AVAR.
@@ -136,7 +136,7 @@ impl<'a> Correlated<'a> {
         if f.iter().any(|v| !(*v > 0.0 && v.is_finite())) {
             return None;
         }
-        let c = avar_covariance(&self.shapes, self.tau0_s, theta);
+        let c = self.basis.at(theta);
         let s: Vec<Vec<f64>> = (0..f.len())
             .map(|k| (0..f.len()).map(|l| c[k][l] / (f[k] * f[l]) + if k == l { self.inp.e2 } else { 0.0 }).collect())
             .collect();

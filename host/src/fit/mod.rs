@@ -31,7 +31,7 @@ mod intervals;
 
 use serde::Serialize;
 
-pub use covariance::{avar_covariance, EstimateShape};
+pub use covariance::{avar_covariance, CovarianceBasis, EstimateShape};
 
 use crate::stats::DevPoint;
 
