@@ -7,11 +7,13 @@
 //!
 //! J. Timmer and M. Koenig, "On generating power law noise", Astron. Astrophys. 300, 707 (1995).
 
+use std::sync::{Arc, Mutex, OnceLock};
+
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use rustfft::num_complex::Complex;
-use rustfft::FftPlanner;
+use rustfft::{Fft, FftPlanner};
 
 /// (2 ln 2 / pi): the Allan variance floor of flicker rate noise is this times B^2.
 const FLICKER_AVAR_FACTOR: f64 = 2.0 * std::f64::consts::LN_2 / std::f64::consts::PI;
@@ -87,27 +89,47 @@ fn flicker(fs_hz: f64, n: usize, b: f64, rng: &mut StdRng) -> Vec<f64> {
         *h = Complex::new(s * normal(rng), s * normal(rng));
     }
     let nyquist = sd(m) * normal(rng);
-    let mut x = real_inverse(half, nyquist);
-    x.truncate(n);
-    x
+    real_inverse(half, nyquist, n)
 }
 
-/// The real inverse DFT `x_j = (1/L) sum_k X_k e^(2 pi i j k / L)`, j = 0 .. L-1, of a Hermitian spectrum given
-/// by `X_0 .. X_(L/2 - 1)` (`half`, L/2 a power of two) and the real Nyquist amplitude `X_(L/2)`, with one complex
-/// FFT of length L/2: `z_j = x_(2j) + i x_(2j+1)` has the DFT `Z_k = E_k + i O_k`, with
-/// `E_k = (X_k + conj X_(L/2-k)) / 2` and `O_k = (X_k - conj X_(L/2-k)) e^(2 pi i k / L) / 2` the DFTs of the
-/// even and odd samples. The work is done in `half`'s memory.
-fn real_inverse(mut half: Vec<Complex<f64>>, nyquist: f64) -> Vec<f64> {
+/// The inverse FFTs, planned once per length for all records.
+fn inverse_fft(len: usize) -> Arc<dyn Fft<f64>> {
+    static PLANNER: OnceLock<Mutex<FftPlanner<f64>>> = OnceLock::new();
+    PLANNER.get_or_init(|| Mutex::new(FftPlanner::new())).lock().unwrap().plan_fft_inverse(len)
+}
+
+/// `e^(2 pi i k / l)` for k = 0 .. l/2 from two tables of `e^(2 pi i j / l)`: j below [`FINE`], and j a
+/// multiple of it (one complex product per k instead of a sine and a cosine).
+struct Twiddles {
+    fine: Vec<Complex<f64>>,
+    coarse: Vec<Complex<f64>>,
+}
+
+const FINE: usize = 1024;
+
+impl Twiddles {
+    fn new(l: usize) -> Self {
+        let at = |j: usize| Complex::from_polar(1.0, 2.0 * std::f64::consts::PI * j as f64 / l as f64);
+        Twiddles { fine: (0..FINE).map(at).collect(), coarse: (0..=l / 2 / FINE).map(|c| at(c * FINE)).collect() }
+    }
+
+    fn get(&self, k: usize) -> Complex<f64> {
+        self.coarse[k / FINE] * self.fine[k % FINE]
+    }
+}
+
+/// The first `n` samples of the real inverse DFT `x_j = (1/L) sum_k X_k e^(2 pi i j k / L)`, j = 0 .. L-1, of a
+/// Hermitian spectrum given by `X_0 .. X_(L/2 - 1)` (`half`, L/2 a power of two) and the real Nyquist amplitude
+/// `X_(L/2)`, with one complex FFT of length L/2: `z_j = x_(2j) + i x_(2j+1)` has the DFT `Z_k = E_k + i O_k`,
+/// with `E_k = (X_k + conj X_(L/2-k)) / 2` and `O_k = (X_k - conj X_(L/2-k)) e^(2 pi i k / L) / 2` the DFTs of
+/// the even and odd samples. The work is done in `half`'s memory.
+fn real_inverse(mut half: Vec<Complex<f64>>, nyquist: f64, n: usize) -> Vec<f64> {
     let m = half.len();
-    let l = 2 * m;
-    let twiddle = |k: usize| {
-        let (s, c) = (2.0 * std::f64::consts::PI * k as f64 / l as f64).sin_cos();
-        Complex::new(c, s)
-    };
+    let twiddles = Twiddles::new(2 * m);
     let i = Complex::new(0.0, 1.0);
     let z = |a: Complex<f64>, b: Complex<f64>, k: usize| {
         let e = (a + b.conj()) * 0.5;
-        let o = (a - b.conj()) * twiddle(k) * 0.5;
+        let o = (a - b.conj()) * twiddles.get(k) * 0.5;
         e + i * o
     };
     // k = 0 pairs with the Nyquist amplitude; k and m - k pair with each other (k = m/2 with itself).
@@ -117,13 +139,14 @@ fn real_inverse(mut half: Vec<Complex<f64>>, nyquist: f64) -> Vec<f64> {
         half[k] = z(a, b, k);
         half[m - k] = z(b, a, m - k);
     }
-    FftPlanner::<f64>::new().plan_fft_inverse(m).process(&mut half);
+    inverse_fft(m).process(&mut half);
     let scale = 1.0 / m as f64;
-    let mut x = Vec::with_capacity(l);
-    for c in half {
+    let mut x = Vec::with_capacity(n + 1);
+    for c in &half[..n.div_ceil(2)] {
         x.push(c.re * scale);
         x.push(c.im * scale);
     }
+    x.truncate(n);
     x
 }
 
@@ -165,28 +188,43 @@ mod tests {
         sum / (2.0 * (l * l) as f64)
     }
 
-    /// The half-length real inverse equals the definition, a direct O(L^2) inverse DFT of the full Hermitian
-    /// spectrum, on a random Hermitian spectrum of L = 32 (X_0 and X_16 real).
+    /// The half-length real inverse equals the full-length complex inverse DFT of the Hermitian spectrum (by
+    /// definition, O(L^2), for L = 32; by rustfft for L = 8192, where the coarse twiddle table is used), on random
+    /// spectra with X_0 and X_(L/2) real; an odd `n` keeps the first n samples.
     #[test]
     fn real_inverse_is_the_inverse_dft() {
-        let m = 16;
         let mut rng = stream(7, 0);
-        let mut half: Vec<Complex<f64>> = (0..m).map(|_| Complex::new(normal(&mut rng), normal(&mut rng))).collect();
-        half[0].im = 0.0;
-        let nyquist = normal(&mut rng);
-        let l = 2 * m;
-        let full = |k: usize| match k {
-            k if k < m => half[k],
-            k if k == m => Complex::new(nyquist, 0.0),
-            k => half[l - k].conj(),
-        };
-        let x = real_inverse(half.clone(), nyquist);
-        for (j, &xj) in x.iter().enumerate() {
-            let want: Complex<f64> = (0..l)
-                .map(|k| full(k) * Complex::from_polar(1.0, 2.0 * std::f64::consts::PI * (j * k) as f64 / l as f64))
-                .sum::<Complex<f64>>()
-                / l as f64;
-            assert!((xj - want.re).abs() < 1e-12 && want.im.abs() < 1e-12, "x[{j}] = {xj}, want {want}");
+        for m in [16, 4096] {
+            let mut half: Vec<Complex<f64>> =
+                (0..m).map(|_| Complex::new(normal(&mut rng), normal(&mut rng))).collect();
+            half[0].im = 0.0;
+            let nyquist = normal(&mut rng);
+            let l = 2 * m;
+            let mut full: Vec<Complex<f64>> = (0..l)
+                .map(|k| match k {
+                    k if k < m => half[k],
+                    k if k == m => Complex::new(nyquist, 0.0),
+                    k => half[l - k].conj(),
+                })
+                .collect();
+            let want: Vec<Complex<f64>> = if m == 16 {
+                (0..l)
+                    .map(|j| {
+                        let w =
+                            |k: usize| Complex::from_polar(1.0, 2.0 * std::f64::consts::PI * (j * k) as f64 / l as f64);
+                        (0..l).map(|k| full[k] * w(k)).sum::<Complex<f64>>() / l as f64
+                    })
+                    .collect()
+            } else {
+                FftPlanner::new().plan_fft_inverse(l).process(&mut full);
+                full.iter().map(|c| c / l as f64).collect()
+            };
+            let x = real_inverse(half.clone(), nyquist, l);
+            assert_eq!(x.len(), l);
+            for (j, (&xj, w)) in x.iter().zip(&want).enumerate() {
+                assert!((xj - w.re).abs() < 1e-12 && w.im.abs() < 1e-12, "L {l}: x[{j}] = {xj}, want {w}");
+            }
+            assert_eq!(real_inverse(half, nyquist, 7), x[..7]);
         }
     }
 
