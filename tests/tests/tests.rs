@@ -3,9 +3,11 @@
 mod acc_allantools;
 mod corruption;
 mod demo_bench;
+mod fft_gyro;
 mod fit_coverage;
 mod gap_real;
 mod gap_withheld;
+mod interval_coverage;
 mod pipeline;
 mod qemu;
 mod reference_adis;
