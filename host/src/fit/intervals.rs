@@ -4,12 +4,17 @@
 //! the Allan variances are taken as they are: correlated across taus, with the covariance of
 //! [`super::avar_covariance`] at the fitted model.
 //!
-//! - **Fitted terms.** The estimate is the log-domain fit, whose weights treat each tau as independent. Its
-//!   covariance under the correlated errors is the sandwich `A^-1 J^T W S W J A^-1` (`J` the Jacobian of
-//!   `ln model` in the logs of the squares, `W` the fit's weights, `S` the covariance of `ln AVAR` plus the
-//!   model-error floor on its diagonal, `A = J^T W J`), inflated by the generalised reduced chi-square
-//!   `r^T S^-1 r / dof` when the model fits worse than `S` says. The interval is symmetric in the log of the
-//!   square, `theta exp(+-z sd_u)`, as a scale estimate's error is, and never reaches zero.
+//! - **Fitted terms.** The estimate is the log-domain fit, whose weights treat each tau as independent (with the
+//!   fit's model-error floor, a weighting device that keeps the first octaves from deciding the whole curve).
+//!   Its covariance under the correlated errors is the sandwich `A^-1 J^T W S W J A^-1`: `J` the Jacobian of
+//!   `ln model` in the logs of the squares, `W` the fit's weights, `S` the statistical covariance of `ln AVAR`,
+//!   `A = J^T W J`. Where the model fits worse than `S` says, it is inflated by the generalised reduced
+//!   chi-square `r^T S^-1 r / dof` (the Birge ratio), so a misfit widens the intervals by what it shows and no
+//!   more. The interval is in the log of the square and found by test inversion: its ends are the values `v`
+//!   with `ln theta - ln v = -+ z sd_u(v)`, the spread taken as if the term were `v`, the other terms as
+//!   fitted. A term estimated high by chance also looks more precise than it is (its share of the curve is
+//!   larger), so a spread taken at the estimate alone draws the lower end too high; the inverted ends are where
+//!   the truth would have to be for the estimate to lie at the edge of its own spread.
 //! - **Upper bounds.** A term the data do not determine is bounded by a generalised least squares fit in the
 //!   squares with the term forced in, unconstrained: `max(theta_j, 0) + z sd_j` at the one-sided confidence.
 //!   The covariance is taken with the term at the bound itself (the test of "theta_j = bound" is made under that
@@ -23,6 +28,10 @@ use super::covariance::{CovarianceBasis, EstimateShape};
 use super::{predict, FitOptions, FitPoint, Solution, Term, TermEstimate};
 use crate::stats::edf::chi2_quantile;
 use crate::stats::linalg::{cholesky, forward_solve, invert, solve};
+
+/// A relative ridge on the diagonal of the covariance of ln AVAR, so that neighbouring octaves of a long
+/// record, correlated almost to one, still factor.
+const RIDGE: f64 = 1e-9;
 
 /// What the intervals are built from.
 pub(super) struct Inputs<'a> {
@@ -64,10 +73,12 @@ pub(super) fn estimates(inp: &Inputs) -> Vec<TermEstimate> {
                     // sd of ln(theta), inflated.
                     let sd_u = (sw.cov_u[pos][pos] * sw.inflation).max(0.0).sqrt();
                     if sd_u < 0.5 {
+                        let lo = c.interval_end(best, j, pos, -z, sw.inflation, sd_u);
+                        let hi = c.interval_end(best, j, pos, z, sw.inflation, sd_u);
                         return TermEstimate {
                             value: Some(theta.sqrt()),
-                            lo: Some((theta * (-z * sd_u).exp()).sqrt()),
-                            hi: Some((theta * (z * sd_u).exp()).sqrt()),
+                            lo: Some(lo.sqrt()),
+                            hi: Some(hi.sqrt()),
                             unit,
                             identifiable: true,
                         };
@@ -129,7 +140,8 @@ impl<'a> Correlated<'a> {
             .then(|| Correlated { inp, basis: CovarianceBasis::new(&shapes, tau0_s) })
     }
 
-    /// The covariance of ln AVAR at the model `theta` (plus the model-error floor), and the model's AVAR.
+    /// The covariance of ln AVAR at the model `theta` (its statistical part, from the estimators alone), and
+    /// the model's AVAR.
     fn log_covariance(&self, theta: &[f64; 5]) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
         let bw = self.inp.opts.bandwidth_hz;
         let f: Vec<f64> = self.inp.pts.iter().map(|p| predict(theta, p.tau_s, bw)).collect();
@@ -138,24 +150,36 @@ impl<'a> Correlated<'a> {
         }
         let c = self.basis.at(theta);
         let s: Vec<Vec<f64>> = (0..f.len())
-            .map(|k| (0..f.len()).map(|l| c[k][l] / (f[k] * f[l]) + if k == l { self.inp.e2 } else { 0.0 }).collect())
+            .map(|k| (0..f.len()).map(|l| c[k][l] / (f[k] * f[l]) * if k == l { 1.0 + RIDGE } else { 1.0 }).collect())
             .collect();
         Some((s, f))
     }
 
-    /// The sandwich covariance of the log-domain estimate (see the module doc).
+    /// The sandwich covariance of the log-domain estimate (see the module doc) and its inflation, at the fit.
     fn sandwich(&self, best: &Solution) -> Option<Sandwich> {
-        let (s, f) = self.log_covariance(&best.theta)?;
+        let (cov_u, s, f) = self.sandwich_at(&best.theta, &best.active)?;
+        // Generalised chi-square of the log residuals.
+        let r: Vec<f64> = self.inp.pts.iter().zip(&f).map(|(q, fk)| q.avar.ln() - fk.ln()).collect();
+        let l = cholesky(&s)?;
+        let chi2: f64 = forward_solve(&l, &r).iter().map(|v| v * v).sum();
+        let dof = self.inp.pts.len().saturating_sub(best.active.len());
+        let inflation = if dof > 0 { (chi2 / dof as f64).max(1.0) } else { 1.0 };
+        Some(Sandwich { cov_u, inflation })
+    }
+
+    /// The sandwich covariance of ln(theta) over `active` were the model `theta` (not inflated), with the
+    /// covariance of ln AVAR and the model's AVAR it was computed from.
+    #[allow(clippy::type_complexity)]
+    fn sandwich_at(&self, theta: &[f64; 5], active: &[usize]) -> Option<(Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<f64>)> {
+        let (s, f) = self.log_covariance(theta)?;
         let pts = self.inp.pts;
         let bw = self.inp.opts.bandwidth_hz;
-        let p = best.active.len();
+        let p = active.len();
         let w2: Vec<f64> = pts.iter().map(|q| 1.0 / (2.0 / q.edf + self.inp.e2)).collect();
         let jac: Vec<Vec<f64>> = pts
             .iter()
             .zip(&f)
-            .map(|(q, fk)| {
-                best.active.iter().map(|&j| best.theta[j] * Term::ALL[j].basis_with(q.tau_s, bw) / fk).collect()
-            })
+            .map(|(q, fk)| active.iter().map(|&j| theta[j] * Term::ALL[j].basis_with(q.tau_s, bw) / fk).collect())
             .collect();
         let mut a = vec![vec![0.0; p]; p];
         for (row, w) in jac.iter().zip(&w2) {
@@ -185,13 +209,27 @@ impl<'a> Correlated<'a> {
                     .collect()
             })
             .collect();
-        // Generalised chi-square of the log residuals.
-        let r: Vec<f64> = pts.iter().zip(&f).map(|(q, fk)| q.avar.ln() - fk.ln()).collect();
-        let l = cholesky(&s)?;
-        let chi2: f64 = forward_solve(&l, &r).iter().map(|v| v * v).sum();
-        let dof = n.saturating_sub(p);
-        let inflation = if dof > 0 { (chi2 / dof as f64).max(1.0) } else { 1.0 };
-        Some(Sandwich { cov_u, inflation })
+        Some((cov_u, s, f))
+    }
+
+    /// One end of the interval of fitted term `j` (at `pos` in the active set) by test inversion: the value `v`
+    /// with `ln theta_j - ln v = -+ z sd_u(v)`, the spread taken as if the term were `v` (a term estimated high
+    /// by chance looks more precise than it is; the lower end is where the truth would have to be for that).
+    fn interval_end(&self, best: &Solution, j: usize, pos: usize, z_signed: f64, inflation: f64, sd_u: f64) -> f64 {
+        let theta = best.theta[j];
+        let mut v = theta * (z_signed * sd_u).exp();
+        for _ in 0..8 {
+            let mut model = best.theta;
+            model[j] = v;
+            let Some((cov, _, _)) = self.sandwich_at(&model, &best.active) else { break };
+            let next = theta * (z_signed * (cov[pos][pos] * inflation).max(0.0).sqrt()).exp();
+            let done = (next / v - 1.0).abs() < 1e-3;
+            v = next;
+            if done {
+                break;
+            }
+        }
+        v
     }
 
     /// The one-sided upper bound of term `j` from the generalised least squares over `with` (which holds `j`),

@@ -17,11 +17,10 @@
 //!    terms (Levenberg-Marquardt in the logs of the squares, from the seed), and the subset is chosen by AIC
 //!    (`chi2 + 2 p`). A model that overshoots a noisy tail cannot look good here, as it can in the linear weights.
 //!
-//! Each coefficient gets a confidence interval from the covariance of the squares (inflated by the reduced
-//! chi-square when the model fits worse than the error bars say), mapped through the square root. A term whose
-//! square is not at least twice its standard error, after that inflation, is *not identifiable*: the data
-//! cannot tell it from zero or from its neighbours (B and K trade off when neither dominates anywhere), and it
-//! is reported as such, with no value.
+//! Each coefficient gets a confidence interval that accounts for the correlation of the Allan variance errors
+//! across taus ([`covariance`], [`intervals`]). A term whose square is not at least twice its standard error is
+//! *not identifiable*: the data cannot tell it from zero or from its neighbours (B and K trade off when neither
+//! dominates anywhere), and it is reported as such, with no value and a one-sided upper bound.
 //!
 //! The classic graphical readouts are given beside it for comparison: N where the curve's slope is closest to
 //! -1/2, read at tau = 1 s; K where it is closest to +1/2, read at tau = 3 s; B = floor / 0.6643.
