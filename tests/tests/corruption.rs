@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use octavar::device::verify::{verify, MismatchField, VerifyReport};
-use octavar::io::decode::{CaptureReader, Decoded, Record};
+use octavar::io::decode::{CaptureReader, Decoded, Message};
 use octavar_shared::acc::{OctaveAllan, Snapshot};
 use octavar_shared::proto::{encode_to_vec, Decoder, Frame, SnapshotPart};
 
@@ -72,8 +72,8 @@ fn damage(wire: &[u8], spans: &[(usize, usize, u32, Frame)], rate: f64, rng: &mu
 }
 
 /// The original records keyed by frame sequence number (a snapshot under its last part's).
-fn originals(wire: &[u8]) -> BTreeMap<u32, Record> {
-    CaptureReader::new(wire, "clean").map(|d| d.unwrap()).map(|d: Decoded| (d.meta.seq, d.record)).collect()
+fn originals(wire: &[u8]) -> BTreeMap<u32, Message> {
+    CaptureReader::new(wire, "clean").map(|d| d.unwrap()).map(|d: Decoded| (d.meta.seq, d.message)).collect()
 }
 
 /// The frames each record was made of.
@@ -117,11 +117,11 @@ fn one_percent_damage_yields_every_intact_frame_and_no_damaged_one() {
         let (bad, touched) = damage(&wire, &spans, 0.01, &mut rng);
         let mut reader = CaptureReader::new(&bad[..], "damaged");
         let got: Vec<Decoded> = reader.by_ref().map(|d| d.unwrap()).collect();
-        let by_seq: BTreeMap<u32, &Record> = got.iter().map(|d| (d.meta.seq, &d.record)).collect();
+        let by_seq: BTreeMap<u32, &Message> = got.iter().map(|d| (d.meta.seq, &d.message)).collect();
         assert_eq!(by_seq.len(), got.len(), "round {round}: a sequence number twice");
         // Never a damaged record: everything decoded is exactly an original.
         for d in &got {
-            assert_eq!(Some(&d.record), clean.get(&d.meta.seq), "round {round}: seq {} altered", d.meta.seq);
+            assert_eq!(Some(&d.message), clean.get(&d.meta.seq), "round {round}: seq {} altered", d.meta.seq);
         }
         // Every intact record is there.
         for (seq, frames) in &made_of {

@@ -4,7 +4,7 @@
 //! 95% intervals is printed. A long statistical run: it runs in CI (CI set) and is skipped otherwise
 //! (`CI=1 cargo test -p octavar-tests fit_coverage -- --nocapture` to run it by hand).
 
-use octavar::fit::{fit, fit_input, FitOptions, Term};
+use octavar::fit::{fit_deviations, FitOptions, Term};
 use octavar::stats::strided::snapshot_points;
 use octavar_shared::acc::OctaveAllan;
 use octavar_shared::sensor::{Channel, IDG1215_Y};
@@ -31,7 +31,7 @@ fn run(seed: u64, hours: f64) -> octavar::fit::NoiseFit {
         left -= n as u64;
     }
     let pts = snapshot_points(&acc.snapshot(), FS, channel.dps_per_code(), 0.683);
-    fit(&fit_input(&pts), &FitOptions::default()).unwrap()
+    fit_deviations(&pts, Some(&FitOptions::default())).unwrap()
 }
 
 #[test]

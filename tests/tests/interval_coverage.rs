@@ -16,8 +16,8 @@
 
 use std::time::{Duration, Instant};
 
-use octavar::fit::{fit, fit_input, FitOptions, Term};
-use octavar::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
+use octavar::fit::{fit_deviations, octave_oadev, FitOptions, Term};
+use octavar::stats::{DataKind, Options, Series};
 use octavar_shared::sensor::{Channel, ADXRS300};
 use octavar_shared::sim::{GyroSim, VirtualGyro};
 use rayon::prelude::*;
@@ -110,10 +110,10 @@ fn run_record(generator: Generator, fs: f64, hours: f64, truth: [f64; 3], seed: 
     let t1 = Instant::now();
     let series = Series::new(&rate, DataKind::Frequency, 1.0 / fs).unwrap();
     drop(rate);
-    let points = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &Options::default()).unwrap();
+    let points = octave_oadev(&series, Options::default().confidence).unwrap();
     drop(series);
     let t2 = Instant::now();
-    let f = fit(&fit_input(&points), &FitOptions::default()).unwrap();
+    let f = fit_deviations(&points, Some(&FitOptions::default())).unwrap();
     let t3 = Instant::now();
     let mut out = Outcome {
         covered: [false; 3],

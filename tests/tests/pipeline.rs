@@ -9,7 +9,7 @@ use octavar::device::recorder::{record, ReaderSource, RecordOptions};
 use octavar::device::simulator::{DeviceConfig, DeviceSim};
 use octavar::device::verify::{verify, verify_path};
 use octavar::io::capture::CaptureWriter;
-use octavar::io::decode::{CaptureReader, Record, StreamDecoder};
+use octavar::io::decode::{CaptureReader, Message, StreamDecoder};
 use octavar_shared::acc::{OctaveAllan, Snapshot};
 use octavar_shared::proto::Command;
 use octavar_shared::sensor::temperature_code;
@@ -88,17 +88,17 @@ fn bench_codes_through_device_frames_verify_bit_for_bit() {
     let mut raw = Vec::new();
     for (i, d) in CaptureReader::new(&wire[..], "pipeline.cap").enumerate() {
         let d = d.unwrap();
-        assert_eq!(i == 0, matches!(d.record, Record::Hello(_)), "the hello comes first, once");
-        match d.record {
-            Record::Snapshot(c) => got.push((c.channel, c.snapshot)),
-            Record::Samples(s) => {
+        assert_eq!(i == 0, matches!(d.message, Message::Hello(_)), "the hello comes first, once");
+        match d.message {
+            Message::Snapshot(c) => got.push((c.channel, c.snapshot)),
+            Message::Samples(s) => {
                 assert_eq!(s.first_sample, raw.len() as u64);
                 for set in 0..s.sets() {
                     raw.push([0, 1, 2, 3, 4].map(|slot| s.code(set, slot).unwrap()));
                 }
             }
-            Record::Hello(h) => assert_eq!((h.sample_rate_hz, h.stride, h.channels.len()), (2000, 8, 5)),
-            Record::Status(st) => {
+            Message::Hello(h) => assert_eq!((h.sample_rate_hz, h.stride, h.channels.len()), (2000, 8, 5)),
+            Message::Status(st) => {
                 let t = st.temperature_c.unwrap();
                 assert!((21.0..26.0).contains(&t), "bench temperature {t}");
             }

@@ -25,7 +25,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use octavar::io::decode::{CaptureReader, Decoded, Record};
+use octavar::io::decode::{CaptureReader, Decoded, Message};
 use octavar_shared::proto::{Encoder, Status};
 
 use crate::util::temp_dir;
@@ -159,7 +159,7 @@ fn decode_all(bytes: &[u8]) -> (Vec<Decoded>, octavar::io::decode::DecodeStats) 
     let mut reader = CaptureReader::new(bytes, "usart1");
     let records: Vec<_> = reader.by_ref().collect::<Result<_, _>>().expect("decode the capture");
     let stats = reader.stats().clone();
-    assert!(matches!(records.first().map(|d| &d.record), Some(Record::Hello(_))), "the first record is not a hello");
+    assert!(matches!(records.first().map(|d| &d.message), Some(Message::Hello(_))), "the first record is not a hello");
     assert_eq!(stats.hellos, 1, "{stats:#?}");
     assert_eq!(stats.bad_frame_count(), 0, "{stats:#?}");
     assert_eq!((stats.crc_errors, stats.lost_frames, stats.restarts, stats.truncated_tail), (0, 0, 0, 0), "{stats:#?}");
@@ -171,8 +171,8 @@ fn decode_all(bytes: &[u8]) -> (Vec<Decoded>, octavar::io::decode::DecodeStats) 
 fn raw_starts(records: &[Decoded]) -> Vec<(u64, u64)> {
     records
         .iter()
-        .filter_map(|d| match &d.record {
-            Record::Samples(s) => Some((s.first_sample, s.sets() as u64)),
+        .filter_map(|d| match &d.message {
+            Message::Samples(s) => Some((s.first_sample, s.sets() as u64)),
             _ => None,
         })
         .collect()
@@ -182,8 +182,8 @@ fn last_status(records: &[Decoded]) -> Status {
     records
         .iter()
         .rev()
-        .find_map(|d| match &d.record {
-            Record::Status(s) => Some(s.clone()),
+        .find_map(|d| match &d.message {
+            Message::Status(s) => Some(s.clone()),
             _ => None,
         })
         .expect("a status frame")
@@ -236,8 +236,8 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
         let seen = {
             let b = bytes.lock().unwrap();
             CaptureReader::new(&b[..], "usart1")
-                .filter_map(|d| match d.ok()?.record {
-                    Record::Samples(s) => Some(s.first_sample + s.sets() as u64),
+                .filter_map(|d| match d.ok()?.message {
+                    Message::Samples(s) => Some(s.first_sample + s.sets() as u64),
                     _ => None,
                 })
                 .max()
@@ -265,8 +265,8 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
     let (records, stats) = decode_all(&bytes);
     let acks: Vec<u32> = records
         .iter()
-        .filter_map(|d| match &d.record {
-            Record::Ack(a) => Some(a.seq),
+        .filter_map(|d| match &d.message {
+            Message::Ack(a) => Some(a.seq),
             _ => None,
         })
         .collect();
@@ -281,11 +281,11 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
         reset_after >= sent_at && reset_after.is_multiple_of(BLOCK),
         "reset after {reset_after}, sent at {sent_at}"
     );
-    let ack_at = records.iter().position(|d| matches!(d.record, Record::Ack(_))).expect("ack");
+    let ack_at = records.iter().position(|d| matches!(d.message, Message::Ack(_))).expect("ack");
     let second_session = records
         .iter()
         .enumerate()
-        .filter(|(_, d)| matches!(&d.record, Record::Samples(s) if s.first_sample == 0))
+        .filter(|(_, d)| matches!(&d.message, Message::Samples(s) if s.first_sample == 0))
         .nth(1)
         .map(|(i, _)| i)
         .expect("raw frames after the reset");
@@ -293,8 +293,8 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
 
     let snapshot_samples: Vec<u64> = records
         .iter()
-        .filter_map(|d| match &d.record {
-            Record::Snapshot(c) if c.channel == 0 => Some(c.snapshot.samples),
+        .filter_map(|d| match &d.message {
+            Message::Snapshot(c) if c.channel == 0 => Some(c.snapshot.samples),
             _ => None,
         })
         .collect();
@@ -310,8 +310,8 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
     // Estimates: one per round, N and B of every gyro in the last; N near the simulated Table 1 values.
     let estimates: Vec<_> = records
         .iter()
-        .filter_map(|d| match &d.record {
-            Record::Estimate(e) => Some(e.clone()),
+        .filter_map(|d| match &d.message {
+            Message::Estimate(e) => Some(e.clone()),
             _ => None,
         })
         .collect();

@@ -2,22 +2,28 @@
 //!
 //! Per channel: the statistics asked for (ADEV, OADEV, MDEV, HDEV, OHDEV, TDEV, TOTDEV) at the taus asked for,
 //! each with its chi-square interval (Greenhall's EDF, noise identified per tau), and the noise-term fit on the
-//! overlapping Allan variance at octave tau. Writers for the Stable32-style table, the JSON document, a CSV of
-//! every point, a `model.toml` for `simulate` and `gap`, and a Kalibr `imu.yaml`.
+//! overlapping Allan variance at octave tau. The writers are modules of their own, one per output, apart from the
+//! computation: [`text`] (the Stable32-style tables and the fit), [`json`], [`csv`] (every point), [`model`]
+//! (a `model.toml` for `simulate` and `gap`) and [`kalibr`] (a Kalibr `imu.yaml`). [`streamed`] gives the same
+//! analysis of inputs too large for memory.
 
+pub mod csv;
 pub mod json;
+pub mod kalibr;
+pub mod model;
 pub mod streamed;
+pub mod text;
 
+pub use csv::{points_csv, to_csv};
 pub use json::{to_json, Document};
+pub use kalibr::kalibr_yaml;
+pub use model::{fine_channel, model_from_fits};
+pub use text::{fit_report, report, table};
 
-use std::fmt::Write as _;
-
-use octavar_shared::sensor::{Channel, SensorKind, GENERIC};
-use octavar_shared::sim::{BenchSim, ChannelSim, GyroSim};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::fit::{fit, fit_input, FitError, FitOptions, NoiseFit, Term};
+use crate::fit::{fit_deviations, octave_oadev, FitError, FitOptions, NoiseFit};
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
 
 /// What went wrong.
@@ -37,10 +43,8 @@ pub struct AnalyzeOptions {
     pub taus: TauSpec,
     /// Confidence of the deviation intervals (Stable32's 0.683 by default).
     pub confidence: f64,
-    /// The noise-term fit (on OADEV at octave tau).
-    pub fit: FitOptions,
-    /// Skip the fit.
-    pub no_fit: bool,
+    /// The noise-term fit (on OADEV at octave tau); `None` skips it.
+    pub fit: Option<FitOptions>,
 }
 
 impl Default for AnalyzeOptions {
@@ -49,8 +53,7 @@ impl Default for AnalyzeOptions {
             stats: vec![Statistic::Oadev],
             taus: TauSpec::Octave,
             confidence: 0.683,
-            fit: FitOptions::default(),
-            no_fit: false,
+            fit: Some(FitOptions::default()),
         }
     }
 }
@@ -100,163 +103,45 @@ pub fn analyze_channel(
         .map(|(_, p)| p.clone());
     let fit_points = match reuse {
         Some(p) => p,
-        None => analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &dev_opts).map_err(err)?,
+        None => octave_oadev(&series, opts.confidence).map_err(err)?,
     };
-    let fit = if opts.no_fit { Err(FitError::TooFewPoints(0)) } else { fit(&fit_input(&fit_points), &opts.fit) };
-    Ok(ChannelAnalysis {
-        name: name.to_string(),
-        unit: "deg/s".to_string(),
-        tau0_s: 1.0 / rate_hz,
-        n_samples: data.len(),
-        n_gaps: data.par_iter().filter(|v| v.is_nan()).count(),
-        stats,
-        fit_points,
-        fit,
-    })
+    let counts =
+        Counts { tau0_s: 1.0 / rate_hz, n_samples: data.len(), n_gaps: data.par_iter().filter(|v| v.is_nan()).count() };
+    Ok(ChannelAnalysis::fitted(name, counts, stats, fit_points, opts.fit.as_ref()))
 }
 
-/// The Stable32-style table of one statistic: AF, tau, #, alpha, min sigma, sigma, max sigma.
-pub fn table(stat: Statistic, points: &[DevPoint]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "{:>10} {:>12} {:>10} {:>6} {:>12} {:>12} {:>12}   {}",
-        "AF",
-        "tau (s)",
-        "#",
-        "alpha",
-        "min sigma",
-        "sigma",
-        "max sigma",
-        stat.name()
-    );
-    for p in points {
-        let _ = writeln!(
-            s,
-            "{:>10} {:>12.4e} {:>10} {:>6} {:>12.4e} {:>12.4e} {:>12.4e}",
-            p.m, p.tau_s, p.n, p.alpha, p.lo, p.dev, p.hi
-        );
-    }
-    s
+/// The sample period and counts of a channel.
+#[derive(Clone, Copy, Debug)]
+pub struct Counts {
+    /// Sample period, s.
+    pub tau0_s: f64,
+    /// Samples, gaps included.
+    pub n_samples: usize,
+    /// Samples that are gaps (NaN).
+    pub n_gaps: usize,
 }
 
-/// The fit as text: each term with its interval and second unit, then the classic readouts.
-pub fn fit_report(f: &NoiseFit) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "IEEE 952 fit (weighted NNLS on OADEV, {:.0}% intervals, tau {:.3e}..{:.3e} s, chi2/dof {:.2})",
-        f.confidence * 100.0,
-        f.tau_range_s[0],
-        f.tau_range_s[1],
-        if f.dof > 0 { f.chi2 / f.dof as f64 } else { f64::NAN }
-    );
-    for t in Term::ALL {
-        let e = f.term(t);
-        let (alt_unit, k) = t.alt_unit();
-        let line = match (e.value, e.lo, e.hi) {
-            (Some(v), Some(lo), Some(hi)) => {
-                format!("{:>3} = {v:.4e} {} ({lo:.3e} .. {hi:.3e})   = {:.4e} {alt_unit}", t.name(), e.unit, v * k)
-            }
-            (_, _, Some(hi)) => format!("{:>3}   not identifiable (at most {hi:.3e} {})", t.name(), e.unit),
-            _ => format!("{:>3}   not fitted", t.name()),
-        };
-        let _ = writeln!(s, "{line}");
-    }
-    let c = &f.classic;
-    let show = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.4e}"));
-    let _ = writeln!(
-        s,
-        "classic readouts: N (-1/2 line at 1 s) {} deg/sqrt(s), B (floor/0.6643) {} deg/s, K (+1/2 line at 3 s) {} deg/s/sqrt(s)",
-        show(c.n),
-        show(c.b),
-        show(c.k)
-    );
-    s
-}
-
-/// Every point of every statistic as CSV: `channel,stat,m,tau_s,n,alpha,lo,dev,hi,edf`.
-pub fn to_csv(channels: &[ChannelAnalysis]) -> String {
-    points_csv(channels.iter().flat_map(|c| c.stats.iter().map(|(stat, pts)| (c.name.as_str(), *stat, &pts[..]))))
-}
-
-/// The CSV of deviation points: a header, then one row per point of each (channel, statistic, points), as
-/// `analyze --csv` and the demo's `adev.csv` write it (`channel,stat,m,tau_s,n,alpha,lo,dev,hi,edf`).
-pub fn points_csv<'a>(series: impl IntoIterator<Item = (&'a str, Statistic, &'a [DevPoint])>) -> String {
-    let mut s = String::from("channel,stat,m,tau_s,n,alpha,lo,dev,hi,edf\n");
-    for (channel, stat, pts) in series {
-        for p in pts {
-            let _ = writeln!(
-                s,
-                "{},{},{},{},{},{},{},{},{},{}",
-                channel,
-                stat.name().to_ascii_lowercase(),
-                p.m,
-                p.tau_s,
-                p.n,
-                p.alpha,
-                p.lo,
-                p.dev,
-                p.hi,
-                p.edf
-            );
+impl ChannelAnalysis {
+    /// A channel's analysis from its statistics and its octave OADEV points, fitted here with `fit` (none when
+    /// `None`): the one place where every reader's channel gets its fit.
+    pub fn fitted(
+        name: &str,
+        counts: Counts,
+        stats: Vec<(Statistic, Vec<DevPoint>)>,
+        fit_points: Vec<DevPoint>,
+        fit: Option<&FitOptions>,
+    ) -> Self {
+        ChannelAnalysis {
+            name: name.to_string(),
+            unit: "deg/s".to_string(),
+            tau0_s: counts.tau0_s,
+            n_samples: counts.n_samples,
+            n_gaps: counts.n_gaps,
+            fit: fit_deviations(&fit_points, fit),
+            stats,
+            fit_points,
         }
     }
-    s
-}
-
-/// A simulation model from the fits: one generic channel per analysed channel, with the identifiable terms
-/// (a term that is not identifiable is left out). The channel's ADC is fine enough (16 bits over +/-range)
-/// that it adds no visible quantisation; `gap` adds quantisation as an effect where the data show a lattice.
-pub fn model_from_fits(channels: &[ChannelAnalysis], rate_hz: f64, data_range_dps: f64) -> BenchSim {
-    let mut out = heapless::Vec::new();
-    for c in channels.iter().take(octavar_shared::sim::MAX_CHANNELS) {
-        let Ok(f) = &c.fit else { continue };
-        let gyro = f.sim_terms(GyroSim::default());
-        let _ = out.push(ChannelSim { sensor: SensorKind::Generic, channel: Some(fine_channel(data_range_dps)), gyro });
-    }
-    BenchSim { fs_hz: rate_hz, seed: 0, temperature: Default::default(), channels: out }
-}
-
-/// A generic channel whose 16-bit ADC spans +/-`range_dps`.
-pub fn fine_channel(range_dps: f64) -> Channel {
-    let range = if range_dps.is_finite() && range_dps > 0.0 { range_dps } else { 100.0 };
-    let adc = octavar_shared::sensor::Adc { bits: 16, vref_mv: 3300.0 };
-    let gyro = octavar_shared::sensor::GyroModel {
-        sensitivity_mv_per_dps: 1650.0 / range,
-        null_mv: 1650.0,
-        range_dps: range,
-        ..GENERIC
-    };
-    Channel { gyro, front: octavar_shared::sensor::FrontEnd::WIRE, adc }
-}
-
-/// A Kalibr `imu.yaml` for one channel's fit. Kalibr wants continuous-time densities in SI units:
-/// `gyroscope_noise_density` = N in rad/s/sqrt(Hz) (N deg/sqrt(s) times pi/180), and `gyroscope_random_walk` =
-/// the bias random walk K in rad/s^2/sqrt(Hz) (K deg/s/sqrt(s) times pi/180). Where K is not identifiable the
-/// bias-instability line is used as a conservative stand-in, B / sqrt(tau_B) (documented in the file).
-pub fn kalibr_yaml(c: &ChannelAnalysis, rate_hz: f64) -> Option<String> {
-    let f = c.fit.as_ref().ok()?;
-    let d2r = std::f64::consts::PI / 180.0;
-    let n = f.n.value.or(f.classic.n)?;
-    let (rw, note) = match f.k.value {
-        Some(k) => (k * d2r, "K, the rate random walk of the fit".to_string()),
-        None => {
-            let (b, tau) = (f.b.value.or(f.classic.b)?, f.classic.b_tau_s?);
-            (b * d2r / tau.sqrt(), format!("K not identifiable: B / sqrt(tau_B) with tau_B = {tau:.3e} s"))
-        }
-    };
-    Some(format!(
-        "# octavar analyze: gyro channel {name}. Gyroscope terms only; add your accelerometer's.\n\
-         # gyroscope_noise_density = N [rad/s/sqrt(Hz)] = {n:.6e} deg/sqrt(s) * pi/180\n\
-         # gyroscope_random_walk   = {note} [rad/s^2/sqrt(Hz)]\n\
-         rostopic: /imu0\n\
-         update_rate: {rate_hz}\n\
-         gyroscope_noise_density: {gnd:.6e}\n\
-         gyroscope_random_walk: {rw:.6e}\n",
-        name = c.name,
-        gnd = n * d2r,
-    ))
 }
 
 /// A short summary row, for `Serialize` users.

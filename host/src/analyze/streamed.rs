@@ -9,13 +9,13 @@
 
 use std::io::{BufRead, Read};
 
-use crate::analyze::ChannelAnalysis;
-use crate::fit::{fit, fit_input, FitError, FitOptions};
+use crate::analyze::{ChannelAnalysis, Counts};
+use crate::fit::FitOptions;
 use crate::io::binary::BinaryFormat;
 use crate::io::csv::{CsvOptions, RecordingError};
-use crate::io::decode::{CaptureReader, DecodeError, Record};
+use crate::io::decode::{CaptureReader, DecodeError, Message};
 use crate::stats::streamed::{StreamOadev, StreamTotals, DEFAULT_STRIDE};
-use crate::stats::{DevPoint, Statistic, StatsError};
+use crate::stats::{Statistic, StatsError};
 
 /// What went wrong.
 #[derive(Debug, thiserror::Error)]
@@ -93,10 +93,8 @@ pub struct StreamOptions {
     pub confidence: f64,
     /// Multiply samples by this (a unit conversion to deg/s; a capture uses each channel's deg/s per code).
     pub scale: f64,
-    /// The fit.
-    pub fit: FitOptions,
-    /// Skip the fit.
-    pub no_fit: bool,
+    /// The noise-term fit; `None` skips it.
+    pub fit: Option<FitOptions>,
 }
 
 impl Default for StreamOptions {
@@ -106,8 +104,7 @@ impl Default for StreamOptions {
             stride: DEFAULT_STRIDE,
             confidence: 0.683,
             scale: 1.0,
-            fit: FitOptions::default(),
-            no_fit: false,
+            fit: Some(FitOptions::default()),
         }
     }
 }
@@ -142,28 +139,8 @@ fn channel_result(
     if points.is_empty() {
         return Err(StreamError::TooShort { name: source.into(), channel: name.into(), samples: totals.samples });
     }
-    Ok(from_points(name, points, tau0_s, totals.samples as usize, totals.gaps as usize, opts))
-}
-
-fn from_points(
-    name: &str,
-    points: Vec<DevPoint>,
-    tau0_s: f64,
-    n_samples: usize,
-    n_gaps: usize,
-    opts: &StreamOptions,
-) -> ChannelAnalysis {
-    let fit_result = if opts.no_fit { Err(FitError::TooFewPoints(0)) } else { fit(&fit_input(&points), &opts.fit) };
-    ChannelAnalysis {
-        name: name.to_string(),
-        unit: "deg/s".to_string(),
-        tau0_s,
-        n_samples,
-        n_gaps,
-        stats: vec![(Statistic::Oadev, points.clone())],
-        fit_points: points,
-        fit: fit_result,
-    }
+    let counts = Counts { tau0_s, n_samples: totals.samples as usize, n_gaps: totals.gaps as usize };
+    Ok(ChannelAnalysis::fitted(name, counts, vec![(Statistic::Oadev, points.clone())], points, opts.fit.as_ref()))
 }
 
 /// Read exactly `buf.len()` bytes or up to the end; returns the bytes read.
@@ -356,8 +333,8 @@ pub fn analyze_capture<R: Read>(
                 }
             }
         }
-        match d.record {
-            Record::Hello(h) => {
+        match d.message {
+            Message::Hello(h) => {
                 let n = h.channels.len();
                 if accs.len() < n {
                     for _ in accs.len()..n {
@@ -369,7 +346,7 @@ pub fn analyze_capture<R: Read>(
                 }
                 hello = Some(h);
             }
-            Record::Samples(s) => {
+            Message::Samples(s) => {
                 let k = s.channels();
                 if k == 0 {
                     continue;
@@ -395,7 +372,7 @@ pub fn analyze_capture<R: Read>(
                     accs[c].push(&cols[c]);
                 }
             }
-            Record::Snapshot(cs) => {
+            Message::Snapshot(cs) => {
                 let c = cs.channel as usize;
                 if c >= snaps.len() {
                     snaps.resize(c + 1, (None, None));
@@ -449,7 +426,9 @@ pub fn analyze_capture<R: Read>(
         if points.is_empty() {
             continue;
         }
-        out.push(from_points(&ch_name(c), points, tau0, snap.samples as usize, 0, opts));
+        let counts = Counts { tau0_s: tau0, n_samples: snap.samples as usize, n_gaps: 0 };
+        let stats = vec![(Statistic::Oadev, points.clone())];
+        out.push(ChannelAnalysis::fitted(&ch_name(c), counts, stats, points, opts.fit.as_ref()));
     }
     if out.is_empty() {
         return Err(StreamError::Capture { name, what: "neither raw samples nor snapshots".into() });

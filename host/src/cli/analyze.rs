@@ -46,6 +46,9 @@ pub struct Args {
     /// A known first-order bandwidth of the sensor, Hz: shapes the white-noise term of the fit.
     #[arg(long, value_name = "HZ")]
     pub bandwidth: Option<f64>,
+    /// Skip the noise-term fit: the statistics only.
+    #[arg(long, conflicts_with_all = ["model_out", "kalibr"])]
+    pub no_fit: bool,
     /// Write the JSON document here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -114,13 +117,13 @@ pub fn parse_taus(text: &str) -> anyhow::Result<TauSpec> {
 impl Args {
     /// The fit's options from the flags (the tau range and a known bandwidth), for both the in-memory and the
     /// streamed path.
-    fn fit_options(&self) -> FitOptions {
-        FitOptions {
+    fn fit_options(&self) -> Option<FitOptions> {
+        (!self.no_fit).then(|| FitOptions {
             tau_min_s: self.fit_min_tau.unwrap_or(0.0),
             tau_max_s: self.fit_max_tau.unwrap_or(f64::INFINITY),
             bandwidth_hz: self.bandwidth,
             ..Default::default()
-        }
+        })
     }
 
     /// How to read the CSV: the columns, rate or time column, unit, skipped rows and filters of the flags.
@@ -141,7 +144,7 @@ impl Args {
         let taus = parse_taus(&self.taus)?;
         let read = self.reading.read_options(self.columns.clone(), None, &self.reading.filters, self.channels)?;
         let rec = formats::read_recording(&self.input, format, &read)?;
-        let opts = AnalyzeOptions { stats, taus, confidence: self.confidence, fit: self.fit_options(), no_fit: false };
+        let opts = AnalyzeOptions { stats, taus, confidence: self.confidence, fit: self.fit_options() };
         let mut results: Vec<ChannelAnalysis> = Vec::new();
         for (name, data) in rec.names.iter().zip(&rec.channels) {
             results.push(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?);
@@ -167,18 +170,7 @@ impl Args {
         range: impl FnOnce() -> f64,
         results: &[ChannelAnalysis],
     ) -> anyhow::Result<ExitCode> {
-        let mut out = std::io::stdout().lock();
-        writeln!(out, "# {source}: {samples} samples at {rate_hz} Hz")?;
-        for c in results {
-            writeln!(out, "\n== {} ({}; {} samples, {} gaps)", c.name, c.unit, c.n_samples, c.n_gaps)?;
-            for (stat, pts) in &c.stats {
-                write!(out, "{}", analyze::table(*stat, pts))?;
-            }
-            match &c.fit {
-                Ok(f) => write!(out, "{}", analyze::fit_report(f))?,
-                Err(e) => writeln!(out, "no fit: {e}")?,
-            }
-        }
+        std::io::stdout().lock().write_all(analyze::report(source, samples, rate_hz, results).as_bytes())?;
         if let Some(path) = &self.json {
             let doc = analyze::to_json(results);
             std::fs::write(path, serde_json::to_string_pretty(&doc)?)
@@ -262,7 +254,6 @@ impl Args {
             confidence: self.confidence,
             scale: unit.to_dps(),
             fit: self.fit_options(),
-            no_fit: false,
         };
         let size = std::fs::metadata(&self.input).map(|m| m.len()).unwrap_or(0);
         let bar = (size > 0).then(|| super::progress::Progress::new(size, "analyze"));

@@ -15,7 +15,7 @@ use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim, TempCoupling, Te
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::fit::{fit, fit_input, FitOptions, NoiseFit};
+use crate::fit::{fit_deviations, FitOptions, NoiseFit};
 use crate::stats::strided::snapshot_points;
 use crate::stats::DevPoint;
 
@@ -269,12 +269,12 @@ pub fn snapshot_capture(snapshots: &[Vec<Snapshot>]) -> Vec<u8> {
 /// # Errors
 /// A capture with damaged frames or no snapshot for a channel (the demo's own capture has neither).
 pub fn last_snapshots(capture: &[u8], channels: usize) -> Result<Vec<Snapshot>, String> {
-    use crate::io::decode::{CaptureReader, Record};
+    use crate::io::decode::{CaptureReader, Message};
     let mut last: Vec<Option<Snapshot>> = vec![None; channels];
     let mut reader = CaptureReader::new(capture, "demo capture");
     for item in reader.by_ref() {
         let d = item.map_err(|e| e.to_string())?;
-        if let Record::Snapshot(cs) = d.record {
+        if let Message::Snapshot(cs) = d.message {
             if let Some(slot) = last.get_mut(usize::from(cs.channel)) {
                 *slot = Some(cs.snapshot);
             }
@@ -318,7 +318,7 @@ pub fn diagnose_channel(
     let train = training_snapshot(run);
     let channel = Channel::bench(GyroModel::of(paper.sensor).expect("the paper's channels are gyros"));
     let points = snapshot_points(&train, BENCH_RATE_HZ, channel.dps_per_code(), 0.683);
-    let base_fit = fit(&fit_input(&points), &bench_fit_options()).ok();
+    let base_fit = fit_deviations(&points, Some(&bench_fit_options())).ok();
     let opts = crate::gap::GapOptions { base_fit, oversample: GAP_OVERSAMPLE, ..Default::default() };
     crate::gap::diagnose(&gap_input(run), &opts, progress)
 }
@@ -414,7 +414,7 @@ pub fn analyse(snapshots: &[Snapshot], model: &BenchSim) -> Vec<ChannelResult> {
             let points = snapshot_points(snap, model.fs_hz, channel.dps_per_code(), 0.683);
             let opts =
                 FitOptions { bandwidth_hz: cs.gyro.bandwidth_hz, tau_min_s: 16.0 / model.fs_hz, ..bench_fit_options() };
-            let fit = fit(&fit_input(&points), &opts).expect("a 2 kS/s record has many octaves");
+            let fit = fit_deviations(&points, Some(&opts)).expect("a 2 kS/s record has many octaves");
             ChannelResult { paper, channel, snapshot: *snap, points, fit }
         })
         .collect()

@@ -22,7 +22,7 @@ use octavar_shared::proto::{Command, Encoder, Hello};
 use serde::Serialize;
 
 use crate::io::capture::{CaptureError, CaptureSink, CaptureWriter};
-use crate::io::decode::{adev_codes_at, DecodeStats, Record, StreamDecoder};
+use crate::io::decode::{adev_codes_at, DecodeStats, Message, StreamDecoder};
 use octavar_shared::sensor::dps_per_code;
 
 /// The averaging time of the live ADEV readout, s.
@@ -354,10 +354,10 @@ struct Live {
 impl Live {
     fn feed(&mut self, bytes: &[u8]) {
         let Live { dec, stats, snapshots } = self;
-        dec.feed(bytes, &mut |d| match d.record {
-            Record::Hello(h) => stats.hello = Some(h),
-            Record::Samples(s) => stats.sample_sets += s.sets() as u64,
-            Record::Snapshot(c) => {
+        dec.feed(bytes, &mut |d| match d.message {
+            Message::Hello(h) => stats.hello = Some(h),
+            Message::Samples(s) => stats.sample_sets += s.sets() as u64,
+            Message::Snapshot(c) => {
                 snapshots.insert(c.channel, c.snapshot);
             }
             _ => {}
@@ -393,7 +393,7 @@ impl Live {
     }
 }
 
-/// Record from `source` into `capture` until the source ends, `stop` is raised, or the device is gone for good.
+/// Message from `source` into `capture` until the source ends, `stop` is raised, or the device is gone for good.
 /// `progress` is called every [`RecordOptions::progress_every`] and on every connect and disconnect.
 ///
 /// # Errors
@@ -648,8 +648,8 @@ mod tests {
         let mut offline = crate::io::decode::CaptureReader::new(&expected[..], "mem.cap");
         let offline_sets: u64 = offline
             .by_ref()
-            .filter_map(|d| match d.unwrap().record {
-                Record::Samples(x) => Some(x.sets() as u64),
+            .filter_map(|d| match d.unwrap().message {
+                Message::Samples(x) => Some(x.sets() as u64),
                 _ => None,
             })
             .sum();

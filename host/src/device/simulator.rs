@@ -190,7 +190,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::decode::{CaptureReader, Record};
+    use crate::io::decode::{CaptureReader, Message};
     use octavar_shared::acc::OctaveAllan;
 
     fn scans(n: u32) -> impl Iterator<Item = [u16; 5]> {
@@ -204,12 +204,12 @@ mod tests {
     fn frame_order_is_the_firmwares() {
         let wire = device_frames(DeviceConfig::F405, 0x1f, scans(2100));
         let kinds: Vec<&str> = CaptureReader::new(&wire[..], "sim")
-            .map(|d| match d.unwrap().record {
-                Record::Hello(_) => "hello",
-                Record::Samples(_) => "samples",
-                Record::Snapshot(_) => "snapshot",
-                Record::Status(_) => "status",
-                Record::Estimate(_) => "estimate",
+            .map(|d| match d.unwrap().message {
+                Message::Hello(_) => "hello",
+                Message::Samples(_) => "samples",
+                Message::Snapshot(_) => "snapshot",
+                Message::Status(_) => "status",
+                Message::Estimate(_) => "estimate",
                 _ => "other",
             })
             .collect();
@@ -240,8 +240,8 @@ mod tests {
             dev.push_scan(s.as_ref(), &mut out);
         }
         let firsts: Vec<u64> = CaptureReader::new(&out[..], "sim")
-            .filter_map(|d| match d.unwrap().record {
-                Record::Samples(s) => Some(s.first_sample),
+            .filter_map(|d| match d.unwrap().message {
+                Message::Samples(s) => Some(s.first_sample),
                 _ => None,
             })
             .collect();

@@ -36,7 +36,7 @@ use super::Term;
 
 /// Where an Allan variance estimate's second differences lie in the record.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EstimateShape {
+pub struct EstimatorShape {
     /// Averaging factor m (tau = m tau0).
     pub m: f64,
     /// Number of second differences averaged (M).
@@ -129,7 +129,7 @@ const PIECES: usize = 2;
 
 /// `sum_t sum_u R_x(s_a t - s_b u) R_y(s_a t - s_b u)` for every pair of terms (x, y): the sums of products of
 /// cross-covariances over the pairs of differences.
-fn pair_sums(pair: &Pair, a: &EstimateShape, b: &EstimateShape) -> [f64; 10] {
+fn pair_sums(pair: &Pair, a: &EstimatorShape, b: &EstimatorShape) -> [f64; 10] {
     let len_a = a.terms * a.stride;
     let len_b = b.terms * b.stride;
     let (ma, mb) = (pair.ma, pair.mb);
@@ -210,7 +210,7 @@ pub struct CovarianceBasis {
 
 impl CovarianceBasis {
     /// The basis for estimates of the given shapes in a record sampled every `tau0_s` seconds.
-    pub fn new(shapes: &[EstimateShape], tau0_s: f64) -> Self {
+    pub fn new(shapes: &[EstimatorShape], tau0_s: f64) -> Self {
         let n = shapes.len();
         let mut entries = Vec::with_capacity(n * (n + 1) / 2);
         for i in 0..n {
@@ -250,7 +250,7 @@ impl CovarianceBasis {
 
 /// The covariance matrix of Allan variance estimates of the given shapes, (deg/s)^4, for a record sampled every
 /// `tau0_s` seconds of a gyro with the fitted squares `squares` (Q^2, N^2, B^2, K^2, R^2 in [`Term`] order).
-pub fn avar_covariance(shapes: &[EstimateShape], tau0_s: f64, squares: &[f64; 5]) -> Vec<Vec<f64>> {
+pub fn avar_covariance(shapes: &[EstimatorShape], tau0_s: f64, squares: &[f64; 5]) -> Vec<Vec<f64>> {
     CovarianceBasis::new(shapes, tau0_s).at(squares)
 }
 

@@ -1,6 +1,6 @@
 //! The confidence intervals of the fitted terms and the upper bounds of the terms the data cannot determine.
 //!
-//! Where the points carry their estimator's shape ([`EstimateShape`], as every octave OADEV does), the errors of
+//! Where the points carry their estimator's shape ([`EstimatorShape`], as every octave OADEV does), the errors of
 //! the Allan variances are taken as they are: correlated across taus, with the covariance of
 //! [`super::avar_covariance`] at the fitted model.
 //!
@@ -24,7 +24,7 @@
 //! Points without a shape (a curve typed in by hand, a test) keep the independent-error intervals: the linear
 //! covariance of the squares from each point's own EDF.
 
-use super::covariance::{CovarianceBasis, EstimateShape};
+use super::covariance::{CovarianceBasis, EstimatorShape};
 use super::{predict, FitOptions, FitPoint, Solution, Term, TermEstimate};
 use crate::stats::edf::chi2_quantile;
 use crate::stats::linalg::{cholesky, forward_solve, invert, solve};
@@ -133,7 +133,7 @@ struct Sandwich {
 impl<'a> Correlated<'a> {
     /// `None` unless every point has a shape and they agree on tau0.
     fn new(inp: &'a Inputs<'a>) -> Option<Self> {
-        let shapes: Vec<EstimateShape> = inp.pts.iter().map(|p| p.shape).collect::<Option<_>>()?;
+        let shapes: Vec<EstimatorShape> = inp.pts.iter().map(|p| p.shape).collect::<Option<_>>()?;
         let tau0_s = inp.pts[0].tau_s / shapes[0].m;
         let agree = inp.pts.iter().zip(&shapes).all(|(p, s)| (p.tau_s / s.m / tau0_s - 1.0).abs() < 1e-9);
         (agree && tau0_s > 0.0 && tau0_s.is_finite())

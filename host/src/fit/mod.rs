@@ -26,11 +26,13 @@
 //! -1/2, read at tau = 1 s; K where it is closest to +1/2, read at tau = 3 s; B = floor / 0.6643.
 
 mod covariance;
+mod deviations;
 mod intervals;
 
 use serde::Serialize;
 
-pub use covariance::{avar_covariance, CovarianceBasis, EstimateShape};
+pub use covariance::{avar_covariance, CovarianceBasis, EstimatorShape};
+pub use deviations::{fit_deviations, octave_oadev};
 
 use crate::stats::DevPoint;
 
@@ -123,7 +125,7 @@ pub struct FitPoint {
     pub edf: f64,
     /// Where the estimate's differences lie in the record, when known: the intervals then account for the
     /// correlation between taus ([`avar_covariance`]).
-    pub shape: Option<EstimateShape>,
+    pub shape: Option<EstimatorShape>,
 }
 
 impl FitPoint {
@@ -143,7 +145,7 @@ pub fn fit_input(points: &[DevPoint]) -> Vec<FitPoint> {
             tau_s: p.tau_s,
             avar: p.dev * p.dev,
             edf: p.edf,
-            shape: (p.m > 0 && p.n > 0 && p.stride > 0).then_some(EstimateShape {
+            shape: (p.m > 0 && p.n > 0 && p.stride > 0).then_some(EstimatorShape {
                 m: p.m as f64,
                 terms: p.n as f64,
                 stride: p.stride as f64,
@@ -200,6 +202,9 @@ pub enum FitError {
     /// Fewer usable points than one.
     #[error("the fit needs at least 2 Allan variance points with positive values and degrees of freedom; it has {0}")]
     TooFewPoints(usize),
+    /// The fit was not asked for (`--no-fit`).
+    #[error("no fit was asked for")]
+    NotAsked,
 }
 
 /// One coefficient of the fit.

@@ -5,19 +5,19 @@
 use octavar_shared::sim::GyroSim;
 
 use super::GapError;
-use crate::fit::{fit, fit_input, FitOptions, NoiseFit};
-use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, TauSpec};
+use crate::fit::{fit_deviations, octave_oadev, FitOptions, NoiseFit};
+use crate::stats::{DataKind, DevPoint, Options, Series};
 
 /// The octave OADEV of a training part.
 pub(crate) fn training_adev(training: &[f64], fs_hz: f64) -> Result<Vec<DevPoint>, GapError> {
     let series = Series::new(training, DataKind::Frequency, 1.0 / fs_hz)?;
-    Ok(analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &Options::default())?)
+    Ok(octave_oadev(&series, Options::default().confidence)?)
 }
 
 /// The base fit of a training part: its octave OADEV and the IEEE 952 fit of it.
 pub(crate) fn fit_base(training: &[f64], fs_hz: f64, opts: &FitOptions) -> Result<(Vec<DevPoint>, NoiseFit), GapError> {
     let real_adev = training_adev(training, fs_hz)?;
-    let f = fit(&fit_input(&real_adev), opts)?;
+    let f = fit_deviations(&real_adev, Some(opts))?;
     Ok((real_adev, f))
 }
 

@@ -17,9 +17,9 @@ use rayon::prelude::*;
 use super::effects::ParamSpread;
 use super::views::{Measure, Plan};
 
-/// The record the ensemble imitates.
+/// The target the ensemble imitates: a recording split into its training part and its holdout.
 #[derive(Clone, Copy, Debug)]
-pub struct Record<'a> {
+pub struct Target<'a> {
     /// Rate, deg/s, training then holdout; NaN marks a gap.
     pub rate_dps: &'a [f64],
     /// The temperature at every sample (gaps filled), degC, if there is a temperature channel.
@@ -34,7 +34,7 @@ pub struct Record<'a> {
     pub oversample: usize,
 }
 
-impl Record<'_> {
+impl Target<'_> {
     /// The training samples.
     pub fn training(&self) -> &[f64] {
         &self.rate_dps[..self.n_train]
@@ -68,7 +68,7 @@ pub struct Ensemble {
 /// The model's own response to the record's temperature, sample by sample over the whole record (training then
 /// holdout), as the simulation adds it: the coupling through its thermal lag at the simulation rate, averaged
 /// over the oversampled sub-samples. `None` when the model has no coupling or the record no temperature.
-pub fn temperature_response(gyro: &GyroSim, rec: &Record) -> Option<Vec<f64>> {
+pub fn temperature_response(gyro: &GyroSim, rec: &Target) -> Option<Vec<f64>> {
     let (coupling, temp) = (gyro.temperature.as_ref()?, rec.temp_c?);
     let d = rec.oversample.max(1);
     let mut lag = ThermalLag::new(coupling, 1.0 / (rec.fs_hz * d as f64));
@@ -89,7 +89,7 @@ pub fn simulate(
     gyro: &GyroSim,
     spreads: &[ParamSpread],
     channel: Option<&Channel>,
-    rec: &Record,
+    rec: &Target,
     train_plan: &Plan,
     holdout_plan: Option<&Plan>,
     seeds: &[u64],
@@ -134,7 +134,7 @@ fn draw_all(spreads: &[ParamSpread], gyro: &GyroSim, seed: u64) -> GyroSim {
 /// The first `n` samples of one member: `gyro` on `channel` (its code table `table`; the analog rate without a
 /// channel) at the record's rate (oversampled and block-averaged as the record says), driven by the record's
 /// temperature, with the record's gaps copied in. `gyro` must have been checked by [`VirtualGyro::new`].
-fn member(gyro: &GyroSim, channel: Option<&Channel>, table: &[f64], rec: &Record, n: usize, seed: u64) -> Vec<f64> {
+fn member(gyro: &GyroSim, channel: Option<&Channel>, table: &[f64], rec: &Target, n: usize, seed: u64) -> Vec<f64> {
     // Output samples simulated per block (each `d` simulated samples).
     const BLOCK: usize = 4096;
     let d = rec.oversample.max(1);
@@ -201,7 +201,7 @@ pub(crate) const PREDICT_SALT: u64 = 0x5eed_0000_0000;
 pub fn predict_holdout(
     gyro: &GyroSim,
     channel: Option<&Channel>,
-    rec: &Record,
+    rec: &Target,
     holdout_plan: &Plan,
     seeds: &[u64],
     explained_hold: Option<&[f64]>,
@@ -260,7 +260,7 @@ mod tests {
         let fs = 10.0;
         let n = 1 << 14;
         let x: Vec<f64> = crate::test_signals::white(n, 3).iter().map(|v| 0.1 * v).collect();
-        let rec = Record { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: n / 2, oversample: 1 };
+        let rec = Target { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: n / 2, oversample: 1 };
         let n_coef = 0.1 / fs.sqrt();
         // 0.02 deg/s^2 over 1638 s: 33 deg/s, against a record within +-0.5.
         let gyro = GyroSim { n_deg_per_rt_s: n_coef, r_dps_per_s: 0.02, ..Default::default() };

@@ -59,7 +59,7 @@ impl Learner<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gap::ensemble::{predict_holdout, simulate, Record};
+    use crate::gap::ensemble::{predict_holdout, simulate, Target};
     use crate::gap::views::{Plan, ViewKind};
 
     fn white_record(n: usize, sigma: f64) -> Vec<f64> {
@@ -71,7 +71,7 @@ mod tests {
     #[test]
     fn a_relearning_that_changes_nothing_is_the_plain_ensemble() {
         let x = white_record(4096, 0.1);
-        let rec = Record { rate_dps: &x, temp_c: None, fs_hz: 10.0, n_train: 2048, oversample: 1 };
+        let rec = Target { rate_dps: &x, temp_c: None, fs_hz: 10.0, n_train: 2048, oversample: 1 };
         let gyro = GyroSim { n_deg_per_rt_s: 0.1 / 10f64.sqrt(), ..Default::default() };
         let train = Plan::new(rec.training(), None, 10.0);
         let hold = Plan::new(rec.holdout(), None, 10.0);
@@ -96,7 +96,7 @@ mod tests {
         let fs = 10.0;
         let tau0 = 1.0 / fs;
         let x = white_record(1 << 15, 0.1);
-        let rec = Record { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: 1 << 14, oversample: 1 };
+        let rec = Target { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: 1 << 14, oversample: 1 };
         let f = crate::gap::base::fit_base(rec.training(), fs, &FitOptions::default()).unwrap().1;
         let gyro = base_model(&f, rec.training());
         let learner = Learner {

@@ -123,7 +123,7 @@ pub struct GapOptions {
     pub base_fit: Option<NoiseFit>,
     /// When each sample of the record is the mean of a block of the sensor's samples: the ensemble members are
     /// simulated at this many times the record's rate and averaged the same way (see
-    /// [`super::ensemble::Record::oversample`]); 1 (the default) for a record at the sensor's own rate.
+    /// [`super::ensemble::Target::oversample`]); 1 (the default) for a record at the sensor's own rate.
     pub oversample: usize,
     /// How the holdout is judged: [`HoldoutCheck::Plain`] by default; [`HoldoutCheck::Predictive`] adds the check
     /// against predictive ensembles (see [`super::holdout`]).

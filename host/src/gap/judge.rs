@@ -47,7 +47,7 @@ impl<'a> Judge<'a> {
         let temp_c = input.temp_c.as_deref().map(fill_gaps);
         let oversample = opts.oversample.max(1);
         let (train_plan, hold_plan, real_train, real_hold) = {
-            let rec = ensemble::Record {
+            let rec = ensemble::Target {
                 rate_dps: &input.rate_dps,
                 temp_c: temp_c.as_deref(),
                 fs_hz: input.fs_hz,
@@ -76,8 +76,8 @@ impl<'a> Judge<'a> {
     }
 
     /// The record (its temperature's gaps filled).
-    pub fn record(&self) -> ensemble::Record<'_> {
-        ensemble::Record {
+    pub fn record(&self) -> ensemble::Target<'_> {
+        ensemble::Target {
             rate_dps: self.rate_dps,
             temp_c: self.temp_c.as_deref(),
             fs_hz: self.fs_hz,

@@ -168,7 +168,7 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
 /// channel (the temperature channel in degC), the rate from the hello, and the samples the device lost (a jump
 /// in the frames' hardware sample index) as NaN.
 fn read_capture(path: &Path, csv: &CsvOptions) -> Result<Recording, ReadError> {
-    use crate::io::decode::Record;
+    use crate::io::decode::Message;
     use octavar_shared::sensor::{Channel, GyroModel, SensorKind};
     let name = path.display().to_string();
     let capture_err = |what: String| ReadError::Capture { path: name.clone(), what };
@@ -179,12 +179,12 @@ fn read_capture(path: &Path, csv: &CsvOptions) -> Result<Recording, ReadError> {
     let mut first: Option<u64> = None;
     for item in reader {
         let d = item.map_err(|e| capture_err(e.to_string()))?;
-        match d.record {
-            Record::Hello(h) => {
+        match d.message {
+            Message::Hello(h) => {
                 series.resize(series.len().max(h.channels.len()), Vec::new());
                 hello = Some(h);
             }
-            Record::Samples(s) => {
+            Message::Samples(s) => {
                 let Some(h) = &hello else { continue };
                 let start = *first.get_or_insert(s.first_sample);
                 let Some(at) = s.first_sample.checked_sub(start) else { continue };

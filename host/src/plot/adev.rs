@@ -371,7 +371,7 @@ fn adev_legend(series: &[Prepared<'_>], opts: &PlotOptions) -> Legend {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::{fit, fit_input, FitOptions, FLICKER_AVAR_FACTOR};
+    use crate::fit::{fit_deviations, FitOptions, FLICKER_AVAR_FACTOR};
     use crate::plot::test_util::{out_dir, png_size};
     use crate::stats::NoiseMethod;
 
@@ -408,7 +408,7 @@ mod tests {
             });
             m *= 2;
         }
-        let fit = fit(&fit_input(&points), &FitOptions::default()).ok();
+        let fit = fit_deviations(&points, Some(&FitOptions::default())).ok();
         AdevSeries { name: name.to_string(), points, fit }
     }
 

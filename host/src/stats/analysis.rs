@@ -26,7 +26,7 @@
 
 use rayon::prelude::*;
 
-use super::deviation::{estimate, estimate_many, Estimate, Statistic};
+use super::deviation::{estimate, estimate_many, RawDeviation, Statistic};
 use super::error::StatsError;
 use super::noise_id::{acf_noise_id, b1_noise_id_with, NoiseMethod};
 use super::point::{row, DevPoint, Options};
@@ -88,7 +88,7 @@ pub fn analyze_series(
     } else {
         ms.iter().map(|&m| estimate(series, stat, m)).collect()
     };
-    let row = |(&m, est): (&usize, &Option<Estimate>)| est.map(|e| point(series, stat, m, e, opts));
+    let row = |(&m, est): (&usize, &Option<RawDeviation>)| est.map(|e| point(series, stat, m, e, opts));
     let rows: Vec<DevPoint> = if opts.parallel && opts.intervals {
         ms.par_iter().zip(estimates.par_iter()).filter_map(row).collect()
     } else {
@@ -101,7 +101,7 @@ pub fn analyze_series(
 }
 
 /// One row at averaging factor m.
-fn point(series: &Series, stat: Statistic, m: usize, est: Estimate, opts: &Options) -> DevPoint {
+fn point(series: &Series, stat: Statistic, m: usize, est: RawDeviation, opts: &Options) -> DevPoint {
     row(m, series.tau0_s(), series.n_phase(), stat, est, opts, || identify_with(series, stat, m, Some(est.dev)))
 }
 

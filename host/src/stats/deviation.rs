@@ -121,9 +121,9 @@ impl Statistic {
     }
 }
 
-/// One estimate: the deviation and the number of terms averaged.
+/// A deviation before its interval: the value and the number of terms averaged.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Estimate {
+pub struct RawDeviation {
     /// The deviation (frequency units; TDEV in the phase's time unit).
     pub dev: f64,
     /// Number of terms averaged.
@@ -131,7 +131,7 @@ pub struct Estimate {
 }
 
 /// The estimate of `stat` at averaging factor `m`, or None when no term can be formed.
-pub fn estimate(series: &Series, stat: Statistic, m: usize) -> Option<Estimate> {
+pub fn estimate(series: &Series, stat: Statistic, m: usize) -> Option<RawDeviation> {
     if m == 0 {
         return None;
     }
@@ -169,14 +169,14 @@ pub fn estimate(series: &Series, stat: Statistic, m: usize) -> Option<Estimate> 
     if stat == Statistic::Tdev {
         dev *= tau / 3f64.sqrt();
     }
-    Some(Estimate { dev, n })
+    Some(RawDeviation { dev, n })
 }
 
 /// The fully overlapping estimates (OADEV, OHDEV) at many averaging factors in one cache-blocked pass: the
 /// record is cut into blocks of `MANY_BLOCK` start indices, and each block (processed in parallel) adds its terms
 /// for every m while its phase points are still in cache. Falls back to one pass per m for other statistics or
 /// records with gaps. Returns None for an m without terms.
-pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Option<Estimate>> {
+pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Option<RawDeviation>> {
     let d = match stat {
         Statistic::Oadev => 2,
         Statistic::Ohdev => 3,
@@ -202,7 +202,7 @@ pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Opti
             .zip(&sums)
             .map(|(&m, &s)| {
                 let n = n_phase.saturating_sub(2 * m);
-                (n > 0).then(|| Estimate { dev: (s / (2.0 * n as f64)).sqrt() / (m as f64 * series.tau0_s), n })
+                (n > 0).then(|| RawDeviation { dev: (s / (2.0 * n as f64)).sqrt() / (m as f64 * series.tau0_s), n })
             })
             .collect();
     }
@@ -223,7 +223,7 @@ pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Opti
         .zip(&counts)
         .zip(&sums)
         .map(|((&m, &n), &s)| {
-            (n > 0).then(|| Estimate { dev: (s / (norm * n as f64)).sqrt() / (m as f64 * series.tau0_s), n })
+            (n > 0).then(|| RawDeviation { dev: (s / (norm * n as f64)).sqrt() / (m as f64 * series.tau0_s), n })
         })
         .collect()
 }

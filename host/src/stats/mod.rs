@@ -25,7 +25,7 @@ pub mod strided;
 pub mod taus;
 
 pub use analysis::{analyze, analyze_series, identify};
-pub use deviation::{estimate, Estimate, Statistic};
+pub use deviation::{estimate, RawDeviation, Statistic};
 pub use error::StatsError;
 pub use noise_id::NoiseMethod;
 pub use point::{edf_for, strided_avar_edf, DevPoint, NoiseSpec, Options};

@@ -23,7 +23,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use super::deviation::{estimate, Estimate, Statistic};
+use super::deviation::{estimate, RawDeviation, Statistic};
 use super::error::StatsError;
 use super::kernel::{far_sums, oadev_range_sums, FAR_PITCH, FAR_WIDTH};
 use super::noise_id::{acf_noise_id_from, b1_decide, NoiseMethod};
@@ -42,7 +42,7 @@ const HEAD: usize = 2 * FUSED_MAX_M;
 const _: () = assert!(FAR_PITCH.is_multiple_of(DEC) && FAR_WIDTH.is_multiple_of(DEC) && COARSE.is_multiple_of(DEC));
 
 /// What the noise identification needs of the record: the samples, the kept phase points and block sums.
-struct Record<'a> {
+struct Prepared<'a> {
     /// The data as given (for the full series on demand).
     data: &'a [f64],
     /// The samples, trimmed.
@@ -100,15 +100,15 @@ pub(crate) fn analyze_octave(
         return None;
     }
     let (rec, sums) = prepare(data, y, tau0_s, &ms, opts.intervals)?;
-    let estimates: Vec<Option<Estimate>> = ms
+    let estimates: Vec<Option<RawDeviation>> = ms
         .iter()
         .map(|&m| {
             let n = n_phase.saturating_sub(2 * m);
             let s = sums.iter().find(|f| f.0 == m)?.1;
-            (n > 0).then(|| Estimate { dev: (s / (2.0 * n as f64)).sqrt() / (m as f64 * tau0_s), n })
+            (n > 0).then(|| RawDeviation { dev: (s / (2.0 * n as f64)).sqrt() / (m as f64 * tau0_s), n })
         })
         .collect();
-    let one = |(&m, est): (&usize, &Option<Estimate>)| {
+    let one = |(&m, est): (&usize, &Option<RawDeviation>)| {
         est.map(|e| row(m, tau0_s, n_phase, stat, e, opts, || rec.identify(m, e.dev)))
     };
     let rows: Vec<DevPoint> = if opts.intervals {
@@ -130,7 +130,7 @@ fn prepare<'a>(
     tau0_s: f64,
     ms: &[usize],
     with_coarse: bool,
-) -> Option<(Record<'a>, Vec<(usize, f64)>)> {
+) -> Option<(Prepared<'a>, Vec<(usize, f64)>)> {
     let n_phase = y.len() + 1;
     let levels = |near: bool| {
         let mut v: Vec<usize> = ms.iter().copied().filter(|&m| 2 * m < n_phase && (m <= FUSED_MAX_M) == near).collect();
@@ -233,7 +233,7 @@ fn prepare<'a>(
     debug_assert_eq!(dec.len(), (n_phase - 1) / DEC + 1);
     let far = far_sums(n_phase, &far_ms, |r0, buf| fill_column(y, &dec, mean, tau0_s, r0, buf));
     let sums = near_ms.into_iter().zip(near_sums).chain(far_ms.into_iter().zip(far)).collect();
-    Some((Record { data, y, tau0_s, mean, n_phase, dec, coarse, full: OnceLock::new() }, sums))
+    Some((Prepared { data, y, tau0_s, mean, n_phase, dec, coarse, full: OnceLock::new() }, sums))
 }
 
 /// Rows integrated together by [`fill_column`] (independent running sums: the additions overlap).
@@ -338,7 +338,7 @@ fn sum_less(x: &[f64], mean: f64) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + it.remainder().iter().map(|v| v - mean).sum::<f64>()
 }
 
-impl Record<'_> {
+impl Prepared<'_> {
     /// Points j0..j1 of the noise identification at m: the frequency averaged over blocks of m samples, less
     /// the mean (as `noise_id`'s averages of a gap-free frequency series).
     fn averages(&self, m: usize, j0: usize, j1: usize) -> Vec<f64> {

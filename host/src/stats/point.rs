@@ -2,7 +2,7 @@
 //! from an estimate (noise type, Greenhall's EDF, the chi-square interval). Shared by the table of
 //! [`super::analysis`] and the octave path of [`super::octave`].
 
-use super::deviation::{Estimate, Statistic};
+use super::deviation::{RawDeviation, Statistic};
 use super::edf::{confidence_interval, greenhall_edf, totdev_edf};
 use super::noise_id::NoiseMethod;
 
@@ -67,7 +67,7 @@ pub(crate) fn row(
     tau0_s: f64,
     n_phase: usize,
     stat: Statistic,
-    est: Estimate,
+    est: RawDeviation,
     opts: &Options,
     identify: impl FnOnce() -> (i32, NoiseMethod),
 ) -> DevPoint {

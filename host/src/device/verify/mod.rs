@@ -36,7 +36,7 @@ use octavar_shared::proto::{Samples, PROTOCOL_VERSION};
 use serde::Serialize;
 
 use crate::device::accumulate::StridedAllan;
-use crate::io::decode::{self, CaptureReader, DecodeError, DecodeStats, Decoded, FrameMeta, Record};
+use crate::io::decode::{self, CaptureReader, DecodeError, DecodeStats, Decoded, FrameMeta, Message};
 
 /// Codes per channel the replay holds ahead of the snapshots at most (beyond, it accumulates eagerly).
 pub const MAX_BUFFERED: usize = 1 << 20;
@@ -422,8 +422,8 @@ impl Verifier {
                 self.new_session(c, Err(Unchecked::NotStreamed));
             }
         }
-        match d.record {
-            Record::Hello(h) => {
+        match d.message {
+            Message::Hello(h) => {
                 if h.protocol_version != PROTOCOL_VERSION {
                     return Err(VerifyError::UnknownProtocol {
                         name: name.to_string(),
@@ -435,9 +435,9 @@ impl Verifier {
                 self.stride.get_or_insert(usize::from(h.stride));
                 self.names = h.channels.iter().map(|c| c.name.to_string()).collect();
             }
-            Record::Samples(s) => self.samples(&s),
-            Record::Status(s) => self.report.status_samples_lost = Some(s.samples_lost),
-            Record::Snapshot(c) => self.snapshot(d.meta, c.channel, c.snapshot),
+            Message::Samples(s) => self.samples(&s),
+            Message::Status(s) => self.report.status_samples_lost = Some(s.samples_lost),
+            Message::Snapshot(c) => self.snapshot(d.meta, c.channel, c.snapshot),
             _ => {}
         }
         Ok(())

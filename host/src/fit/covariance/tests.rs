@@ -4,8 +4,8 @@
 use super::*;
 use crate::stats::edf::greenhall_edf;
 
-fn overlapping(m: f64, n_samples: f64) -> EstimateShape {
-    EstimateShape { m, terms: n_samples + 1.0 - 2.0 * m, stride: 1.0 }
+fn overlapping(m: f64, n_samples: f64) -> EstimatorShape {
+    EstimatorShape { m, terms: n_samples + 1.0 - 2.0 * m, stride: 1.0 }
 }
 
 fn squares(n: f64, b: f64, k: f64) -> [f64; 5] {
@@ -41,7 +41,7 @@ fn a_strided_estimate_has_greenhalls_variance() {
         for m in [64.0, 1024.0] {
             let stride = m / 8.0;
             let terms = ((n_samples - 2.0 * m) / stride).floor() + 1.0;
-            let var = avar_covariance(&[EstimateShape { m, terms, stride }], tau0, &sq)[0][0];
+            let var = avar_covariance(&[EstimatorShape { m, terms, stride }], tau0, &sq)[0][0];
             let tau = m * tau0;
             let avar: f64 = Term::ALL.iter().zip(sq).map(|(t, s)| s * t.basis(tau)).sum();
             let want = 2.0 * avar * avar / greenhall_edf(alpha, 2, m, m, 8.0, n_samples + 1.0);
@@ -103,7 +103,7 @@ fn octave_correlations_match_a_monte_carlo() {
             row[c] = s / (2.0 * (m as f64 * tau0).powi(2) * terms as f64);
         }
     }
-    let shapes: Vec<EstimateShape> = ms.iter().map(|&m| overlapping(m as f64, len as f64)).collect();
+    let shapes: Vec<EstimatorShape> = ms.iter().map(|&m| overlapping(m as f64, len as f64)).collect();
     let cov = avar_covariance(&shapes, tau0, &squares(n, 0.0, k));
     let mean: Vec<f64> = (0..ms.len()).map(|c| est.iter().map(|r| r[c]).sum::<f64>() / records as f64).collect();
     let emp = |a: usize, b: usize| {
@@ -158,8 +158,8 @@ fn the_quadrature_matches_the_double_sum() {
         let (tau_a, tau_b) = (ma as f64 * tau0, mb as f64 * tau0);
         let want = 2.0 * sum / (4.0 * tau_a.powi(2) * tau_b.powi(2) * ta as f64 * tb as f64);
         let shapes = [
-            EstimateShape { m: ma as f64, terms: ta as f64, stride: sa as f64 },
-            EstimateShape { m: mb as f64, terms: tb as f64, stride: sb as f64 },
+            EstimatorShape { m: ma as f64, terms: ta as f64, stride: sa as f64 },
+            EstimatorShape { m: mb as f64, terms: tb as f64, stride: sb as f64 },
         ];
         let got = avar_covariance(&shapes, tau0, &sq)[0][1];
         let tol = if sa == 1 { 1e-4 } else { 0.01 };

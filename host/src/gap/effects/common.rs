@@ -8,10 +8,10 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
-use crate::fit::{fit, fit_input, FitOptions, FitPoint, Term};
+use crate::fit::{fit, fit_input, octave_oadev, FitOptions, FitPoint, Term};
 use crate::gap::fill::with_gaps;
 pub(super) use crate::gap::spectral::{block_means, sine_tapers};
-use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec};
+use crate::stats::{DataKind, Options, Series};
 
 pub(super) fn mean(x: &[f64]) -> f64 {
     if x.is_empty() {
@@ -27,8 +27,7 @@ pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
     let Ok(s) = Series::new(x, DataKind::Frequency, 1.0 / fs) else {
         return Vec::new();
     };
-    let opts = Options::default();
-    analyze_series(&s, Statistic::Oadev, &TauSpec::Octave, &opts).map(|rows| fit_input(&rows)).unwrap_or_default()
+    octave_oadev(&s, Options::default().confidence).map(|rows| fit_input(&rows)).unwrap_or_default()
 }
 
 /// [`oadev_points`] of `x` with the runs `gaps` (filled in `x`) taken as gaps: a stretch filled by a line has no

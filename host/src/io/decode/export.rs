@@ -119,8 +119,8 @@ impl CsvSet {
     fn record(&mut self, d: &Decoded, hello: Option<&Hello>) -> Result<(), DecodeError> {
         let seq = d.meta.seq.to_string();
         let rate = hello.map(|h| f64::from(h.sample_rate_hz));
-        match &d.record {
-            Record::Samples(s) => {
+        match &d.message {
+            Message::Samples(s) => {
                 if self.samples.is_none() {
                     // Columns: the hello's channels, or ch0..ch7 without one.
                     let names: Vec<String> = match hello {
@@ -146,10 +146,10 @@ impl CsvSet {
                     csv.row(&row)?;
                 }
             }
-            Record::Snapshot(c) => {
+            Message::Snapshot(c) => {
                 Self::snapshot_rows(&mut self.snapshots, &[seq, c.channel.to_string()], &c.snapshot, rate)?;
             }
-            Record::FieldLog(f) => {
+            Message::FieldLog(f) => {
                 let prefix = [
                     seq,
                     f.checkpoint.to_string(),
@@ -160,7 +160,7 @@ impl CsvSet {
                 ];
                 Self::snapshot_rows(&mut self.field_log, &prefix, &f.snapshot, rate)?;
             }
-            Record::Status(s) => self.status.row([
+            Message::Status(s) => self.status.row([
                 seq,
                 s.uptime_ms.to_string(),
                 s.samples_per_channel.to_string(),
@@ -168,7 +168,7 @@ impl CsvSet {
                 s.frames_dropped.to_string(),
                 opt(s.temperature_c),
             ])?,
-            Record::Estimate(e) => {
+            Message::Estimate(e) => {
                 for c in &e.channels {
                     self.estimates.row([
                         seq.clone(),
@@ -180,7 +180,7 @@ impl CsvSet {
                     ])?;
                 }
             }
-            Record::Hello(_) | Record::FieldLogEnd(_) | Record::Ack(_) => {}
+            Message::Hello(_) | Message::FieldLogEnd(_) | Message::Ack(_) => {}
         }
         Ok(())
     }
@@ -216,22 +216,22 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
             csv.record(&d, hello.as_ref())?;
         }
         let seq = d.meta.seq;
-        match d.record {
-            Record::Hello(h) => hello = Some(h),
-            Record::Samples(s) => {
+        match d.message {
+            Message::Hello(h) => hello = Some(h),
+            Message::Samples(s) => {
                 for ch in s.mask_channels().map(|c| c as u8) {
                     *per_channel.entry(ch).or_default() += s.sets() as u64;
                 }
             }
-            Record::Snapshot(c) => {
+            Message::Snapshot(c) => {
                 last.insert(c.channel, (seq, c.snapshot));
             }
-            Record::FieldLog(f) => {
+            Message::FieldLog(f) => {
                 last_log.insert(f.channel, (seq, f.snapshot));
             }
-            Record::Status(status) => statuses.push(StatusSummary { frame_seq: seq, status }),
-            Record::Estimate(estimate) => estimates.push(EstimateSummary { frame_seq: seq, estimate }),
-            Record::FieldLogEnd(_) | Record::Ack(_) => {}
+            Message::Status(status) => statuses.push(StatusSummary { frame_seq: seq, status }),
+            Message::Estimate(estimate) => estimates.push(EstimateSummary { frame_seq: seq, estimate }),
+            Message::FieldLogEnd(_) | Message::Ack(_) => {}
         }
     }
     let csv_files = csv.map(CsvSet::finish).transpose()?.unwrap_or_default();

@@ -12,7 +12,7 @@
 //!
 //! # Examples
 //! ```
-//! use octavar::io::decode::{CaptureReader, Record};
+//! use octavar::io::decode::{CaptureReader, Message};
 //! use octavar_shared::proto::{Encoder, Frame, Status};
 //! let mut enc = Encoder::new();
 //! let status = Frame::Status(Status {
@@ -23,7 +23,7 @@
 //! bytes.extend_from_slice(&[0x42, 0x13]); // a frame cut short at the end of the capture
 //! let mut reader = CaptureReader::new(&bytes[..], "example");
 //! let records: Vec<_> = reader.by_ref().collect::<Result<_, _>>().unwrap();
-//! assert!(matches!(records[0].record, Record::Status(_)));
+//! assert!(matches!(records[0].message, Message::Status(_)));
 //! assert_eq!(reader.stats().frames, 1);
 //! assert_eq!(reader.stats().truncated_tail, 2);
 //! ```
@@ -129,9 +129,9 @@ pub struct FieldLogSnapshot {
     pub snapshot: Snapshot,
 }
 
-/// A decoded record.
+/// A decoded message: one frame's content, or a snapshot assembled from its parts.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Record {
+pub enum Message {
     /// The device introduced itself.
     Hello(Hello),
     /// Raw codes.
@@ -150,13 +150,13 @@ pub enum Record {
     Ack(Ack),
 }
 
-/// A record and where it came from.
+/// A message and the frame it came from.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Decoded {
     /// Its frame.
     pub meta: FrameMeta,
-    /// The record.
-    pub record: Record,
+    /// The message.
+    pub message: Message,
 }
 
 /// Why a frame was dropped.

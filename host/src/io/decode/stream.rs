@@ -130,34 +130,34 @@ impl StreamDecoder {
             self.snapshots.clear();
             self.field_log.clear();
         }
-        let record = match frame {
+        let message = match frame {
             Frame::Hello(h) => {
                 self.stats.hellos += 1;
                 if h.protocol_version != PROTOCOL_VERSION {
                     self.stats.unknown_protocol = Some(h.protocol_version);
                 }
-                Record::Hello(h)
+                Message::Hello(h)
             }
             Frame::Samples(s) => {
                 self.stats.samples_frames += 1;
                 self.stats.sample_sets += s.sets() as u64;
-                Record::Samples(s)
+                Message::Samples(s)
             }
             Frame::Status(s) => {
                 self.stats.statuses += 1;
-                Record::Status(s)
+                Message::Status(s)
             }
             Frame::Estimate(e) => {
                 self.stats.estimates += 1;
-                Record::Estimate(e)
+                Message::Estimate(e)
             }
             Frame::FieldLogEnd(e) => {
                 self.stats.field_log_ends += 1;
-                Record::FieldLogEnd(e)
+                Message::FieldLogEnd(e)
             }
             Frame::Ack(a) => {
                 self.stats.acks += 1;
-                Record::Ack(a)
+                Message::Ack(a)
             }
             Frame::AllanSnapshot(part) => {
                 self.stats.snapshot_parts += 1;
@@ -171,7 +171,7 @@ impl StreamDecoder {
                     Joined::Done(snapshot, first_offset) => {
                         self.stats.snapshots += 1;
                         meta.offset = first_offset;
-                        Record::Snapshot(ChannelSnapshot { channel, snapshot: *snapshot })
+                        Message::Snapshot(ChannelSnapshot { channel, snapshot: *snapshot })
                     }
                 }
             }
@@ -192,7 +192,7 @@ impl StreamDecoder {
                     Joined::Done(snapshot, first_offset) => {
                         self.stats.field_log_snapshots += 1;
                         meta.offset = first_offset;
-                        Record::FieldLog(FieldLogSnapshot {
+                        Message::FieldLog(FieldLogSnapshot {
                             checkpoint,
                             time_s,
                             sessions,
@@ -204,7 +204,7 @@ impl StreamDecoder {
                 }
             }
         };
-        emit(Decoded { meta, record });
+        emit(Decoded { meta, message });
     }
 }
 

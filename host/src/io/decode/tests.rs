@@ -32,7 +32,7 @@ fn snapshot_parts_join_and_a_lost_part_is_counted() {
     bytes.extend_from_slice(&enc.encode_to_vec(&Frame::AllanSnapshot(parts[1].clone())).unwrap());
     let (recs, stats) = records(&bytes);
     assert_eq!(recs.len(), 1);
-    assert_eq!(recs[0].record, Record::Snapshot(ChannelSnapshot { channel: 2, snapshot: snap }));
+    assert_eq!(recs[0].message, Message::Snapshot(ChannelSnapshot { channel: 2, snapshot: snap }));
     assert_eq!(recs[0].meta.seq, 1);
     assert_eq!(recs[0].meta.offset, 0);
     assert_eq!((stats.snapshots, stats.snapshot_parts, stats.incomplete_snapshots), (1, 3, 1));
@@ -53,8 +53,8 @@ fn field_log_parts_join_with_their_checkpoint() {
     let (recs, stats) = records(&bytes);
     let want =
         FieldLogSnapshot { checkpoint: 3, time_s: 600, sessions: 2, adc_overruns: 1, channel: 1, snapshot: snap };
-    assert_eq!(recs[0].record, Record::FieldLog(want));
-    assert_eq!(recs[1].record, Record::FieldLogEnd(FieldLogEnd { checkpoints: 1 }));
+    assert_eq!(recs[0].message, Message::FieldLog(want));
+    assert_eq!(recs[1].message, Message::FieldLogEnd(FieldLogEnd { checkpoints: 1 }));
     assert_eq!((stats.field_log_snapshots, stats.field_log_ends, stats.incomplete_snapshots), (1, 1, 0));
 }
 

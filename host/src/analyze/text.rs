@@ -1,0 +1,87 @@
+//! The text `octavar analyze` prints: per channel a header line, Stable32's table for each statistic, and the
+//! fit with its intervals and the classic readouts.
+
+use std::fmt::Write as _;
+
+use super::ChannelAnalysis;
+use crate::fit::{NoiseFit, Term};
+use crate::stats::{DevPoint, Statistic};
+
+/// The whole report: a line naming the source, then each channel's tables and fit (or why it has none).
+pub fn report(source: &str, samples: u64, rate_hz: f64, channels: &[ChannelAnalysis]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# {source}: {samples} samples at {rate_hz} Hz");
+    for c in channels {
+        let _ = writeln!(s, "\n== {} ({}; {} samples, {} gaps)", c.name, c.unit, c.n_samples, c.n_gaps);
+        for (stat, pts) in &c.stats {
+            s.push_str(&table(*stat, pts));
+        }
+        match &c.fit {
+            Ok(f) => s.push_str(&fit_report(f)),
+            Err(e) => {
+                let _ = writeln!(s, "no fit: {e}");
+            }
+        }
+    }
+    s
+}
+
+/// The Stable32-style table of one statistic: AF, tau, #, alpha, min sigma, sigma, max sigma.
+pub fn table(stat: Statistic, points: &[DevPoint]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:>10} {:>12} {:>10} {:>6} {:>12} {:>12} {:>12}   {}",
+        "AF",
+        "tau (s)",
+        "#",
+        "alpha",
+        "min sigma",
+        "sigma",
+        "max sigma",
+        stat.name()
+    );
+    for p in points {
+        let _ = writeln!(
+            s,
+            "{:>10} {:>12.4e} {:>10} {:>6} {:>12.4e} {:>12.4e} {:>12.4e}",
+            p.m, p.tau_s, p.n, p.alpha, p.lo, p.dev, p.hi
+        );
+    }
+    s
+}
+
+/// The fit as text: each term with its interval and second unit, then the classic readouts.
+pub fn fit_report(f: &NoiseFit) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "IEEE 952 fit (log-domain fit on OADEV, {:.0}% intervals, tau {:.3e}..{:.3e} s, chi2/dof {:.2})",
+        f.confidence * 100.0,
+        f.tau_range_s[0],
+        f.tau_range_s[1],
+        if f.dof > 0 { f.chi2 / f.dof as f64 } else { f64::NAN }
+    );
+    for t in Term::ALL {
+        let e = f.term(t);
+        let (alt_unit, k) = t.alt_unit();
+        let line = match (e.value, e.lo, e.hi) {
+            (Some(v), Some(lo), Some(hi)) => {
+                format!("{:>3} = {v:.4e} {} ({lo:.3e} .. {hi:.3e})   = {:.4e} {alt_unit}", t.name(), e.unit, v * k)
+            }
+            (_, _, Some(hi)) => format!("{:>3}   not identifiable (at most {hi:.3e} {})", t.name(), e.unit),
+            _ => format!("{:>3}   not fitted", t.name()),
+        };
+        let _ = writeln!(s, "{line}");
+    }
+    let c = &f.classic;
+    let show = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.4e}"));
+    let _ = writeln!(
+        s,
+        "classic readouts: N (-1/2 line at 1 s) {} deg/sqrt(s), B (floor/0.6643) {} deg/s, K (+1/2 line at 3 s) {} deg/s/sqrt(s)",
+        show(c.n),
+        show(c.b),
+        show(c.k)
+    );
+    s
+}
