@@ -339,3 +339,28 @@ fn gap_reads_raw_samples() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--rate HZ is required"), "{}", stderr(&o));
 }
+
+#[test]
+fn no_fit_leaves_the_statistics_and_drops_the_fit_in_text_and_json() {
+    let input = dialect_file(4000, "rate\n", |_, g| format!("{g:.9e}\n"));
+    let dir = tempfile::tempdir().expect("a temp dir");
+    let json = dir.path().join("a.json");
+    let json_arg = json.display().to_string();
+    let args = ["analyze", "-", "--column", "rate", "--rate", "100", "--json", &json_arg];
+    let with = octavar(&args, Some(&input));
+    assert!(with.status.success(), "{}", stderr(&with));
+    assert!(stdout(&with).contains("IEEE 952 fit"), "{}", stdout(&with));
+    let fitted: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let without = octavar(&[&args[..], &["--no-fit"]].concat(), Some(&input));
+    assert!(without.status.success(), "{}", stderr(&without));
+    let text = stdout(&without);
+    assert!(!text.contains("IEEE 952 fit") && text.contains("no fit: no fit was asked for"), "{text}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(v["channels"][0]["stats"], fitted["channels"][0]["stats"], "the statistics do not depend on the fit");
+    assert!(fitted["channels"][0]["fit"]["N"]["value"].is_f64());
+    assert!(v["channels"][0]["fit"]["error"].as_str().is_some_and(|e| e.contains("asked for")), "{v}");
+    // A model or a Kalibr file needs the fit: asking for both is a usage error (exit 2), not a silent empty file.
+    let model = dir.path().join("m.toml").display().to_string();
+    let clash = octavar(&[&args[..], &["--no-fit", "--model-out", &model]].concat(), Some(&input));
+    assert_eq!(clash.status.code(), Some(2), "{}", stderr(&clash));
+}
