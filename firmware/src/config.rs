@@ -14,7 +14,7 @@ pub const DEVICE: DeviceConfig<'static> = DeviceConfig {
 };
 
 /// Scans per second (TIM3 triggers one ADC scan of all channels per sample).
-pub const SAMPLE_RATE_HZ: u32 = DEVICE.sample_rate_hz;
+pub const SAMPLE_RATE_HZ: u32 = DEVICE.rate_hz;
 /// Channels in one scan: the four gyro outputs, then the temperature.
 pub const CHANNELS: usize = DEVICE.width();
 /// Gyro channels (each has an accumulator).

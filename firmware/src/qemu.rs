@@ -234,7 +234,7 @@ fn bench_model() -> BenchSim {
     ] {
         let _ = channels.push(ChannelSim { sensor: kind, channel: None, gyro: g });
     }
-    BenchSim { fs_hz: f64::from(SAMPLE_RATE_HZ), seed: SEED, temperature: Default::default(), channels }
+    BenchSim { rate_hz: f64::from(SAMPLE_RATE_HZ), seed: SEED, temperature: Default::default(), channels }
 }
 
 /// The virtual converter: the simulated bench behind a trigger count that follows the time base.

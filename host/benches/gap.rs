@@ -17,10 +17,10 @@ use octavar_shared::sim::GyroSim;
 /// The floor, s per million samples.
 const FLOOR_S: f64 = 30.0;
 
-fn time(name: &str, x: &[f64], fs: f64) -> f64 {
+fn time(name: &str, x: &[f64], rate_hz: f64) -> f64 {
     let mut plain = f64::NAN;
     for check in [HoldoutCheck::Plain, HoldoutCheck::Predictive] {
-        let input = GapInput::split(x.to_vec(), None, fs, 0.5).expect("a valid split");
+        let input = GapInput::split(x.to_vec(), None, rate_hz, 0.5).expect("a valid split");
         let t0 = Instant::now();
         let r = diagnose(&input, &GapOptions { holdout_check: check, ..Default::default() }, &|_, _, _| {})
             .expect("the diagnosis runs");

@@ -66,7 +66,7 @@ fn sim(c: &mut Criterion) {
         channels.push(ChannelSim { sensor: ADXRS300.kind, channel: None, gyro: full() }).unwrap();
     }
     let model = BenchSim {
-        fs_hz: 2000.0,
+        rate_hz: 2000.0,
         seed: 1,
         temperature: TemperatureProfile {
             min_c: 22.0,

@@ -107,10 +107,10 @@ pub fn model_to_toml(model: &BenchSim) -> String {
 }
 
 /// A one-channel bench from flags: the part, its noise terms and the sample rate.
-pub fn single_channel(sensor: SensorKind, gyro: GyroSim, fs_hz: f64, seed: u64) -> BenchSim {
+pub fn single_channel(sensor: SensorKind, gyro: GyroSim, rate_hz: f64, seed: u64) -> BenchSim {
     let mut channels = heapless::Vec::new();
     let _ = channels.push(ChannelSim { sensor, channel: None, gyro });
-    BenchSim { fs_hz, seed, temperature: Default::default(), channels }
+    BenchSim { rate_hz, seed, temperature: Default::default(), channels }
 }
 
 /// A column name for each channel: the part's name, with `_2`, `_3`... where a part repeats.
@@ -163,7 +163,7 @@ pub fn simulate<W: Write>(
     for c in &model.channels {
         GyroModel::of(c.sensor).ok_or(SimulateError::Model(octavar_shared::sim::SimError::NotAGyro))?;
     }
-    let total = (opts.duration_s * model.fs_hz).round() as u64;
+    let total = (opts.duration_s * model.rate_hz).round() as u64;
     let names = channel_names(model);
     let with_temp = has_temperature(model);
     let channels: Vec<_> = bench.channels().to_vec();
@@ -201,7 +201,7 @@ pub fn simulate<W: Write>(
                 }
             }
             OutputKind::Rates | OutputKind::AnalogRates => {
-                w.write_all(floats.format(i as f64 / model.fs_hz).as_bytes())?;
+                w.write_all(floats.format(i as f64 / model.rate_hz).as_bytes())?;
                 for k in 0..s.len {
                     let v = if opts.output == OutputKind::Rates {
                         channels[k].code_to_dps(s.codes[k])

@@ -66,7 +66,7 @@ fn simulate_is_deterministic_and_pipes_into_accumulate() {
     let acc = octavar(&["accumulate", "-", "--json"], Some(&a.stdout));
     assert!(acc.status.success(), "{}", stderr(&acc));
     let v: serde_json::Value = serde_json::from_slice(&acc.stdout).unwrap();
-    // White rate noise: AVAR(m = 1) in codes^2 is the per-sample variance, N^2 fs / (deg/s per code)^2.
+    // White rate noise: AVAR(m = 1) in codes^2 is the per-sample variance, N^2 rate_hz / (deg/s per code)^2.
     let ch = octavar_shared::sensor::Channel::bench(octavar_shared::sensor::ADXRS300);
     let sigma_codes = 0.046 * 2000f64.sqrt() / ch.dps_per_code();
     let avar0 = v["octaves"][0]["avar"].as_f64().unwrap();

@@ -1,4 +1,4 @@
-//! The exact octave Allan accumulator: integer ADC codes in, Allan variance at tau = 2^k / fs out.
+//! The exact octave Allan accumulator: integer ADC codes in, Allan variance at tau = 2^k / rate_hz out.
 //!
 //! It runs on the microcontroller at 2 kS/s per channel for days, in constant memory, and the host replays the
 //! same codes through the same code to reproduce every device snapshot bit for bit. So the update path uses
@@ -10,7 +10,7 @@
 //! `D = x_t - 2 x_{t-m} + x_{t-2m}`, and
 //!
 //! ```text
-//! AVAR(tau = m / fs) = sum D^2 / (2 n m^2)        (codes^2)
+//! AVAR(tau = m / rate_hz) = sum D^2 / (2 n m^2)        (codes^2)
 //! ```
 //!
 //! over the n differences taken. Level k has m = 2^k. With stride `S` (a power of two, the const parameter)

@@ -44,7 +44,7 @@
 //!     s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
 //!     acc.push(2048 + (s >> 30) as u16); // white noise, 4 codes wide
 //! }
-//! let e = estimate(&acc.snapshot(), &EstimateConfig { sample_rate_hz: 2000.0, dps_per_code: 0.01, ..Default::default() });
+//! let e = estimate(&acc.snapshot(), &EstimateConfig { rate_hz: 2000.0, dps_per_code: 0.01, ..Default::default() });
 //! assert!(e.n_dps_per_rt_s.is_some() && e.b_dps.is_some());
 //! ```
 
@@ -60,7 +60,7 @@ pub const FLICKER_FLOOR_FACTOR: f32 = 0.6643;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EstimateConfig {
     /// Samples per second of the channel.
-    pub sample_rate_hz: f32,
+    pub rate_hz: f32,
     /// deg/s per ADC code (see [`crate::sensor::Channel::dps_per_code`]).
     pub dps_per_code: f32,
     /// A level counts only with at least this many independent differences (pairs / stride factor).
@@ -69,7 +69,7 @@ pub struct EstimateConfig {
 
 impl Default for EstimateConfig {
     fn default() -> Self {
-        Self { sample_rate_hz: 2000.0, dps_per_code: 1.0, min_independent: 4 }
+        Self { rate_hz: 2000.0, dps_per_code: 1.0, min_independent: 4 }
     }
 }
 
@@ -203,13 +203,13 @@ fn fit(snap: &Snapshot, last: usize, cfg: &EstimateConfig) -> Option<(f32, f32, 
         return None;
     }
     // a is in units of AVAR_last * tau_last, c in units of AVAR_last.
-    let tau_last = (1u64 << last) as f32 / cfg.sample_rate_hz;
+    let tau_last = (1u64 << last) as f32 / cfg.rate_hz;
     Some((a * avar_last * tau_last, c * avar_last, avar_last))
 }
 
 /// Estimate N and B of one channel from its snapshot.
 pub fn estimate(snap: &Snapshot, cfg: &EstimateConfig) -> NoiseEstimate {
-    let tau0 = 1.0 / cfg.sample_rate_hz;
+    let tau0 = 1.0 / cfg.rate_hz;
     let mut out = NoiseEstimate::default();
 
     // The minimum ADEV over the usable levels.
@@ -241,13 +241,13 @@ mod tests {
     use crate::acc::{LevelSum, OctaveAllan};
 
     /// A snapshot whose ADEV at each level follows `adev(tau)` exactly (in codes), with plenty of pairs.
-    fn shaped(fs: f64, adev: impl Fn(f64) -> f64) -> Snapshot {
+    fn shaped(rate_hz: f64, adev: impl Fn(f64) -> f64) -> Snapshot {
         let mut s = Snapshot::empty(8).unwrap();
         s.samples = 1 << 28;
         for (k, l) in s.levels.iter_mut().enumerate().take(24) {
             let m = (1u64 << k) as f64;
             let n = 1u64 << 20;
-            let avar = adev(m / fs).powi(2);
+            let avar = adev(m / rate_hz).powi(2);
             *l = LevelSum { n, sum_sq: (avar * 2.0 * n as f64 * m * m) as u128 };
         }
         s
@@ -265,11 +265,11 @@ mod tests {
 
     #[test]
     fn white_noise_line_gives_n_at_one_second() {
-        let fs = 2000.0;
+        let rate_hz = 2000.0;
         let n_true = 3.0e-3; // IDG1215 Y, deg/sqrt(s)
         let dps_per_code = 0.05;
-        let snap = shaped(fs, |tau| n_true / tau.sqrt() / dps_per_code);
-        let cfg = EstimateConfig { sample_rate_hz: fs as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
+        let snap = shaped(rate_hz, |tau| n_true / tau.sqrt() / dps_per_code);
+        let cfg = EstimateConfig { rate_hz: rate_hz as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
         let e = estimate(&snap, &cfg);
         let n = e.n_dps_per_rt_s.unwrap();
         assert!((f64::from(n) / n_true - 1.0).abs() < 1e-3, "{n}");
@@ -277,14 +277,15 @@ mod tests {
 
     #[test]
     fn flicker_floor_gives_b() {
-        let fs = 2000.0;
+        let rate_hz = 2000.0;
         let (n_true, b_true) = (4.0e-4, 9.5e-4); // ENV-05H, paper Table 1
         let floor = 0.6643 * b_true;
         // White noise meeting a floor, then a random-walk rise: the minimum is the floor.
         let dps_per_code = 1e-4;
-        let snap =
-            shaped(fs, |tau| ((n_true * n_true / tau) + floor * floor + (1e-6 * tau).powi(2)).sqrt() / dps_per_code);
-        let cfg = EstimateConfig { sample_rate_hz: fs as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
+        let snap = shaped(rate_hz, |tau| {
+            ((n_true * n_true / tau) + floor * floor + (1e-6 * tau).powi(2)).sqrt() / dps_per_code
+        });
+        let cfg = EstimateConfig { rate_hz: rate_hz as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
         let e = estimate(&snap, &cfg);
         let b = e.b_dps.unwrap();
         assert!((f64::from(b) / b_true - 1.0).abs() < 0.05, "{b}");
@@ -297,12 +298,12 @@ mod tests {
     #[test]
     fn n_is_read_under_a_floor_that_dominates_at_one_second() {
         // IDG1215 Y: N = 3e-3 deg/sqrt(s), 0.6643 B = 8.6e-3 deg/s: ADEV(1 s) = 9.1e-3 deg/s, mostly the floor.
-        let fs = 2000.0;
+        let rate_hz = 2000.0;
         let (n_true, b_true) = (3.0e-3, 13e-3);
         let floor = 0.6643 * b_true;
         let dps_per_code = 0.05;
-        let snap = shaped(fs, |tau| (n_true * n_true / tau + floor * floor).sqrt() / dps_per_code);
-        let cfg = EstimateConfig { sample_rate_hz: fs as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
+        let snap = shaped(rate_hz, |tau| (n_true * n_true / tau + floor * floor).sqrt() / dps_per_code);
+        let cfg = EstimateConfig { rate_hz: rate_hz as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
         let e = estimate(&snap, &cfg);
         let n = f64::from(e.n_dps_per_rt_s.unwrap());
         assert!((n / n_true - 1.0).abs() < 0.01, "{n}");
@@ -314,7 +315,7 @@ mod tests {
     fn paper_gyros_from_ten_minutes_of_simulated_bench_codes() {
         use crate::sensor::{Channel, ADXRS300, ENV05H, IDG1215_X, IDG1215_Y};
         use crate::sim::{GyroSim, VirtualGyro};
-        let fs = 2000.0;
+        let rate_hz = 2000.0;
         // The paper's Table 1: N in deg/sqrt(s), B in deg/s.
         let gyros = [
             ("ENV-05H", ENV05H, 4.0e-4, 9.5e-4),
@@ -339,7 +340,7 @@ mod tests {
                     k_dps_per_rt_s: n_true * 1e-3,
                     ..Default::default()
                 };
-                let mut gyro = VirtualGyro::new(&sim, channel, fs, seed).unwrap();
+                let mut gyro = VirtualGyro::new(&sim, channel, rate_hz, seed).unwrap();
                 let mut acc = OctaveAllan::<8>::new();
                 let samples = 10 * 60 * 2000;
                 for _ in 0..samples / codes.len() {
@@ -351,7 +352,7 @@ mod tests {
                 acc.push_slice(&codes[..rest]);
                 assert_eq!(gyro.clipped_count(), 0);
                 let cfg = EstimateConfig {
-                    sample_rate_hz: fs as f32,
+                    rate_hz: rate_hz as f32,
                     dps_per_code: channel.dps_per_code() as f32,
                     min_independent: 4,
                 };
@@ -391,11 +392,11 @@ mod tests {
             let c = 1500 + draw() + draw() + draw() + draw();
             acc.push(c);
         }
-        let fs = 2000.0f32;
+        let rate_hz = 2000.0f32;
         let dps_per_code = 0.01f32;
         let sigma_codes = (4.0 * (256.0f64 * 256.0 - 1.0) / 12.0).sqrt();
-        let n_true = sigma_codes * f64::from(dps_per_code) / f64::from(fs).sqrt();
-        let e = estimate(&acc.snapshot(), &EstimateConfig { sample_rate_hz: fs, dps_per_code, min_independent: 4 });
+        let n_true = sigma_codes * f64::from(dps_per_code) / f64::from(rate_hz).sqrt();
+        let e = estimate(&acc.snapshot(), &EstimateConfig { rate_hz, dps_per_code, min_independent: 4 });
         let n = f64::from(e.n_dps_per_rt_s.unwrap());
         assert!((n / n_true - 1.0).abs() < 0.15, "{n} vs {n_true}");
     }

@@ -28,25 +28,25 @@ fn normal(rng: &mut StdRng) -> f64 {
     StandardNormal.sample(rng)
 }
 
-/// `n` rate samples (deg/s) at `fs_hz` of a zero-mean gyro with angle random walk `n_coef` (deg/sqrt(s)), bias
+/// `n` rate samples (deg/s) at `rate_hz` of a zero-mean gyro with angle random walk `n_coef` (deg/sqrt(s)), bias
 /// instability `b_coef` (deg/s) and rate random walk `k_coef` (deg/s/sqrt(s)), random stream `seed`:
-/// - white rate noise of one-sided PSD `2 N^2`, per-sample sd `N sqrt(fs)` (Allan variance `N^2 / tau`);
+/// - white rate noise of one-sided PSD `2 N^2`, per-sample sd `N sqrt(rate_hz)` (Allan variance `N^2 / tau`);
 /// - flicker rate noise of one-sided PSD `B^2 / (pi f)` (Allan floor `(2 ln 2 / pi) B^2`), see [`flicker`];
-/// - a rate random walk, the cumulative sum of Gaussian steps of sd `K sqrt(1 / fs)` (Allan variance
+/// - a rate random walk, the cumulative sum of Gaussian steps of sd `K sqrt(1 / rate_hz)` (Allan variance
 ///   `K^2 tau / 3 + K^2 tau0^2 / (6 tau)`: the second term is the walk's sampling, half of it at one sample).
 ///
 /// A term with a zero coefficient draws nothing.
-pub fn fft_gyro(fs_hz: f64, n: usize, n_coef: f64, b_coef: f64, k_coef: f64, seed: u64) -> Vec<f64> {
-    let mut x = if b_coef > 0.0 { flicker(fs_hz, n, b_coef, &mut stream(seed, 1)) } else { vec![0.0; n] };
+pub fn fft_gyro(rate_hz: f64, n: usize, n_coef: f64, b_coef: f64, k_coef: f64, seed: u64) -> Vec<f64> {
+    let mut x = if b_coef > 0.0 { flicker(rate_hz, n, b_coef, &mut stream(seed, 1)) } else { vec![0.0; n] };
     if n_coef > 0.0 {
-        let sd = n_coef * fs_hz.sqrt();
+        let sd = n_coef * rate_hz.sqrt();
         let mut rng = stream(seed, 0);
         for v in &mut x {
             *v += sd * normal(&mut rng);
         }
     }
     if k_coef > 0.0 {
-        let step = k_coef * (1.0 / fs_hz).sqrt();
+        let step = k_coef * (1.0 / rate_hz).sqrt();
         let mut rng = stream(seed, 2);
         let mut walk = 0.0;
         for v in &mut x {
@@ -62,11 +62,11 @@ fn padded_len(n: usize) -> usize {
     (4 * n).next_power_of_two().max(4)
 }
 
-/// `E |X_k|^2` of the DFT `X_k = sum_j x_j e^(-2 pi i j k / L)` of `L` samples at `fs_hz` of a process of
-/// one-sided PSD `psd` at `f_k = k fs / L`: `L fs S(f_k) / 2` (white noise of variance s^2, S = 2 s^2 / fs,
+/// `E |X_k|^2` of the DFT `X_k = sum_j x_j e^(-2 pi i j k / L)` of `L` samples at `rate_hz` of a process of
+/// one-sided PSD `psd` at `f_k = k rate_hz / L`: `L rate_hz S(f_k) / 2` (white noise of variance s^2, S = 2 s^2 / rate_hz,
 /// gives `L s^2`, as it must).
-fn dft_power(l: usize, fs_hz: f64, psd: f64) -> f64 {
-    l as f64 * fs_hz * psd / 2.0
+fn dft_power(l: usize, rate_hz: f64, psd: f64) -> f64 {
+    l as f64 * rate_hz * psd / 2.0
 }
 
 /// One-sided PSD of flicker rate noise of coefficient `b`, (deg/s)^2/Hz.
@@ -75,14 +75,14 @@ fn flicker_psd(b: f64, f_hz: f64) -> f64 {
 }
 
 /// Flicker rate noise by Timmer & Koenig: on the padded length `L` ([`padded_len`]) each Fourier frequency
-/// `f_k = k fs / L`, k = 1 .. L/2 - 1, gets a complex Gaussian amplitude of `E |X_k|^2 = L fs S(f_k) / 2`
+/// `f_k = k rate_hz / L`, k = 1 .. L/2 - 1, gets a complex Gaussian amplitude of `E |X_k|^2 = L rate_hz S(f_k) / 2`
 /// (real and imaginary parts each of half that variance), `X_0 = 0`, the Nyquist amplitude real of the same
 /// variance, the negative frequencies the conjugates; the inverse DFT (with its 1/L) is a real stationary series
 /// of one-sided PSD `S` on the Fourier frequencies, of which the first `n` samples are kept.
-fn flicker(fs_hz: f64, n: usize, b: f64, rng: &mut StdRng) -> Vec<f64> {
+fn flicker(rate_hz: f64, n: usize, b: f64, rng: &mut StdRng) -> Vec<f64> {
     let l = padded_len(n);
     let m = l / 2;
-    let sd = |k: usize| dft_power(l, fs_hz, flicker_psd(b, k as f64 * fs_hz / l as f64)).sqrt();
+    let sd = |k: usize| dft_power(l, rate_hz, flicker_psd(b, k as f64 * rate_hz / l as f64)).sqrt();
     let mut half = vec![Complex::new(0.0, 0.0); m];
     for (k, h) in half.iter_mut().enumerate().skip(1) {
         let s = sd(k) * std::f64::consts::FRAC_1_SQRT_2;
@@ -174,15 +174,15 @@ mod tests {
     /// padded series is stationary (circulant), so every term of the estimator has the expectation
     /// `(1/L^2) sum_k E|X_k|^2 |G_m(k)|^2 / 2` with `|G_m|^2 = 4 sin^4(m t / 2) / (m^2 sin^2(t / 2))`,
     /// t = 2 pi k / L, the gain of the difference of two adjacent m-sample means.
-    fn flicker_expected(fs: f64, n: usize, b: f64, m: usize) -> f64 {
+    fn flicker_expected(rate_hz: f64, n: usize, b: f64, m: usize) -> f64 {
         let l = padded_len(n);
         let mf = m as f64;
         let sum: f64 = (1..l)
             .map(|k| {
-                let f = k.min(l - k) as f64 * fs / l as f64;
+                let f = k.min(l - k) as f64 * rate_hz / l as f64;
                 let t = 2.0 * std::f64::consts::PI * k as f64 / l as f64;
                 let g = 4.0 * (mf * t / 2.0).sin().powi(4) / (mf * mf * (t / 2.0).sin().powi(2));
-                dft_power(l, fs, flicker_psd(b, f)) * g
+                dft_power(l, rate_hz, flicker_psd(b, f)) * g
             })
             .sum();
         sum / (2.0 * (l * l) as f64)
@@ -231,10 +231,10 @@ mod tests {
     /// Each term alone, 100 seeds of 2^16 samples at 10 Hz: the seed average of the overlapping Allan variance
     /// at m = 1, 4, 16, 256, 2048 samples (tau up to n tau0 / 32) against
     /// - the closed form (`N^2/tau`, `0.4413 B^2`, `K^2 tau/3`) within 4 standard errors of the seed average plus
-    ///   a stated bias allowance. Flicker: 20% at m = 1 and 4% at m = 4 (the spectrum stops at fs/2 and the
+    ///   a stated bias allowance. Flicker: 20% at m = 1 and 4% at m = 4 (the spectrum stops at rate_hz/2 and the
     ///   samples are point values, not tau0 means: the exact expectation is +18.9% and +2.9% there, +0.9% at
     ///   m = 8, under 0.3% from m = 16), and 1% at the largest tau (the finite padded record has no frequency
-    ///   below fs/L: -0.007% at m = 2048). Random walk: its sampling term `1 / (2 m^2)` (+50% at m = 1, +3.1% at
+    ///   below rate_hz/L: -0.007% at m = 2048). Random walk: its sampling term `1 / (2 m^2)` (+50% at m = 1, +3.1% at
     ///   m = 4). White: none;
     /// - the exact expectation of the synthesised process (white `N^2/tau`, the walk with its sampling term, the
     ///   flicker by the sum over its Fourier frequencies) within 4 standard errors: this checks the spectral

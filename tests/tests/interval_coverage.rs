@@ -87,10 +87,10 @@ enum Miss {
 }
 
 /// `len` rate samples (deg/s) at `fs` of octavar's virtual gyro with the truth of `mix` at a constant 25 C.
-fn sim_record(fs: f64, len: usize, truth: [f64; 3], seed: u64) -> Vec<f64> {
+fn sim_record(rate_hz: f64, len: usize, truth: [f64; 3], seed: u64) -> Vec<f64> {
     let [n, b, k] = truth;
     let gyro = GyroSim { n_deg_per_rt_s: n, b_dps: b, k_dps_per_rt_s: k, ..Default::default() };
-    let mut g = VirtualGyro::new(&gyro, Channel::bench(ADXRS300), fs, seed).unwrap();
+    let mut g = VirtualGyro::new(&gyro, Channel::bench(ADXRS300), rate_hz, seed).unwrap();
     let temps = [25.0; 8192];
     let mut x = vec![0.0; len];
     for chunk in x.chunks_mut(temps.len()) {
@@ -100,15 +100,15 @@ fn sim_record(fs: f64, len: usize, truth: [f64; 3], seed: u64) -> Vec<f64> {
 }
 
 /// Generate, analyse and fit one record; nothing of it is kept but the outcome.
-fn run_record(generator: Generator, fs: f64, hours: f64, truth: [f64; 3], seed: u64) -> Outcome {
-    let len = (hours * 3600.0 * fs).round() as usize;
+fn run_record(generator: Generator, rate_hz: f64, hours: f64, truth: [f64; 3], seed: u64) -> Outcome {
+    let len = (hours * 3600.0 * rate_hz).round() as usize;
     let t0 = Instant::now();
     let rate = match generator {
-        Generator::Fft => fft_gyro(fs, len, truth[0], truth[1], truth[2], seed),
-        Generator::Sim => sim_record(fs, len, truth, seed),
+        Generator::Fft => fft_gyro(rate_hz, len, truth[0], truth[1], truth[2], seed),
+        Generator::Sim => sim_record(rate_hz, len, truth, seed),
     };
     let t1 = Instant::now();
-    let series = Series::new(&rate, DataKind::Frequency, 1.0 / fs).unwrap();
+    let series = Series::new(&rate, DataKind::Frequency, 1.0 / rate_hz).unwrap();
     drop(rate);
     let points = octave_oadev(&series, Options::default().confidence).unwrap();
     drop(series);
@@ -188,7 +188,7 @@ fn seed_count() -> usize {
 /// Run the grid at `fs` with `seeds` seeds per cell, print the table, and return what fails: a cell with fewer
 /// than 90% of the seeds covering (36 of 40); among the cells where at least a quarter of the seeds (10 of 40)
 /// are identifiable, a median width above [`WIDTH_LIMIT`] times the spread in one, or above 1.5 over all.
-fn study(fs: f64, seeds: usize) -> Vec<String> {
+fn study(rate_hz: f64, seeds: usize) -> Vec<String> {
     let start = Instant::now();
     let mut jobs = Vec::new();
     for (g, &generator) in GENERATORS.iter().enumerate() {
@@ -206,7 +206,7 @@ fn study(fs: f64, seeds: usize) -> Vec<String> {
     jobs.sort_by(|a, b| b.2.total_cmp(&a.2));
     let outcomes: Vec<(usize, Outcome)> = jobs
         .par_iter()
-        .map(|&(cell, generator, hours, truth, seed)| (cell, run_record(generator, fs, hours, truth, seed)))
+        .map(|&(cell, generator, hours, truth, seed)| (cell, run_record(generator, rate_hz, hours, truth, seed)))
         .collect();
     let wall = start.elapsed();
 
@@ -214,7 +214,7 @@ fn study(fs: f64, seeds: usize) -> Vec<String> {
     let need_identifiable = seeds.div_ceil(4);
     let mut failures = Vec::new();
     let (mut ratios, mut wide) = (Vec::new(), Vec::new());
-    println!("\nCoverage of the fit's 95% intervals at {fs} Hz, {seeds} seeds per cell\n");
+    println!("\nCoverage of the fit's 95% intervals at {rate_hz} Hz, {seeds} seeds per cell\n");
     println!(
         "| generator | length | mix | term | covered/{seeds} | misses low/high/bound | identifiable/{seeds} | \
          median width/truth | spread/truth | width/spread |"

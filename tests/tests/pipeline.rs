@@ -25,7 +25,7 @@ pub fn bench(seed: u64) -> Bench {
         (SensorKind::Env05h, 4.0e-4, 9.5e-4),
     ];
     let temperature = TemperatureProfile { min_c: 22.0, max_c: 25.0, period_s: 600.0, ..Default::default() };
-    let mut model = BenchSim { fs_hz: 2000.0, seed, temperature, channels: Default::default() };
+    let mut model = BenchSim { rate_hz: 2000.0, seed, temperature, channels: Default::default() };
     for (sensor, n, b) in parts {
         let gyro = GyroSim { n_deg_per_rt_s: n, b_dps: b, ..Default::default() };
         model.channels.push(ChannelSim { sensor, channel: None, gyro }).unwrap();
@@ -97,7 +97,7 @@ fn bench_codes_through_device_frames_verify_bit_for_bit() {
                     raw.push([0, 1, 2, 3, 4].map(|slot| s.code(set, slot).unwrap()));
                 }
             }
-            Message::Hello(h) => assert_eq!((h.sample_rate_hz, h.stride, h.channels.len()), (2000, 8, 5)),
+            Message::Hello(h) => assert_eq!((h.rate_hz, h.stride, h.channels.len()), (2000, 8, 5)),
             Message::Status(st) => {
                 let t = st.temperature_c.unwrap();
                 assert!((21.0..26.0).contains(&t), "bench temperature {t}");

@@ -339,7 +339,7 @@ fn sim_temperature_cycle_through_the_lag_is_a_sinusoid_of_known_amplitude() {
     let gyro =
         GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c: 25.0, lag_s: lag }), ..Default::default() };
     let model = BenchSim {
-        fs_hz: FS,
+        rate_hz: FS,
         seed: 5,
         temperature: TemperatureProfile { min_c: t_min, max_c: t_max, period_s: period, phase_rad: 0.0, wander: None },
         channels: [ChannelSim { sensor: SensorKind::Generic, channel: None, gyro }].into_iter().collect(),
@@ -452,7 +452,7 @@ fn sim_outliers_are_white_with_variance_p_size2() {
     assert_eq!(hits, g.outlier_count());
     let mean = n as f64 * p_out;
     assert!((hits as f64 - mean).abs() < 5.0 * (mean * (1.0 - p_out)).sqrt());
-    // Size in sigma: with N the spike is size_sigma * N sqrt(fs).
+    // Size in sigma: with N the spike is size_sigma * N sqrt(rate_hz).
     let m2 = GyroSim {
         n_deg_per_rt_s: 0.01,
         outliers: Some(Outliers { per_sample: 1.0, size_dps: 0.0, size_sigma: 8.0 }),
@@ -497,7 +497,7 @@ fn sim_is_deterministic_bit_for_bit() {
     let differ = a.iter().zip(&c).filter(|(x, y)| x.0 != y.0).count();
     assert!(differ > 199_000, "another seed must give other samples ({differ} differ)");
     let bench = BenchSim {
-        fs_hz: FS,
+        rate_hz: FS,
         seed: 3,
         temperature: TemperatureProfile {
             min_c: 22.0,

@@ -75,7 +75,7 @@ const PROCESSES: [Process; 13] = [
 /// One simulated record.
 struct Case {
     model: GyroSim,
-    fs: f64,
+    rate_hz: f64,
     n: usize,
     temp: Option<TemperatureProfile>,
     /// A coarse ADC; else the analog rate is recorded.
@@ -99,7 +99,7 @@ fn draw(process: Process, seed: u64) -> Case {
         ..Default::default()
     };
     let n = [1 << 17, 1 << 18, 1 << 19][(seed % 3) as usize];
-    let mut fs: f64 = [1.0, 10.0, 100.0, 200.0][((seed / 3) % 4) as usize];
+    let mut rate_hz: f64 = [1.0, 10.0, 100.0, 200.0][((seed / 3) % 4) as usize];
     let mut temp = None;
     let mut channel = None;
     let mut telegraph = None;
@@ -115,14 +115,14 @@ fn draw(process: Process, seed: u64) -> Case {
             what = format!("K {:.2e}", model.k_dps_per_rt_s);
         }
         Process::Ramp => {
-            let drift = log_uniform(&mut rng, 10.0, 1000.0) * n_arw * fs.sqrt();
+            let drift = log_uniform(&mut rng, 10.0, 1000.0) * n_arw * rate_hz.sqrt();
             let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
-            model.r_dps_per_s = sign * drift / (n as f64 / fs);
+            model.r_dps_per_s = sign * drift / (n as f64 / rate_hz);
             what = format!("R {:.2e}", model.r_dps_per_s);
         }
         Process::Temperature => {
             let p = log_uniform(&mut rng, 300.0, 86_400.0);
-            fs = (n as f64 / (8.0 * p)).min(100.0);
+            rate_hz = (n as f64 / (8.0 * p)).min(100.0);
             let (profile, coupling, swing) = temperature_coupling(&mut rng, &model, p);
             let (k, lag) = (coupling.dps_per_c, coupling.lag_s);
             temp = Some(profile);
@@ -131,34 +131,34 @@ fn draw(process: Process, seed: u64) -> Case {
         }
         Process::Sinusoid => {
             let p = log_uniform(&mut rng, 1.0, 86_400.0);
-            fs = (n as f64 / (16.0 * p)).min(200.0);
+            rate_hz = (n as f64 / (16.0 * p)).min(200.0);
             let a = uniform(&mut rng, 3.0, 6.0) * base_adev(&model, 0.37 * p);
             let phase_rad = uniform(&mut rng, -3.0, 3.0);
             let _ = model.sinusoids.push(Sinusoid { amplitude_dps: a, period_s: p, phase_rad });
             what = format!("A {a:.2e} P {p:.1}");
         }
         Process::Bandwidth => {
-            fs = 200.0;
-            let f = uniform(&mut rng, 0.1, 0.4) * fs;
+            rate_hz = 200.0;
+            let f = uniform(&mut rng, 0.1, 0.4) * rate_hz;
             model.bandwidth_hz = Some(f);
             what = format!("f3dB {f:.1}");
         }
         Process::GaussMarkov => {
             let t = log_uniform(&mut rng, 0.1, 3600.0);
-            fs = (n as f64 / (100.0 * t)).min(200.0);
-            let sigma = uniform(&mut rng, 0.5, 3.0) * n_arw * fs.sqrt();
+            rate_hz = (n as f64 / (100.0 * t)).min(200.0);
+            let sigma = uniform(&mut rng, 0.5, 3.0) * n_arw * rate_hz.sqrt();
             model.gauss_markov = Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t });
             what = format!("sigma {sigma:.2e} T {t:.2}");
         }
         Process::Quantization => {
-            fs = 100.0;
-            let q = log_uniform(&mut rng, 1.0, 10.0) * n_arw * fs.sqrt();
-            model.k_dps_per_rt_s = model.k_dps_per_rt_s.max(q / (n as f64 / fs).sqrt());
+            rate_hz = 100.0;
+            let q = log_uniform(&mut rng, 1.0, 10.0) * n_arw * rate_hz.sqrt();
+            model.k_dps_per_rt_s = model.k_dps_per_rt_s.max(q / (n as f64 / rate_hz).sqrt());
             channel = Some(coarse_channel(q));
-            what = format!("q {q:.2e} ({:.1} sigma)", q / (n_arw * fs.sqrt()));
+            what = format!("q {q:.2e} ({:.1} sigma)", q / (n_arw * rate_hz.sqrt()));
         }
         Process::BiasSteps => {
-            fs = 10.0;
+            rate_hz = 10.0;
             let rate = uniform(&mut rng, 1.0, 6.0);
             let floor = (0..40).map(|i| base_adev(&model, 0.1 * 1.5f64.powi(i))).fold(f64::INFINITY, f64::min);
             let sd = uniform(&mut rng, 5.0, 10.0) * std::f64::consts::SQRT_2 * floor;
@@ -172,16 +172,16 @@ fn draw(process: Process, seed: u64) -> Case {
             what = format!("p {p:.2e} size {size:.1} sigma");
         }
         Process::Bistable => {
-            fs = [1.0, 10.0, 100.0][(seed % 3) as usize];
+            rate_hz = [1.0, 10.0, 100.0][(seed % 3) as usize];
             let flips = log_uniform(&mut rng, 20.0, 200.0);
-            let dwell = n as f64 / fs / flips;
+            let dwell = n as f64 / rate_hz / flips;
             let a = uniform(&mut rng, 3.0, 10.0) * base_adev(&model, dwell);
             telegraph = Some((a, dwell));
             what = format!("A {a:.2e} dwell {dwell:.0} s");
         }
         Process::Everything => {
-            fs = 10.0;
-            let p = 0.5 * n as f64 / fs;
+            rate_hz = 10.0;
+            let p = 0.5 * n as f64 / rate_hz;
             temp = Some(TemperatureProfile {
                 min_c: 20.0,
                 max_c: 24.0,
@@ -195,25 +195,25 @@ fn draw(process: Process, seed: u64) -> Case {
             let a = uniform(&mut rng, 3.0, 6.0) * base_adev(&model, 0.37 * sp);
             let _ = model.sinusoids.push(Sinusoid { amplitude_dps: a, period_s: sp, phase_rad: 1.0 });
             let t = log_uniform(&mut rng, 0.5, 600.0);
-            model.gauss_markov = Some(GaussMarkovSim { sigma_dps: n_arw * fs.sqrt(), tau_s: t });
+            model.gauss_markov = Some(GaussMarkovSim { sigma_dps: n_arw * rate_hz.sqrt(), tau_s: t });
             model.bandwidth_hz = Some(3.0);
             model.outliers = Some(Outliers { per_sample: 2e-4, size_dps: 0.0, size_sigma: 15.0 });
             model.bias_steps = Some(BiasSteps { per_hour: 2.0, sigma_dps: 10.0 * base_adev(&model, 100.0) });
             what = format!("temp k {k:.2e}, sine P {sp:.0}, GM T {t:.1}");
         }
     }
-    Case { model, fs, n, temp, channel, telegraph, what }
+    Case { model, rate_hz, n, temp, channel, telegraph, what }
 }
 
 /// The samples (deg/s).
 fn record(c: &Case, seed: u64) -> Vec<f64> {
     let ch = c.channel.unwrap_or_else(|| Channel::bench(GENERIC));
-    let mut g = VirtualGyro::new(&c.model, ch, c.fs, 5_000 + seed).unwrap();
+    let mut g = VirtualGyro::new(&c.model, ch, c.rate_hz, 5_000 + seed).unwrap();
     let mut rng = SimRng::new(6_000 + seed);
     let profile = c.temp.unwrap_or_default();
-    let mut th = Thermal::new(&profile, c.fs, &mut rng);
+    let mut th = Thermal::new(&profile, c.rate_hz, &mut rng);
     let mut level = 0.5;
-    let flip_p = c.telegraph.map_or(0.0, |(_, dwell)| 1.0 / (dwell * c.fs));
+    let flip_p = c.telegraph.map_or(0.0, |(_, dwell)| 1.0 / (dwell * c.rate_hz));
     (0..c.n)
         .map(|_| {
             let tc = th.next(&mut rng);
@@ -232,9 +232,15 @@ fn record(c: &Case, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-fn describe(s: &Scan, fs: f64) -> String {
+fn describe(s: &Scan, rate_hz: f64) -> String {
     let one = |t: &Transient| {
-        format!("[{:.1} s +{:.1} s, peak {:.3e}, {:?}]", t.start as f64 / fs, t.len as f64 / fs, t.peak_dps, t.shape)
+        format!(
+            "[{:.1} s +{:.1} s, peak {:.3e}, {:?}]",
+            t.start as f64 / rate_hz,
+            t.len as f64 / rate_hz,
+            t.peak_dps,
+            t.shape
+        )
     };
     let mut out = s.events.iter().map(one).collect::<Vec<_>>().join(" ");
     for l in &s.left_alone {
@@ -260,7 +266,7 @@ fn processes_give_no_events() {
         .map(|&(p, seed)| {
             let c = draw(p, seed);
             let x = record(&c, seed);
-            (p, seed, c.what.clone(), scan(&x, c.fs), c.fs)
+            (p, seed, c.what.clone(), scan(&x, c.rate_hz), c.rate_hz)
         })
         .collect();
     let mut failures = Vec::new();
@@ -270,9 +276,9 @@ fn processes_give_no_events() {
         let left: usize = mine.iter().map(|r| r.3.left_alone.len()).sum();
         let spikes: usize = mine.iter().map(|r| r.3.spikes).sum();
         println!("{p:?}: {} records, {events} events, {left} left alone, {spikes} spikes set aside", mine.len());
-        for (_, seed, what, s, fs) in &mine {
+        for (_, seed, what, s, rate_hz) in &mine {
             if !s.events.is_empty() || verbose() {
-                println!("  seed {seed} ({what}, {fs:.3} Hz): {}", describe(s, *fs));
+                println!("  seed {seed} ({what}, {rate_hz:.3} Hz): {}", describe(s, *rate_hz));
             }
             if !s.events.is_empty() {
                 failures.push(format!("{p:?} seed {seed}"));
@@ -313,24 +319,26 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
     if seed % 3 == 2 {
         model.outliers = Some(Outliers { per_sample: 2e-4, size_dps: 0.0, size_sigma: 12.0 });
     }
-    let fs: f64 = [1.0, 10.0, 100.0][(seed % 3) as usize];
+    let rate_hz: f64 = [1.0, 10.0, 100.0][(seed % 3) as usize];
     let n = 1 << 18;
-    let sigma = n_arw * fs.sqrt();
-    let c = Case { model: model.clone(), fs, n, temp: None, channel: None, telegraph: None, what: String::new() };
+    let sigma = n_arw * rate_hz.sqrt();
+    let c = Case { model: model.clone(), rate_hz, n, temp: None, channel: None, telegraph: None, what: String::new() };
     let mut x = record(&c, 900 + seed);
     let (len, amp) = match kind {
         Kind::Rect | Kind::Smooth => {
             // 1 s to 10 min, at least 4 samples; the whole event's mean 12-25 times its noise.
-            let d_s = log_uniform(&mut rng, 1.0, 600.0).max(4.0 / fs);
-            let len = (d_s * fs).round() as usize;
+            let d_s = log_uniform(&mut rng, 1.0, 600.0).max(4.0 / rate_hz);
+            let len = (d_s * rate_hz).round() as usize;
             let snr = uniform(&mut rng, 12.0, 25.0);
-            let a = (snr * base_adev(&model, len as f64 / fs)).max(uniform(&mut rng, 3.0, 6.0) * sigma);
+            let a = (snr * base_adev(&model, len as f64 / rate_hz)).max(uniform(&mut rng, 3.0, 6.0) * sigma);
             let a = if matches!(kind, Kind::Smooth) { 2.0 * a } else { a };
             (len, a)
         }
-        Kind::Burst => ((uniform(&mut rng, 1.0, 5.0) * fs).max(12.0) as usize, uniform(&mut rng, 10.0, 30.0) * sigma),
+        Kind::Burst => {
+            ((uniform(&mut rng, 1.0, 5.0) * rate_hz).max(12.0) as usize, uniform(&mut rng, 10.0, 30.0) * sigma)
+        }
         Kind::Oscillation => {
-            ((uniform(&mut rng, 2.0, 20.0) * fs).max(16.0) as usize, uniform(&mut rng, 6.0, 15.0) * sigma)
+            ((uniform(&mut rng, 2.0, 20.0) * rate_hz).max(16.0) as usize, uniform(&mut rng, 6.0, 15.0) * sigma)
         }
     };
     let start = (uniform(&mut rng, 0.02, 0.98) * (n - len) as f64) as usize;
@@ -379,12 +387,12 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
     let _ = peak;
     let peak = x[start..start + len].iter().map(|v| (v - level).abs()).fold(0.0, f64::max);
     let what = format!(
-        "{kind:?} {:.1} s at {:.0} s, peak {:.1} sigma, fs {fs}",
-        len as f64 / fs,
-        start as f64 / fs,
+        "{kind:?} {:.1} s at {:.0} s, peak {:.1} sigma, fs {rate_hz}",
+        len as f64 / rate_hz,
+        start as f64 / rate_hz,
         peak / sigma
     );
-    (x, fs, Injected { kind, sigma, start, len, peak }, what)
+    (x, rate_hz, Injected { kind, sigma, start, len, peak }, what)
 }
 
 /// Bumps (rectangular, smooth), bursts of spikes and short oscillations injected in base records: each found once,
@@ -398,12 +406,12 @@ fn disturbances_are_found_and_placed() {
     let results: Vec<(String, Injected, Scan, f64)> = cases
         .par_iter()
         .map(|&(k, seed)| {
-            let (x, fs, inj, what) = injected(k, seed);
-            (what, inj, scan(&x, fs), fs)
+            let (x, rate_hz, inj, what) = injected(k, seed);
+            (what, inj, scan(&x, rate_hz), rate_hz)
         })
         .collect();
     let mut failures = Vec::new();
-    for (what, inj, s, fs) in &results {
+    for (what, inj, s, rate_hz) in &results {
         let hit: Vec<&Transient> =
             s.events.iter().filter(|e| e.start < inj.start + inj.len && e.end() > inj.start).collect();
         let tol =
@@ -428,7 +436,7 @@ fn disturbances_are_found_and_placed() {
             )
         });
         let peak = hit.first().map_or(String::new(), |e| format!(", peak found {:.1} sigma", e.peak_dps / inj.sigma));
-        println!("{} {what}{offsets}{peak}: {} {why}", if ok { "ok  " } else { "FAIL" }, describe(s, *fs));
+        println!("{} {what}{offsets}{peak}: {} {why}", if ok { "ok  " } else { "FAIL" }, describe(s, *rate_hz));
         if !ok {
             failures.push(what.clone());
         }
@@ -439,15 +447,15 @@ fn disturbances_are_found_and_placed() {
 /// The masked samples are exactly the events'.
 #[test]
 fn mask_sets_the_events_to_nan() {
-    let (mut x, fs, inj, _) = injected(Kind::Rect, 4);
-    let s = scan(&x, fs);
+    let (mut x, rate_hz, inj, _) = injected(Kind::Rect, 4);
+    let s = scan(&x, rate_hz);
     mask(&mut x, &s.events);
     let e = &s.events[0];
     assert!(x[e.start..e.end()].iter().all(|v| v.is_nan()));
     assert_eq!(x.iter().filter(|v| v.is_nan()).count(), s.events.iter().map(|e| e.len).sum::<usize>());
     assert!(e.start <= inj.start && e.end() >= inj.start + inj.len);
     // The masked record scans clean.
-    let again = scan(&x, fs);
+    let again = scan(&x, rate_hz);
     assert!(again.events.is_empty(), "{:?} then {:?}", s.events, again.events);
 }
 
@@ -579,8 +587,8 @@ fn one_case() {
     let p = *PROCESSES.iter().find(|p| format!("{p:?}") == name).unwrap();
     let c = draw(p, seed);
     let x = record(&c, seed);
-    let s = scan(&x, c.fs);
-    println!("{} at {} Hz, {} samples", c.what, c.fs, c.n);
+    let s = scan(&x, c.rate_hz);
+    println!("{} at {} Hz, {} samples", c.what, c.rate_hz, c.n);
     println!("{s:#?}");
 }
 
@@ -594,12 +602,12 @@ fn one_injection() {
         .into_iter()
         .find(|k| format!("{k:?}") == name)
         .unwrap();
-    let (x, fs, inj, what) = injected(kind, seed.parse().unwrap());
+    let (x, rate_hz, inj, what) = injected(kind, seed.parse().unwrap());
     println!("{what}: samples {}..{}", inj.start, inj.start + inj.len);
     let (a, b) = (inj.start.saturating_sub(20), (inj.start + inj.len + 20).min(x.len()));
     println!(
         "x/sigma from {a}: {:?}",
         x[a..b].iter().map(|v| (v / inj.sigma * 10.0).round() / 10.0).collect::<Vec<_>>()
     );
-    println!("{:#?}", scan(&x, fs));
+    println!("{:#?}", scan(&x, rate_hz));
 }

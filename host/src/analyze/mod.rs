@@ -167,11 +167,11 @@ mod tests {
 
     #[test]
     fn white_noise_gives_n_and_a_json_of_the_documented_shape() {
-        let fs: f64 = 100.0;
+        let rate_hz: f64 = 100.0;
         let n_true = 0.01;
-        let data = white(200_000, n_true * fs.sqrt(), 3);
+        let data = white(200_000, n_true * rate_hz.sqrt(), 3);
         let opts = AnalyzeOptions { stats: vec![Statistic::Adev, Statistic::Oadev], ..Default::default() };
-        let a = analyze_channel("gx", &data, fs, &opts).unwrap();
+        let a = analyze_channel("gx", &data, rate_hz, &opts).unwrap();
         let f = a.fit.as_ref().unwrap();
         let n = f.n.value.unwrap();
         assert!((n / n_true - 1.0).abs() < 0.02, "N {n}");
@@ -198,7 +198,7 @@ mod tests {
         let j = serde_json::to_value(to_json(std::slice::from_ref(&unfitted))).unwrap();
         assert_eq!(keys(&j["channels"][0]["fit"]), ["error"]);
         assert_eq!(ch["fit"]["N"]["unit"], "deg/sqrt(s)");
-        let y = kalibr_yaml(&a, fs).unwrap();
+        let y = kalibr_yaml(&a, rate_hz).unwrap();
         let gnd: f64 = y.lines().find_map(|l| l.strip_prefix("gyroscope_noise_density: ")).unwrap().parse().unwrap();
         assert!((gnd / (n * std::f64::consts::PI / 180.0) - 1.0).abs() < 1e-5);
         // The CSV of every point: its header, and one row per point of each statistic, in order.
@@ -210,7 +210,7 @@ mod tests {
         assert_eq!((row[0], row[1], row[2]), ("gx", "adev", "1"));
         assert_eq!(row[7].parse::<f64>().unwrap(), first.dev);
         assert_eq!(csv.lines().count(), 1 + a.stats.iter().map(|(_, p)| p.len()).sum::<usize>());
-        let m = model_from_fits(std::slice::from_ref(&a), fs, 1.0);
+        let m = model_from_fits(std::slice::from_ref(&a), rate_hz, 1.0);
         assert_eq!(m.channels[0].gyro.n_deg_per_rt_s, n);
     }
 

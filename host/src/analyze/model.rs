@@ -16,7 +16,7 @@ pub fn model_from_fits(channels: &[ChannelAnalysis], rate_hz: f64, data_range_dp
         let gyro = f.sim_terms(GyroSim::default());
         let _ = out.push(ChannelSim { sensor: SensorKind::Generic, channel: Some(fine_channel(data_range_dps)), gyro });
     }
-    BenchSim { fs_hz: rate_hz, seed: 0, temperature: Default::default(), channels: out }
+    BenchSim { rate_hz, seed: 0, temperature: Default::default(), channels: out }
 }
 
 /// A generic channel whose 16-bit ADC spans +/-`range_dps`.

@@ -385,7 +385,7 @@ pub fn analyze_capture<R: Read>(
     let Some(hello) = hello else {
         return Err(StreamError::Capture { name, what: "no hello frame: the sample rate is unknown".into() });
     };
-    let rate = f64::from(hello.sample_rate_hz);
+    let rate = f64::from(hello.rate_hz);
     if rate.is_nan() || rate <= 0.0 {
         return Err(StreamError::BadRate(rate));
     }

@@ -96,7 +96,7 @@ fn print_summary(out: &mut dyn Write, s: &DecodeSummary) -> std::io::Result<()> 
             "device: {} firmware {}, {} Hz, {}-bit ADC at {} mV, stride {}, {} channels",
             h.board,
             h.firmware,
-            h.sample_rate_hz,
+            h.rate_hz,
             h.adc_bits,
             h.vref_mv,
             h.stride,

@@ -94,24 +94,24 @@ impl Args {
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
         let mut rec = self.read(&self.input, &self.reading.filters)?;
-        let fs = rec.rate_hz;
+        let rate_hz = rec.rate_hz;
         let separate = self.holdout.is_some() || !self.holdout_filters.is_empty();
         let input = if separate {
             let path = self.holdout.clone().unwrap_or_else(|| self.input.clone());
             let filters = if self.holdout_filters.is_empty() { &self.reading.filters } else { &self.holdout_filters };
             let mut hold = self.read(&path, filters)?;
-            if (hold.rate_hz - fs).abs() > 1e-6 * fs {
-                bail!("the holdout is sampled at {} Hz, the training at {} Hz", hold.rate_hz, fs);
+            if (hold.rate_hz - rate_hz).abs() > 1e-6 * rate_hz {
+                bail!("the holdout is sampled at {} Hz, the training at {} Hz", hold.rate_hz, rate_hz);
             }
             GapInput::joined(
                 rec.channels.remove(0),
                 rec.temp_c.take(),
                 hold.channels.remove(0),
                 hold.temp_c.take(),
-                fs,
+                rate_hz,
             )?
         } else {
-            GapInput::split(rec.channels.remove(0), rec.temp_c.take(), fs, self.holdout_fraction)?
+            GapInput::split(rec.channels.remove(0), rec.temp_c.take(), rate_hz, self.holdout_fraction)?
         };
         let opts = GapOptions {
             seeds: self.seeds,
@@ -147,7 +147,7 @@ impl Args {
                 channel: Some(channel),
                 gyro: report.model().clone(),
             });
-            let bench = BenchSim { fs_hz: fs, seed: 0, temperature: Default::default(), channels };
+            let bench = BenchSim { rate_hz, seed: 0, temperature: Default::default(), channels };
             std::fs::write(path, octavar::simulate::model_to_toml(&bench))
                 .with_context(|| format!("writing {}", path.display()))?;
         }

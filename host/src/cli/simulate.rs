@@ -112,7 +112,7 @@ impl Args {
             }
         };
         if let Some(rate) = self.rate {
-            model.fs_hz = rate;
+            model.rate_hz = rate;
         }
         if let Some(seed) = self.seed {
             model.seed = seed;
@@ -130,7 +130,7 @@ impl Args {
             OutputKind::Rates
         };
         let opts = SimulateOptions { duration_s, output };
-        let total = (duration_s * model.fs_hz).round() as u64;
+        let total = (duration_s * model.rate_hz).round() as u64;
         let bar = Progress::new(total, "simulating");
         let stats = if self.output.as_os_str() == "-" {
             simulate::simulate(&model, &opts, std::io::stdout().lock(), |n| bar.set(n))?

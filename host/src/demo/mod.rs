@@ -111,7 +111,7 @@ pub fn paper_bench(seed: u64) -> BenchSim {
         };
         let _ = channels.push(ChannelSim { sensor: p.sensor, channel: None, gyro });
     }
-    BenchSim { fs_hz: BENCH_RATE_HZ, seed, temperature: lab_temperature(), channels }
+    BenchSim { rate_hz: BENCH_RATE_HZ, seed, temperature: lab_temperature(), channels }
 }
 
 /// What one channel of the bench produced: its snapshots in time order (one every `snapshot_every` samples and
@@ -240,7 +240,7 @@ pub fn snapshot_capture(snapshots: &[Vec<Snapshot>]) -> Vec<u8> {
         channels: &CHANNELS,
         gyros: TABLE1.len(),
         temp_channel: None,
-        sample_rate_hz: BENCH_RATE_HZ as u32,
+        rate_hz: BENCH_RATE_HZ as u32,
         firmware: concat!("octavar demo ", env!("CARGO_PKG_VERSION")),
         ..DeviceConfig::F405
     };
@@ -330,7 +330,7 @@ pub fn gap_input(run: &ChannelRun) -> crate::gap::GapInput {
     crate::gap::GapInput {
         rate_dps: run.rate_dps.clone(),
         temp_c: Some(run.temp_c.clone()),
-        fs_hz: 1.0 / GAP_BLOCK_S,
+        rate_hz: 1.0 / GAP_BLOCK_S,
         n_train: (training_snapshot(run).samples / decimate) as usize,
     }
 }
@@ -411,9 +411,12 @@ pub fn analyse(snapshots: &[Snapshot], model: &BenchSim) -> Vec<ChannelResult> {
             let channel = cs
                 .channel
                 .unwrap_or_else(|| Channel::bench(GyroModel::of(cs.sensor).expect("the paper's channels are gyros")));
-            let points = snapshot_points(snap, model.fs_hz, channel.dps_per_code(), 0.683);
-            let opts =
-                FitOptions { bandwidth_hz: cs.gyro.bandwidth_hz, tau_min_s: 16.0 / model.fs_hz, ..bench_fit_options() };
+            let points = snapshot_points(snap, model.rate_hz, channel.dps_per_code(), 0.683);
+            let opts = FitOptions {
+                bandwidth_hz: cs.gyro.bandwidth_hz,
+                tau_min_s: 16.0 / model.rate_hz,
+                ..bench_fit_options()
+            };
             let fit = fit_deviations(&points, Some(&opts)).expect("a 2 kS/s record has many octaves");
             ChannelResult { paper, channel, snapshot: *snap, points, fit }
         })
@@ -441,7 +444,7 @@ mod tests {
     #[test]
     fn snapshots_survive_the_frame_pipeline_bit_for_bit() {
         let mut model = paper_bench(3);
-        model.fs_hz = 200.0;
+        model.rate_hz = 200.0;
         let runs = accumulate_bench(&model, 20_000, 2_000, 200, &|_| {}).unwrap();
         assert!(runs.iter().all(|r| r.rate_dps.len() == 100 && r.temp_c.len() == 100));
         let snaps: Vec<Vec<Snapshot>> = runs.into_iter().map(|r| r.snapshots).collect();
@@ -465,7 +468,7 @@ mod tests {
     #[test]
     fn grouped_runs_equal_the_whole_bench_replayed_scan_by_scan() {
         let mut model = paper_bench(5);
-        model.fs_hz = 200.0;
+        model.rate_hz = 200.0;
         let (samples, every, decimate) = (23_456u64, 9_001u64, 200u64);
         let mut bench = Bench::new(&model).unwrap();
         let mut accs: Vec<OctaveAllan<STRIDE>> = (0..4).map(|_| OctaveAllan::new()).collect();

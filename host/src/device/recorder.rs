@@ -371,7 +371,7 @@ impl Live {
         self.stats.capture_bytes = capture_bytes;
         self.stats.elapsed_s = start.elapsed().as_secs_f64();
         let hello = self.stats.hello.as_ref();
-        let rate = hello.map_or(2000.0, |h| f64::from(h.sample_rate_hz));
+        let rate = hello.map_or(2000.0, |h| f64::from(h.rate_hz));
         self.stats.adev_1s = self
             .snapshots
             .iter()

@@ -9,14 +9,18 @@ use crate::fit::{fit_deviations, octave_oadev, FitOptions, NoiseFit};
 use crate::stats::{DataKind, DevPoint, Options, Series};
 
 /// The octave OADEV of a training part.
-pub(crate) fn training_adev(training: &[f64], fs_hz: f64) -> Result<Vec<DevPoint>, GapError> {
-    let series = Series::new(training, DataKind::Frequency, 1.0 / fs_hz)?;
+pub(crate) fn training_adev(training: &[f64], rate_hz: f64) -> Result<Vec<DevPoint>, GapError> {
+    let series = Series::new(training, DataKind::Frequency, 1.0 / rate_hz)?;
     Ok(octave_oadev(&series, Options::default().confidence)?)
 }
 
 /// The base fit of a training part: its octave OADEV and the IEEE 952 fit of it.
-pub(crate) fn fit_base(training: &[f64], fs_hz: f64, opts: &FitOptions) -> Result<(Vec<DevPoint>, NoiseFit), GapError> {
-    let real_adev = training_adev(training, fs_hz)?;
+pub(crate) fn fit_base(
+    training: &[f64],
+    rate_hz: f64,
+    opts: &FitOptions,
+) -> Result<(Vec<DevPoint>, NoiseFit), GapError> {
+    let real_adev = training_adev(training, rate_hz)?;
     let f = fit_deviations(&real_adev, Some(opts))?;
     Ok((real_adev, f))
 }

@@ -88,18 +88,18 @@ impl Step {
 }
 
 /// The deterministic part of `gyro`'s rate over the `temp_c.len()` (or `n`) first samples of the record at
-/// `fs_hz`: its temperature response through the thermal lag, its sinusoids and its warm-up, through its
+/// `rate_hz`: its temperature response through the thermal lag, its sinusoids and its warm-up, through its
 /// bandwidth as the simulator applies it. `None` when it has none.
-pub fn deterministic_part(gyro: &GyroSim, fs_hz: f64, temp_c: Option<&[f64]>, n: usize) -> Option<Vec<f64>> {
+pub fn deterministic_part(gyro: &GyroSim, rate_hz: f64, temp_c: Option<&[f64]>, n: usize) -> Option<Vec<f64>> {
     let coupling = gyro.temperature.filter(|_| temp_c.is_some());
     if coupling.is_none() && gyro.sinusoids.is_empty() && gyro.warm_up.is_none() {
         return None;
     }
-    let tau0 = 1.0 / fs_hz;
+    let tau0 = 1.0 / rate_hz;
     let mut sines = Sinusoids::new(&gyro.sinusoids, tau0);
     let mut warm_up = gyro.warm_up.map(|w| WarmUp::new(&w, tau0));
     let mut lag = coupling.map(|c| ThermalLag::new(&c, tau0));
-    let mut low_pass = gyro.bandwidth_hz.map(|f| LowPass::new(f, fs_hz));
+    let mut low_pass = gyro.bandwidth_hz.map(|f| LowPass::new(f, rate_hz));
     Some(
         (0..n)
             .map(|i| {
@@ -138,7 +138,7 @@ impl StepData {
         filled: &[f64],
         gaps: &[Range<usize>],
         temp_c: Option<&[f64]>,
-        fs_hz: f64,
+        rate_hz: f64,
         base_fit: &NoiseFit,
         first: bool,
     ) -> StepData {
@@ -146,12 +146,12 @@ impl StepData {
         if first {
             return StepData { rate_dps: filled.to_vec(), base_fit: base_fit.clone(), gaps };
         }
-        let mut rate_dps: Vec<f64> = match deterministic_part(model, fs_hz, temp_c, filled.len()) {
+        let mut rate_dps: Vec<f64> = match deterministic_part(model, rate_hz, temp_c, filled.len()) {
             Some(d) => filled.iter().zip(&d).map(|(x, d)| x - d).collect(),
             None => filled.to_vec(),
         };
         refill(&mut rate_dps, &gaps);
-        let base_fit = fit_base(&with_gaps(&rate_dps, &gaps), fs_hz, &FitOptions::default())
+        let base_fit = fit_base(&with_gaps(&rate_dps, &gaps), rate_hz, &FitOptions::default())
             .map(|(_, f)| f)
             .unwrap_or_else(|_| base_fit.clone());
         StepData { rate_dps, base_fit, gaps }
@@ -179,11 +179,11 @@ impl StepData {
     }
 
     /// The estimators' view of it, on `model`.
-    pub fn training<'a>(&'a self, model: &'a GyroSim, temp_c: Option<&'a [f64]>, fs_hz: f64) -> TrainingData<'a> {
+    pub fn training<'a>(&'a self, model: &'a GyroSim, temp_c: Option<&'a [f64]>, rate_hz: f64) -> TrainingData<'a> {
         TrainingData {
             rate_dps: &self.rate_dps,
             temp_c,
-            fs_hz,
+            rate_hz,
             base: model,
             base_fit: &self.base_fit,
             gaps: &self.gaps,
@@ -222,7 +222,7 @@ pub fn backfit(
     series: &[f64],
     gaps: &[Range<usize>],
     temp_c: Option<&[f64]>,
-    fs_hz: f64,
+    rate_hz: f64,
     base_fit: &NoiseFit,
 ) -> (Model, Vec<Option<EffectFit>>) {
     let mut gyro = model.gyro.clone();
@@ -233,8 +233,8 @@ pub fn backfit(
                 continue;
             }
             let Some(rest) = without(&gyro, fit.effect) else { continue };
-            let data = StepData::new(&rest, series, gaps, temp_c, fs_hz, base_fit, false);
-            if let Some(f) = effects::estimate(fit.effect, &data.training(&rest, temp_c, fs_hz)) {
+            let data = StepData::new(&rest, series, gaps, temp_c, rate_hz, base_fit, false);
+            if let Some(f) = effects::estimate(fit.effect, &data.training(&rest, temp_c, rate_hz)) {
                 gyro = f.gyro.clone();
                 refits[i] = Some(f);
             }
@@ -256,22 +256,22 @@ pub fn learn(
     base_fit: &NoiseFit,
     training: &[f64],
     temp_c: Option<&[f64]>,
-    fs_hz: f64,
+    rate_hz: f64,
 ) -> Model {
     let mut model = base.clone();
     let gaps = gap_runs(training);
     let mut series = fill_gaps(training);
     let mut fits = Vec::new();
     for (k, &effect) in effects.iter().enumerate() {
-        let data = StepData::new(&model.gyro, &series, &gaps, temp_c, fs_hz, base_fit, k == 0);
-        if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, temp_c, fs_hz)) {
+        let data = StepData::new(&model.gyro, &series, &gaps, temp_c, rate_hz, base_fit, k == 0);
+        if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, temp_c, rate_hz)) {
             data.take_out(&mut series, &f);
             model = model.with(&f);
             fits.push(f);
         }
         if rounds.get(k).copied().unwrap_or(false) {
             let all: Vec<&EffectFit> = fits.iter().collect();
-            let (m, refits) = backfit(&model, &all, &series, &gaps, temp_c, fs_hz, base_fit);
+            let (m, refits) = backfit(&model, &all, &series, &gaps, temp_c, rate_hz, base_fit);
             for (f, r) in fits.iter_mut().zip(refits) {
                 if let Some(r) = r {
                     *f = r;
@@ -292,7 +292,7 @@ mod tests {
     /// definitions, through the first-order low-pass `y = a y + (1 - a) x` started at its first input.
     #[test]
     fn the_deterministic_part_follows_its_closed_form() {
-        let fs = 10.0;
+        let rate_hz = 10.0;
         let n = 5000;
         let mut gyro = GyroSim {
             temperature: Some(TempCoupling { dps_per_c: 0.02, ref_c: 25.0, lag_s: 30.0 }),
@@ -301,19 +301,19 @@ mod tests {
         };
         gyro.sinusoids.push(Sinusoid { amplitude_dps: 0.3, period_s: 7.0, phase_rad: 0.4 }).unwrap();
         let temp: Vec<f64> = (0..n).map(|i| 25.0 + 2.0 * (i as f64 / 800.0).sin()).collect();
-        let got = deterministic_part(&gyro, fs, Some(&temp), n).unwrap();
-        let a_lag = (-1.0 / (fs * 30.0f64)).exp();
-        let a_lp = (-2.0 * std::f64::consts::PI * 2.0 / fs).exp();
+        let got = deterministic_part(&gyro, rate_hz, Some(&temp), n).unwrap();
+        let a_lag = (-1.0 / (rate_hz * 30.0f64)).exp();
+        let a_lp = (-2.0 * std::f64::consts::PI * 2.0 / rate_hz).exp();
         let (mut t_lag, mut y) = (temp[0], 0.0);
         for i in 0..n {
             t_lag = if i == 0 { temp[0] } else { a_lag * t_lag + (1.0 - a_lag) * temp[i] };
-            let x = 0.3 * (2.0 * std::f64::consts::PI * i as f64 / (7.0 * fs) + 0.4).sin() + 0.02 * (t_lag - 25.0);
+            let x = 0.3 * (2.0 * std::f64::consts::PI * i as f64 / (7.0 * rate_hz) + 0.4).sin() + 0.02 * (t_lag - 25.0);
             y = if i == 0 { x } else { a_lp * y + (1.0 - a_lp) * x };
             assert!((got[i] - y).abs() < 1e-9, "sample {i}: {} vs {y}", got[i]);
         }
         // Without a temperature the coupling adds nothing; a model of noise terms alone has no deterministic part.
         gyro.sinusoids.clear();
-        assert!(deterministic_part(&gyro, fs, None, n).is_none());
-        assert!(deterministic_part(&GyroSim { n_deg_per_rt_s: 0.1, ..Default::default() }, fs, None, n).is_none());
+        assert!(deterministic_part(&gyro, rate_hz, None, n).is_none());
+        assert!(deterministic_part(&GyroSim { n_deg_per_rt_s: 0.1, ..Default::default() }, rate_hz, None, n).is_none());
     }
 }

@@ -57,7 +57,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     if has_holdout && n_hold - missing[1] < MIN_PART {
         return Err(GapError::TooShort { part: "holdout", n: n_hold, missing: missing[1], needed: MIN_PART });
     }
-    let fs = input.fs_hz;
+    let rate_hz = input.rate_hz;
     let predictive = has_holdout && opts.holdout_check == HoldoutCheck::Predictive;
     // Ensembles: the base, one per candidate of the first step, about half as many again for later steps.
     let mut total_steps = 2 + opts.effects.len() + usize::from(predictive);
@@ -67,8 +67,8 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     // Base model on the training part.
     let training = &input.rate_dps[..n_train];
     let (real_adev, base_fit) = match &opts.base_fit {
-        Some(f) => (training_adev(training, fs)?, f.clone()),
-        None => fit_base(training, fs, &opts.fit)?,
+        Some(f) => (training_adev(training, rate_hz)?, f.clone()),
+        None => fit_base(training, rate_hz, &opts.fit)?,
     };
     let base = base_model(&base_fit, training);
     let base_model = Model { gyro: base.clone(), spreads: Vec::new(), channel: opts.channel };
@@ -110,8 +110,8 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
         if !first {
             total_steps += remaining.len();
         }
-        let data = StepData::new(&model.gyro, &series, &gaps, temp_train, fs, &base_fit, first);
-        let training_data = data.training(&model.gyro, temp_train, fs);
+        let data = StepData::new(&model.gyro, &series, &gaps, temp_train, rate_hz, &base_fit, first);
+        let training_data = data.training(&model.gyro, temp_train, rate_hz);
         let fits: Vec<(Effect, Option<EffectFit>)> =
             remaining.par_iter().map(|&e| (e, effects::estimate(e, &training_data))).collect();
         let mut candidates = Vec::with_capacity(fits.len());
@@ -149,7 +149,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
                 data.take_out(&mut taken, &f);
                 let mut fits: Vec<&EffectFit> = steps.iter().map(Step::final_fit).collect();
                 fits.push(&f);
-                let (m, refits) = chain::backfit(&model.with(&f), &fits, &taken, &gaps, temp_train, fs, &base_fit);
+                let (m, refits) = chain::backfit(&model.with(&f), &fits, &taken, &gaps, temp_train, rate_hz, &base_fit);
                 if refits.iter().all(Option::is_none) {
                     continue;
                 }
@@ -214,7 +214,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     // training total falls.
     if steps.len() >= 2 && !steps.last().is_some_and(|s| s.backfitted) {
         let fits: Vec<&EffectFit> = steps.iter().map(Step::final_fit).collect();
-        let (refitted, refits) = chain::backfit(&model, &fits, &series, &gaps, temp_train, fs, &base_fit);
+        let (refitted, refits) = chain::backfit(&model, &fits, &series, &gaps, temp_train, rate_hz, &base_fit);
         if refits.iter().any(Option::is_some) {
             let after = judge.evaluate(
                 &refitted.gyro,
@@ -245,7 +245,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     let predictive_views = match (predictive, judge.hold_plan(), judge.real_holdout()) {
         (true, Some(hp), Some(real_hold)) => {
             let learner = holdout::Learner {
-                fs_hz: fs,
+                rate_hz,
                 temp_c: temp_train,
                 fit: &opts.fit,
                 fixed_base: opts.base_fit.as_ref(),
@@ -293,7 +293,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, progress: &ProgressFn) -> R
     };
     progress("done", total_steps, total_steps);
     Ok(report::assemble(report::Parts {
-        fs_hz: fs,
+        rate_hz,
         n_train,
         n_holdout: n_hold,
         missing: missing_before_mask,

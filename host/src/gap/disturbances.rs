@@ -50,7 +50,7 @@ pub struct Masked {
 
 /// The transient disturbances of both parts of `input`, in time order.
 pub fn find(input: &GapInput) -> Vec<Masked> {
-    let fs = input.fs_hz;
+    let rate_hz = input.rate_hz;
     let n = input.n_train;
     let parts = [(Part::Training, &input.rate_dps[..n]), (Part::Holdout, &input.rate_dps[n..])];
     let mut out = Vec::new();
@@ -58,11 +58,11 @@ pub fn find(input: &GapInput) -> Vec<Masked> {
         if x.is_empty() {
             continue;
         }
-        for e in scan(x, fs).events {
+        for e in scan(x, rate_hz).events {
             out.push(Masked {
                 part,
-                start_s: e.start as f64 / fs,
-                duration_s: e.len as f64 / fs,
+                start_s: e.start as f64 / rate_hz,
+                duration_s: e.len as f64 / rate_hz,
                 peak_dps: e.peak_dps,
                 event: e,
             });
@@ -97,7 +97,7 @@ mod tests {
     /// A bump in each part is found in its own part, at its own time, and masked there; nothing else moves.
     #[test]
     fn a_bump_in_each_part_is_found_and_masked_where_it_lies() {
-        let fs = 10.0;
+        let rate_hz = 10.0;
         let mut x: Vec<f64> = crate::test_signals::white(40_000, 5).iter().map(|v| 0.01 * v).collect();
         for v in &mut x[5_000..5_100] {
             *v += 0.5;
@@ -105,7 +105,7 @@ mod tests {
         for v in &mut x[30_000..30_030] {
             *v -= 0.8;
         }
-        let input = GapInput::split(x.clone(), None, fs, 0.5).unwrap();
+        let input = GapInput::split(x.clone(), None, rate_hz, 0.5).unwrap();
         let found = find(&input);
         assert_eq!(found.len(), 2, "{found:?}");
         let (a, b) = (&found[0], &found[1]);

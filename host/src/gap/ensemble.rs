@@ -25,7 +25,7 @@ pub struct Target<'a> {
     /// The temperature at every sample (gaps filled), degC, if there is a temperature channel.
     pub temp_c: Option<&'a [f64]>,
     /// Sample rate, Hz.
-    pub fs_hz: f64,
+    pub rate_hz: f64,
     /// Samples of the training part (the rest is the holdout).
     pub n_train: usize,
     /// Sub-samples per sample: each record sample is the mean of this many (1: the record is the sensor's own
@@ -71,7 +71,7 @@ pub struct Ensemble {
 pub fn temperature_response(gyro: &GyroSim, rec: &Target) -> Option<Vec<f64>> {
     let (coupling, temp) = (gyro.temperature.as_ref()?, rec.temp_c?);
     let d = rec.oversample.max(1);
-    let mut lag = ThermalLag::new(coupling, 1.0 / (rec.fs_hz * d as f64));
+    let mut lag = ThermalLag::new(coupling, 1.0 / (rec.rate_hz * d as f64));
     Some(temp.iter().map(|&tc| (0..d).map(|_| lag.next(tc)).sum::<f64>() / d as f64).collect())
 }
 
@@ -96,7 +96,7 @@ pub fn simulate(
     explained: Option<&[f64]>,
 ) -> Result<Ensemble, SimError> {
     // Fail early (and once) on a bad model.
-    let fs_sim = rec.fs_hz * rec.oversample.max(1) as f64;
+    let fs_sim = rec.rate_hz * rec.oversample.max(1) as f64;
     VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
     let table = code_table(channel);
     let (resp_train, resp_hold) = match explained {
@@ -139,7 +139,7 @@ fn member(gyro: &GyroSim, channel: Option<&Channel>, table: &[f64], rec: &Target
     const BLOCK: usize = 4096;
     let d = rec.oversample.max(1);
     let mut g =
-        VirtualGyro::new(gyro, adc_of(channel), rec.fs_hz * d as f64, seed).expect("model checked by the caller");
+        VirtualGyro::new(gyro, adc_of(channel), rec.rate_hz * d as f64, seed).expect("model checked by the caller");
     let analog = channel.is_none();
     let mut temps: Vec<f64> = Vec::with_capacity(BLOCK * d);
     let mut rates = vec![0.0; BLOCK * d];
@@ -207,7 +207,7 @@ pub fn predict_holdout(
     explained_hold: Option<&[f64]>,
     relearn: &Relearn,
 ) -> Result<Vec<Measure>, SimError> {
-    let fs_sim = rec.fs_hz * rec.oversample.max(1) as f64;
+    let fs_sim = rec.rate_hz * rec.oversample.max(1) as f64;
     VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
     let table = code_table(channel);
     Ok(seeds
@@ -237,12 +237,12 @@ pub fn predict_holdout(
 pub fn one_record(
     gyro: &GyroSim,
     channel: &Channel,
-    fs_hz: f64,
+    rate_hz: f64,
     n: usize,
     temp_c: Option<&[f64]>,
     seed: u64,
 ) -> Result<Vec<f64>, SimError> {
-    let mut g = VirtualGyro::new(gyro, *channel, fs_hz, seed)?;
+    let mut g = VirtualGyro::new(gyro, *channel, rate_hz, seed)?;
     Ok((0..n).map(|i| channel.code_to_dps(g.next(temp_c.map_or(NO_TEMP_C, |t| t[i])).code)).collect())
 }
 
@@ -257,17 +257,17 @@ mod tests {
     /// range clipped such a member flat.
     #[test]
     fn members_of_a_record_of_unknown_adc_are_not_clipped() {
-        let fs = 10.0;
+        let rate_hz = 10.0;
         let n = 1 << 14;
         let x: Vec<f64> = crate::test_signals::white(n, 3).iter().map(|v| 0.1 * v).collect();
-        let rec = Target { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: n / 2, oversample: 1 };
-        let n_coef = 0.1 / fs.sqrt();
+        let rec = Target { rate_dps: &x, temp_c: None, rate_hz, n_train: n / 2, oversample: 1 };
+        let n_coef = 0.1 / rate_hz.sqrt();
         // 0.02 deg/s^2 over 1638 s: 33 deg/s, against a record within +-0.5.
         let gyro = GyroSim { n_deg_per_rt_s: n_coef, r_dps_per_s: 0.02, ..Default::default() };
-        let train = Plan::new(rec.training(), None, fs);
-        let hold = Plan::new(rec.holdout(), None, fs);
+        let train = Plan::new(rec.training(), None, rate_hz);
+        let hold = Plan::new(rec.holdout(), None, rate_hz);
         let e = simulate(&gyro, &[], None, &rec, &train, Some(&hold), &[1, 2, 3], None).unwrap();
-        let closed = (n_coef * fs.sqrt()).ln();
+        let closed = (n_coef * rate_hz.sqrt()).ln();
         for m in &e.holdout {
             let got = m.values[ViewKind::Adev as usize][0];
             // ln ADEV at tau0 from 8192 samples: sd 0.008.

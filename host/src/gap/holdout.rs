@@ -22,7 +22,7 @@ use crate::fit::{FitOptions, NoiseFit};
 /// The diagnosis's learning procedure, to be re-run on simulated training parts.
 pub struct Learner<'a> {
     /// Sample rate, Hz.
-    pub fs_hz: f64,
+    pub rate_hz: f64,
     /// The training part's temperature (the members are driven by it too).
     pub temp_c: Option<&'a [f64]>,
     /// The base fit's options.
@@ -40,7 +40,7 @@ impl Learner<'_> {
     pub fn base(&self, train: &[f64]) -> (NoiseFit, GyroSim) {
         let f = match self.fixed_base {
             Some(f) => f.clone(),
-            None => fit_base(train, self.fs_hz, self.fit).map(|(_, f)| f).unwrap_or_else(|_| self.fallback.clone()),
+            None => fit_base(train, self.rate_hz, self.fit).map(|(_, f)| f).unwrap_or_else(|_| self.fallback.clone()),
         };
         let g = base_model(&f, train);
         (f, g)
@@ -51,7 +51,7 @@ impl Learner<'_> {
     pub fn with_chain(&self, effects: &[Effect], rounds: &[bool], train: &[f64]) -> (GyroSim, Option<Channel>) {
         let (f, base) = self.base(train);
         let start = Model { gyro: base, spreads: Vec::new(), channel: self.channel };
-        let m = chain::learn(effects, rounds, &start, &f, train, self.temp_c, self.fs_hz);
+        let m = chain::learn(effects, rounds, &start, &f, train, self.temp_c, self.rate_hz);
         (m.gyro, m.channel)
     }
 }
@@ -71,7 +71,7 @@ mod tests {
     #[test]
     fn a_relearning_that_changes_nothing_is_the_plain_ensemble() {
         let x = white_record(4096, 0.1);
-        let rec = Target { rate_dps: &x, temp_c: None, fs_hz: 10.0, n_train: 2048, oversample: 1 };
+        let rec = Target { rate_dps: &x, temp_c: None, rate_hz: 10.0, n_train: 2048, oversample: 1 };
         let gyro = GyroSim { n_deg_per_rt_s: 0.1 / 10f64.sqrt(), ..Default::default() };
         let train = Plan::new(rec.training(), None, 10.0);
         let hold = Plan::new(rec.holdout(), None, 10.0);
@@ -93,22 +93,22 @@ mod tests {
     /// curve at a few hundred samples, so the predictive spread is well above the plain one.
     #[test]
     fn the_predictive_spread_carries_the_learnt_parameters_error() {
-        let fs = 10.0;
-        let tau0 = 1.0 / fs;
+        let rate_hz = 10.0;
+        let tau0 = 1.0 / rate_hz;
         let x = white_record(1 << 15, 0.1);
-        let rec = Target { rate_dps: &x, temp_c: None, fs_hz: fs, n_train: 1 << 14, oversample: 1 };
-        let f = crate::gap::base::fit_base(rec.training(), fs, &FitOptions::default()).unwrap().1;
+        let rec = Target { rate_dps: &x, temp_c: None, rate_hz, n_train: 1 << 14, oversample: 1 };
+        let f = crate::gap::base::fit_base(rec.training(), rate_hz, &FitOptions::default()).unwrap().1;
         let gyro = base_model(&f, rec.training());
         let learner = Learner {
-            fs_hz: fs,
+            rate_hz,
             temp_c: None,
             fit: &FitOptions::default(),
             fixed_base: None,
             fallback: &f,
             channel: None,
         };
-        let train = Plan::new(rec.training(), None, fs);
-        let hold = Plan::new(rec.holdout(), None, fs);
+        let train = Plan::new(rec.training(), None, rate_hz);
+        let hold = Plan::new(rec.holdout(), None, rate_hz);
         let seeds: Vec<u64> = (100..160).collect();
         let learnt = std::sync::Mutex::new(Vec::new());
         let relearn = |t: &[f64]| {

@@ -19,7 +19,7 @@ pub struct GapInput {
     /// Temperature at every sample, degC (NaN gaps allowed), if there is a temperature channel.
     pub temp_c: Option<Vec<f64>>,
     /// Sample rate, Hz.
-    pub fs_hz: f64,
+    pub rate_hz: f64,
     /// Samples of the training part.
     pub n_train: usize,
 }
@@ -32,14 +32,14 @@ impl GapInput {
     pub fn split(
         rate_dps: Vec<f64>,
         temp_c: Option<Vec<f64>>,
-        fs_hz: f64,
+        rate_hz: f64,
         holdout_fraction: f64,
     ) -> Result<GapInput, GapError> {
         if !(0.0..1.0).contains(&holdout_fraction) {
             return Err(GapError::BadFraction(holdout_fraction));
         }
         let n_train = ((1.0 - holdout_fraction) * rate_dps.len() as f64).round() as usize;
-        let input = GapInput { rate_dps, temp_c, fs_hz, n_train };
+        let input = GapInput { rate_dps, temp_c, rate_hz, n_train };
         input.check_temperature()?;
         Ok(input)
     }
@@ -54,7 +54,7 @@ impl GapInput {
         training_temp: Option<Vec<f64>>,
         holdout: Vec<f64>,
         holdout_temp: Option<Vec<f64>>,
-        fs_hz: f64,
+        rate_hz: f64,
     ) -> Result<GapInput, GapError> {
         let n_train = training.len();
         let n = n_train + holdout.len();
@@ -68,7 +68,7 @@ impl GapInput {
         };
         let mut rate_dps = training;
         rate_dps.extend(holdout);
-        let input = GapInput { rate_dps, temp_c, fs_hz, n_train };
+        let input = GapInput { rate_dps, temp_c, rate_hz, n_train };
         input.check_temperature()?;
         Ok(input)
     }

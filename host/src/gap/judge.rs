@@ -30,7 +30,7 @@ pub struct Judge<'a> {
     rate_dps: &'a [f64],
     /// The temperature with its gaps filled ([`fill_gaps`]).
     temp_c: Option<Vec<f64>>,
-    fs_hz: f64,
+    rate_hz: f64,
     n_train: usize,
     oversample: usize,
     seeds: Vec<u64>,
@@ -50,13 +50,13 @@ impl<'a> Judge<'a> {
             let rec = ensemble::Target {
                 rate_dps: &input.rate_dps,
                 temp_c: temp_c.as_deref(),
-                fs_hz: input.fs_hz,
+                rate_hz: input.rate_hz,
                 n_train: input.n_train,
                 oversample,
             };
-            let train_plan = views::Plan::new(rec.training(), rec.training_temp(), rec.fs_hz);
+            let train_plan = views::Plan::new(rec.training(), rec.training_temp(), rec.rate_hz);
             let hold_plan =
-                (input.n_holdout() > 0).then(|| views::Plan::new(rec.holdout(), rec.holdout_temp(), rec.fs_hz));
+                (input.n_holdout() > 0).then(|| views::Plan::new(rec.holdout(), rec.holdout_temp(), rec.rate_hz));
             let real_train = train_plan.measure(rec.training(), rec.training_temp(), true);
             let real_hold = hold_plan.as_ref().map(|p| p.measure(rec.holdout(), rec.holdout_temp(), true));
             (train_plan, hold_plan, real_train, real_hold)
@@ -64,7 +64,7 @@ impl<'a> Judge<'a> {
         Judge {
             rate_dps: &input.rate_dps,
             temp_c,
-            fs_hz: input.fs_hz,
+            rate_hz: input.rate_hz,
             n_train: input.n_train,
             oversample,
             seeds: (0..opts.seeds as u64).map(|i| opts.first_seed + i).collect(),
@@ -80,7 +80,7 @@ impl<'a> Judge<'a> {
         ensemble::Target {
             rate_dps: self.rate_dps,
             temp_c: self.temp_c.as_deref(),
-            fs_hz: self.fs_hz,
+            rate_hz: self.rate_hz,
             n_train: self.n_train,
             oversample: self.oversample,
         }

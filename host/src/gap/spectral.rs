@@ -32,9 +32,9 @@ impl WelchLevel {
     }
 }
 
-/// Welch's averaged periodogram of one level whose points come at `fs_hz` (one-sided, (deg/s)^2/Hz), `None`
+/// Welch's averaged periodogram of one level whose points come at `rate_hz` (one-sided, (deg/s)^2/Hz), `None`
 /// without a complete segment free of gaps.
-pub(crate) fn welch(data: &[f64], l: &WelchLevel, fs_hz: f64) -> Option<Vec<f64>> {
+pub(crate) fn welch(data: &[f64], l: &WelchLevel, rate_hz: f64) -> Option<Vec<f64>> {
     let seg = l.seg;
     let hop = seg / 2;
     if data.len() < seg {
@@ -65,7 +65,7 @@ pub(crate) fn welch(data: &[f64], l: &WelchLevel, fs_hz: f64) -> Option<Vec<f64>
         return None;
     }
     let w2: f64 = l.window.iter().map(|w| w * w).sum();
-    let norm = 2.0 / (count as f64 * w2 * fs_hz);
+    let norm = 2.0 / (count as f64 * w2 * rate_hz);
     Some(acc.into_iter().map(|a| a * norm).collect())
 }
 

@@ -207,7 +207,7 @@ fn read_capture(path: &Path, csv: &CsvOptions) -> Result<Recording, ReadError> {
         }
     }
     let hello = hello.ok_or_else(|| capture_err("no hello frame: the sample rate is unknown".into()))?;
-    let rate = f64::from(hello.sample_rate_hz);
+    let rate = f64::from(hello.rate_hz);
     let names: Vec<String> = hello.channels.iter().map(|c| c.name.as_str().to_string()).collect();
     let find = |column: &str| {
         names

@@ -356,10 +356,10 @@ fn band_marks(report: &GapReport) -> Vec<(ViewKind, BandMark)> {
 // The time panel
 
 fn time_panel(report: &GapReport, input: &GapInput) -> TimePanel {
-    let fs = input.fs_hz;
+    let rate_hz = input.rate_hz;
     let x = &input.rate_dps;
     let n = x.len();
-    let duration_s = n as f64 / fs;
+    let duration_s = n as f64 / rate_hz;
     let (unit_s, x_label) = if duration_s > HOURS_FROM_S { (3600.0, "time (h)") } else { (1.0, "time (s)") };
     let cols = TIME_COLUMNS.min(n);
     let columns = (0..cols)
@@ -367,10 +367,10 @@ fn time_panel(report: &GapReport, input: &GapInput) -> TimePanel {
             let (a, b) = (c * n / cols, (c + 1) * n / cols);
             let finite = x[a..b].iter().copied().filter(|v| v.is_finite());
             let (min, max) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
-            (min <= max).then_some(Column { t_s: [a as f64 / fs, b as f64 / fs], min, max })
+            (min <= max).then_some(Column { t_s: [a as f64 / rate_hz, b as f64 / rate_hz], min, max })
         })
         .collect();
-    let train_s = input.n_train as f64 / fs;
+    let train_s = input.n_train as f64 / rate_hz;
     let transients = report
         .transients
         .iter()
@@ -403,7 +403,7 @@ pub(super) mod tests {
     /// A small record of a gyro with a temperature coupling the base model lacks, and a bump of the bench in its
     /// training part: 2^16 samples at 5 Hz (3.6 h), a temperature cycle of 20 min.
     pub fn record() -> (GapInput, usize) {
-        let fs = 5.0;
+        let rate_hz = 5.0;
         let n = 1 << 16;
         let model = GyroSim {
             n_deg_per_rt_s: 0.01,
@@ -418,9 +418,9 @@ pub(super) mod tests {
             wander: Some(Wander { sigma_c: 0.1, tau_s: 600.0 }),
             ..Default::default()
         };
-        let mut g = VirtualGyro::new(&model, Channel::bench(ADXRS300), fs, 5).unwrap();
+        let mut g = VirtualGyro::new(&model, Channel::bench(ADXRS300), rate_hz, 5).unwrap();
         let mut rng = SimRng::new(6);
-        let mut th = Thermal::new(&profile, fs, &mut rng);
+        let mut th = Thermal::new(&profile, rate_hz, &mut rng);
         let (mut x, mut t) = (Vec::with_capacity(n), Vec::with_capacity(n));
         for _ in 0..n {
             let tc = th.next(&mut rng);
@@ -428,11 +428,11 @@ pub(super) mod tests {
             t.push(tc);
         }
         // A bump of 40 s, 1.5 deg/s, at 2000 s.
-        let bump = (2000.0 * fs) as usize;
+        let bump = (2000.0 * rate_hz) as usize;
         for v in &mut x[bump..bump + 200] {
             *v += 1.5;
         }
-        (GapInput::split(x, Some(t), fs, 0.5).unwrap(), bump)
+        (GapInput::split(x, Some(t), rate_hz, 0.5).unwrap(), bump)
     }
 
     pub fn diagnosis() -> (GapReport, GapInput, usize) {
@@ -517,9 +517,9 @@ pub(super) mod tests {
         // The bump was masked, reported, and is shaded at its time (it starts at 2000 s of the training part).
         assert_eq!(report.transients.len(), 1, "{:?}", report.transients);
         let [a, b] = fig.time.transients[0];
-        let t = bump as f64 / input.fs_hz;
+        let t = bump as f64 / input.rate_hz;
         assert!(a <= t + 5.0 && b >= t + 35.0 && a > t - 60.0 && b < t + 100.0, "{a}..{b}");
-        assert_eq!(fig.time.split_s, Some(input.n_train as f64 / input.fs_hz));
+        assert_eq!(fig.time.split_s, Some(input.n_train as f64 / input.rate_hz));
         assert_eq!(fig.time.unit_s, 3600.0);
         assert!(fig.time.columns.len() == TIME_COLUMNS);
     }
@@ -530,12 +530,12 @@ pub(super) mod tests {
     #[test]
     fn a_line_is_marked_at_its_frequency_and_no_temperature_gets_no_panel() {
         let (input, _) = record();
-        let fs = input.fs_hz;
+        let rate_hz = input.rate_hz;
         let rate_dps = input
             .rate_dps
             .iter()
             .enumerate()
-            .map(|(i, v)| v + 0.02 * (2.0 * std::f64::consts::PI * i as f64 / (20.0 * fs)).sin())
+            .map(|(i, v)| v + 0.02 * (2.0 * std::f64::consts::PI * i as f64 / (20.0 * rate_hz)).sin())
             .collect();
         let input = GapInput { rate_dps, temp_c: None, ..input };
         let opts = GapOptions { seeds: 5, effects: vec![], ..Default::default() };

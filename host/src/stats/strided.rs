@@ -12,10 +12,10 @@ use crate::stats::{strided_avar_edf, DevPoint, NoiseMethod};
 
 /// Allan deviation points of a snapshot, in the unit of `scale` per code (deg/s per code for a gyro channel;
 /// 1.0 for codes), with `confidence` intervals. Levels without differences are left out.
-pub fn snapshot_points(snap: &Snapshot, fs_hz: f64, scale: f64, confidence: f64) -> Vec<DevPoint> {
+pub fn snapshot_points(snap: &Snapshot, rate_hz: f64, scale: f64, confidence: f64) -> Vec<DevPoint> {
     let avars: Vec<Option<f64>> = (0..LEVELS).map(|k| snap.avar_codes2(k).map(|v| v * scale * scale)).collect();
     let shape = StridedShape { stride: u64::from(snap.stride), n_phase: snap.samples as f64 + 1.0, confidence };
-    octave_points(&avars, |k| snap.levels[k].n, |m| m / fs_hz, &shape)
+    octave_points(&avars, |k| snap.levels[k].n, |m| m / rate_hz, &shape)
 }
 
 /// What the interval of a strided octave estimate depends on besides its value.

@@ -251,7 +251,7 @@ impl<'a, const G: usize> Characterizer<'a, G> {
                 sink.send(&Frame::AllanSnapshot(part));
             }
             let cfg = EstimateConfig {
-                sample_rate_hz: self.cfg.sample_rate_hz as f32,
+                rate_hz: self.cfg.rate_hz as f32,
                 dps_per_code: sensor::dps_per_code(self.cfg.channels[g].kind) as f32,
                 min_independent: 4,
             };
@@ -265,7 +265,7 @@ impl<'a, const G: usize> Characterizer<'a, G> {
         self.temp_sum = 0;
         self.temp_n = 0;
         sink.send(&Frame::Status(Status {
-            uptime_ms: scans_since_boot * 1000 / u64::from(self.cfg.sample_rate_hz),
+            uptime_ms: scans_since_boot * 1000 / u64::from(self.cfg.rate_hz),
             samples_per_channel: self.samples,
             adc_overruns: self.losses,
             frames_dropped: sink.frames_dropped(),

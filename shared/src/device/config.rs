@@ -32,7 +32,7 @@ pub struct DeviceConfig<'a> {
     /// Board name in the hello frame.
     pub board: &'a str,
     /// Scans per second, Hz.
-    pub sample_rate_hz: u32,
+    pub rate_hz: u32,
     /// ADC resolution, bits.
     pub adc_bits: u8,
     /// ADC reference, mV.
@@ -66,7 +66,7 @@ impl DeviceConfig<'static> {
     pub const F405: DeviceConfig<'static> = DeviceConfig {
         firmware: env!("CARGO_PKG_VERSION"),
         board: "STM32F405RG",
-        sample_rate_hz: 2_000,
+        rate_hz: 2_000,
         adc_bits: 12,
         vref_mv: 3300,
         channels: &F405_CHANNELS,
@@ -112,13 +112,12 @@ impl<'a> DeviceConfig<'a> {
             && self.block_scans.is_multiple_of(self.raw_scans_per_frame)
             && self.raw_scans_per_frame * w <= MAX_CODES
             && self.snapshot_every > 0
-            && self.sample_rate_hz > 0
+            && self.rate_hz > 0
     }
 
     /// The hello frame: versions, board, rates and the channel list.
     pub fn hello(&self) -> Frame {
-        let mut h =
-            Hello::new(self.firmware, self.board, self.sample_rate_hz, self.adc_bits, self.vref_mv, STRIDE as u8);
+        let mut h = Hello::new(self.firmware, self.board, self.rate_hz, self.adc_bits, self.vref_mv, STRIDE as u8);
         for c in self.channels {
             let _ = h.channels.push(ChannelInfo::new(c.kind, c.name));
         }

@@ -60,8 +60,9 @@ pub struct Hello {
     pub firmware: String<MAX_IDENT>,
     /// Board name, for example `octavar-f405`.
     pub board: String<MAX_IDENT>,
-    /// Samples per second per channel, in Hz.
-    pub sample_rate_hz: u32,
+    /// Samples per second per channel, in Hz (`sample_rate_hz` in serialised documents such as decode's JSON).
+    #[serde(rename = "sample_rate_hz")]
+    pub rate_hz: u32,
     /// ADC resolution in bits.
     pub adc_bits: u8,
     /// ADC reference voltage, in mV.
@@ -75,12 +76,12 @@ pub struct Hello {
 impl Hello {
     /// A hello with this crate's [`PROTOCOL_VERSION`] and no channels; names longer than [`MAX_IDENT`] bytes
     /// are cut at a character boundary.
-    pub fn new(firmware: &str, board: &str, sample_rate_hz: u32, adc_bits: u8, vref_mv: u16, stride: u8) -> Self {
+    pub fn new(firmware: &str, board: &str, rate_hz: u32, adc_bits: u8, vref_mv: u16, stride: u8) -> Self {
         Hello {
             protocol_version: PROTOCOL_VERSION,
             firmware: truncated(firmware),
             board: truncated(board),
-            sample_rate_hz,
+            rate_hz,
             adc_bits,
             vref_mv,
             stride,

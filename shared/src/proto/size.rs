@@ -94,7 +94,7 @@ sum_of_fields!(Hello {
     protocol_version: u16,
     firmware: String<{ super::MAX_IDENT }>,
     board: String<{ super::MAX_IDENT }>,
-    sample_rate_hz: u32,
+    rate_hz: u32,
     adc_bits: u8,
     vref_mv: u16,
     stride: u8,

@@ -43,7 +43,7 @@ pub struct Bench {
     rng: SimRng,
     gyros: heapless::Vec<VirtualGyro, MAX_CHANNELS>,
     channels: heapless::Vec<Channel, MAX_CHANNELS>,
-    fs_hz: f64,
+    rate_hz: f64,
 }
 
 impl Bench {
@@ -52,8 +52,8 @@ impl Bench {
     /// # Errors
     /// [`SimError::InvalidSampleRate`], [`SimError::NotAGyro`] or [`SimError::InvalidParameter`].
     pub fn new(model: &BenchSim) -> Result<Self, SimError> {
-        let fs = model.fs_hz;
-        if !(fs.is_finite() && fs > 0.0) {
+        let rate_hz = model.rate_hz;
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
             return Err(SimError::InvalidSampleRate);
         }
         let t = &model.temperature;
@@ -62,7 +62,7 @@ impl Bench {
             return Err(SimError::InvalidParameter("temperature"));
         }
         let mut rng = SimRng::new(SimRng::derive_seed(model.seed, u64::MAX));
-        let thermal = Thermal::new(t, fs, &mut rng);
+        let thermal = Thermal::new(t, rate_hz, &mut rng);
         let mut gyros = heapless::Vec::new();
         let mut channels = heapless::Vec::new();
         for (i, c) in model.channels.iter().enumerate() {
@@ -70,12 +70,12 @@ impl Bench {
                 Some(ch) => ch,
                 None => Channel::bench(GyroModel::of(c.sensor).ok_or(SimError::NotAGyro)?),
             };
-            let g = VirtualGyro::new(&c.gyro, channel, fs, SimRng::derive_seed(model.seed, i as u64))?;
+            let g = VirtualGyro::new(&c.gyro, channel, rate_hz, SimRng::derive_seed(model.seed, i as u64))?;
             // Capacities match the model's own list, so neither push can fail.
             let _ = gyros.push(g);
             let _ = channels.push(channel);
         }
-        Ok(Bench { thermal, rng, gyros, channels, fs_hz: fs })
+        Ok(Bench { thermal, rng, gyros, channels, rate_hz })
     }
 
     /// A bench that runs only channel `index` of `model`, with the same seeds and the same temperature: its
@@ -142,8 +142,8 @@ impl Bench {
     }
 
     /// Sample rate, Hz.
-    pub fn fs_hz(&self) -> f64 {
-        self.fs_hz
+    pub fn rate_hz(&self) -> f64 {
+        self.rate_hz
     }
 
     /// The channels' wiring (for code -> deg/s).
@@ -186,7 +186,7 @@ mod only_channel_tests {
             phase_rad: 0.0,
             wander: Some(Wander { sigma_c: 0.1, tau_s: 5.0 }),
         };
-        let model = BenchSim { fs_hz: 100.0, seed: 9, temperature, channels };
+        let model = BenchSim { rate_hz: 100.0, seed: 9, temperature, channels };
         let full: heapless::Vec<BenchSample, 512> = Bench::new(&model).unwrap().take(512).collect();
         for i in 0..3 {
             let alone = Bench::only_channel(&model, i).unwrap();
@@ -219,7 +219,7 @@ mod tests {
             list.push(ChannelSim { sensor, channel: None, gyro }).unwrap();
         }
         BenchSim {
-            fs_hz: 100.0,
+            rate_hz: 100.0,
             seed: 3,
             temperature: TemperatureProfile { min_c: 22.0, max_c: 25.0, period_s: 50.0, ..Default::default() },
             channels: list,

@@ -90,7 +90,7 @@ impl Sinusoids {
 /// Bias steps: at Bernoulli instants (rate `per_hour`), the bias jumps by a Gaussian of sd `sigma_dps`.
 ///
 /// The accumulated steps are a random walk with per-sample increment variance `p sigma^2`
-/// (`p = per_hour / 3600 / fs`): the same Allan variance as rate random walk with `K^2 = p sigma^2 / tau0`.
+/// (`p = per_hour / 3600 / rate_hz`): the same Allan variance as rate random walk with `K^2 = p sigma^2 / tau0`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Steps {
     p: f64,
@@ -101,9 +101,9 @@ pub struct Steps {
 }
 
 impl Steps {
-    /// Steps as the model gives them, at `fs_hz`.
-    pub fn new(m: &BiasSteps, fs_hz: f64, rng: &mut SimRng) -> Self {
-        let p = (m.per_hour / 3600.0 / fs_hz).min(1.0);
+    /// Steps as the model gives them, at `rate_hz`.
+    pub fn new(m: &BiasSteps, rate_hz: f64, rng: &mut SimRng) -> Self {
+        let p = (m.per_hour / 3600.0 / rate_hz).min(1.0);
         Steps { p, sigma: m.sigma_dps, left: rng.gap(p), level: 0.0, count: 0 }
     }
 

@@ -64,7 +64,7 @@ pub struct VirtualGyro {
     n: u64,
     bias: f64,
     white_sigma: f64,
-    /// Q fs and the last white angle draw, for the differenced white angle noise.
+    /// Q rate_hz and the last white angle draw, for the differenced white angle noise.
     angle_scale: f64,
     last_angle: f64,
     ramp_step: f64,
@@ -156,29 +156,29 @@ impl GyroSim {
 }
 
 impl VirtualGyro {
-    /// A virtual gyro for `model` on `channel`, sampled at `fs_hz`, random stream `seed`.
+    /// A virtual gyro for `model` on `channel`, sampled at `rate_hz`, random stream `seed`.
     ///
     /// # Errors
     /// [`SimError::InvalidSampleRate`] or [`SimError::InvalidParameter`] (also for a resonance at or above half
     /// the sample rate).
-    pub fn new(model: &GyroSim, channel: Channel, fs_hz: f64, seed: u64) -> Result<Self, SimError> {
-        if !(fs_hz.is_finite() && fs_hz > 0.0) {
+    pub fn new(model: &GyroSim, channel: Channel, rate_hz: f64, seed: u64) -> Result<Self, SimError> {
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
             return Err(SimError::InvalidSampleRate);
         }
         model.validate()?;
-        if model.resonance.is_some_and(|r| r.freq_hz >= 0.5 * fs_hz) {
+        if model.resonance.is_some_and(|r| r.freq_hz >= 0.5 * rate_hz) {
             return Err(SimError::InvalidParameter("resonance.freq_hz"));
         }
-        let tau0 = 1.0 / fs_hz;
+        let tau0 = 1.0 / rate_hz;
         let mut rng = SimRng::new(seed);
-        let n_sigma = model.n_deg_per_rt_s * libm::sqrt(fs_hz);
+        let n_sigma = model.n_deg_per_rt_s * libm::sqrt(rate_hz);
         let flicker = (model.b_dps > 0.0).then(|| FlickerBank::new(model.b_dps, &mut rng));
         let white_var = n_sigma * n_sigma;
         let gm = model
             .gauss_markov
             .filter(|g| g.sigma_dps > 0.0)
             .map(|g| GaussMarkov::new(g.sigma_dps, g.tau_s, tau0, &mut rng));
-        let steps = model.bias_steps.filter(|b| b.per_hour > 0.0).map(|b| Steps::new(&b, fs_hz, &mut rng));
+        let steps = model.bias_steps.filter(|b| b.per_hour > 0.0).map(|b| Steps::new(&b, rate_hz, &mut rng));
         let spikes = model.outliers.filter(|o| o.per_sample > 0.0).map(|o| Spikes::new(&o, n_sigma, &mut rng));
         // The angle drawn "before" sample 0, so the first difference is stationary too (no draw without Q).
         let last_angle = if model.q_deg > 0.0 { rng.normal() } else { 0.0 };
@@ -192,7 +192,7 @@ impl VirtualGyro {
             n: 0,
             bias: model.bias_dps,
             white_sigma: libm::sqrt(white_var),
-            angle_scale: model.q_deg * fs_hz,
+            angle_scale: model.q_deg * rate_hz,
             last_angle,
             ramp_step: model.r_dps_per_s * tau0,
             flicker,
@@ -205,7 +205,7 @@ impl VirtualGyro {
             resonance,
             telegraph,
             warm_up,
-            lowpass: model.bandwidth_hz.map(|f| LowPass::new(f, fs_hz)),
+            lowpass: model.bandwidth_hz.map(|f| LowPass::new(f, rate_hz)),
             adc: Quantizer::new(&channel),
             clipped: 0,
             lean: false,
@@ -419,7 +419,7 @@ impl VirtualGyro {
         self.spikes.as_ref().map_or(0, Spikes::count)
     }
 
-    /// The per-sample sd of the white Gaussian drawn (N sqrt(fs)), deg/s.
+    /// The per-sample sd of the white Gaussian drawn (N sqrt(rate_hz)), deg/s.
     pub fn white_sigma_dps(&self) -> f64 {
         self.white_sigma
     }

@@ -2,7 +2,7 @@
 //!
 //! The firmware feeds it to the accumulator as a self-test input (and on QEMU, whose ADC model is a toy); the
 //! host generates days of data from a `model.toml` to compare with a recording. A model ([`GyroSim`]) lists the
-//! terms of one channel in the conventions of IEEE Std 952 (rate data in deg/s, tau0 = 1/fs):
+//! terms of one channel in the conventions of IEEE Std 952 (rate data in deg/s, tau0 = 1/rate_hz):
 //!
 //! | term | model field | Allan variance |
 //! |------|-------------|----------------|

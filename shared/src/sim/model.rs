@@ -45,10 +45,10 @@ pub const MAX_CHANNELS: usize = 8;
 pub struct GyroSim {
     /// Constant bias, deg/s.
     pub bias_dps: f64,
-    /// White angle noise (IEEE 952 quantization noise) Q, deg: the rate gets `Q fs (w_n - w_(n-1))`, w unit
+    /// White angle noise (IEEE 952 quantization noise) Q, deg: the rate gets `Q rate_hz (w_n - w_(n-1))`, w unit
     /// white Gaussian, whose Allan variance is `3 Q^2 / tau^2` at every tau.
     pub q_deg: f64,
-    /// White rate noise (angle random walk) N, deg/sqrt(s): per-sample sd `N sqrt(fs)`.
+    /// White rate noise (angle random walk) N, deg/sqrt(s): per-sample sd `N sqrt(rate_hz)`.
     pub n_deg_per_rt_s: f64,
     /// Flicker (bias instability) B, deg/s: Allan deviation floor 0.6643 B.
     pub b_dps: f64,
@@ -170,7 +170,7 @@ pub struct WarmUpSim {
     pub tau_s: f64,
 }
 
-/// Outliers: spikes of size `size_dps + size_sigma * N sqrt(fs)` with a random sign.
+/// Outliers: spikes of size `size_dps + size_sigma * N sqrt(rate_hz)` with a random sign.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Outliers {
@@ -235,8 +235,9 @@ pub struct ChannelSim {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BenchSim {
-    /// Sample rate per channel, Hz.
-    pub fs_hz: f64,
+    /// Sample rate per channel, Hz (the `fs_hz` key of a `model.toml`).
+    #[serde(rename = "fs_hz")]
+    pub rate_hz: f64,
     /// Seed of the whole run.
     #[serde(default)]
     pub seed: u64,

@@ -75,9 +75,9 @@ pub struct LowPass {
 }
 
 impl LowPass {
-    /// A low-pass with its -3 dB corner at `f3db_hz`, sampled at `fs_hz`.
-    pub fn new(f3db_hz: f64, fs_hz: f64) -> Self {
-        LowPass { y: 0.0, a: libm::exp(-2.0 * core::f64::consts::PI * f3db_hz / fs_hz), started: false }
+    /// A low-pass with its -3 dB corner at `f3db_hz`, sampled at `rate_hz`.
+    pub fn new(f3db_hz: f64, rate_hz: f64) -> Self {
+        LowPass { y: 0.0, a: libm::exp(-2.0 * core::f64::consts::PI * f3db_hz / rate_hz), started: false }
     }
 
     /// The pole `a`.

@@ -22,16 +22,16 @@ pub struct Thermal {
 }
 
 impl Thermal {
-    /// The profile sampled at `fs_hz`; the wander draws from `rng`.
-    pub fn new(p: &TemperatureProfile, fs_hz: f64, rng: &mut SimRng) -> Self {
+    /// The profile sampled at `rate_hz`; the wander draws from `rng`.
+    pub fn new(p: &TemperatureProfile, rate_hz: f64, rng: &mut SimRng) -> Self {
         let half = 0.5 * (p.max_c - p.min_c);
         let cycle = Sinusoid { amplitude_dps: half, period_s: p.period_s, phase_rad: p.phase_rad };
         let list: &[Sinusoid] = if half != 0.0 && p.period_s > 0.0 { &[cycle] } else { &[] };
         let wander = p.wander.filter(|w| w.sigma_c > 0.0).map(|w| {
-            let t = w.tau_s * fs_hz;
+            let t = w.tau_s * rate_hz;
             HeldGaussMarkov::new(w.sigma_c, t, hold_log2(t), rng)
         });
-        Thermal { mid: 0.5 * (p.max_c + p.min_c), cycle: Sinusoids::new(list, 1.0 / fs_hz), wander, n: 0 }
+        Thermal { mid: 0.5 * (p.max_c + p.min_c), cycle: Sinusoids::new(list, 1.0 / rate_hz), wander, n: 0 }
     }
 
     /// The temperature of the next sample, degC.

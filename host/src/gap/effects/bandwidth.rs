@@ -11,26 +11,27 @@ use super::{Effect, EffectFit, TrainingData};
 /// Method: the OADEV at octave tau (Greenhall EDFs) is fitted jointly with N (white noise through the sampled
 /// first-order low-pass, the exact AR(1) Allan form, which tends to `fit::lowpass_white_factor` when the corner
 /// is far below the sample rate), B, K and R, by weighted non-negative least squares (IRLS, every subset of
-/// terms), the corner f3dB on a log grid from fs/2000 to fs/2 refined by golden search. It counts when the
+/// terms), the corner f3dB on a log grid from rate_hz/2000 to rate_hz/2 refined by golden search. It counts when the
 /// log-domain chi-square falls by at least [`CURVE_DELTA_CHI2`] from the unfiltered fit. N, B, K, R and Q are
 /// re-fitted with the bandwidth in place (the base fit reads N low from the bent short taus). On a model that
 /// already carries a resonance, a Gauss-Markov process or a bistable bias (a later step of the chain), their
 /// closed-form Allan variance through the corner tried is taken off the curve first.
 pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
-    let fs = d.fs_hz;
+    let rate_hz = d.rate_hz;
     // The Allan variance of a resonance or a Gauss-Markov process the model already has is not the filter's; the
     // simulator passes them through the filter too, so what is taken off depends on the corner tried.
-    let raw = gapped_oadev_points(d.rate_dps, d.gaps, fs);
+    let raw = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz);
     if raw.len() < 5 {
         return None;
     }
     let with_q = d.base.q_deg > 0.0;
     let score = |f: Option<f64>| {
-        let pts = less_known(&raw, d.base, f, fs);
-        joint_fit(&pts, &base_columns(&pts, fs, f, with_q))
+        let pts = less_known(&raw, d.base, f, rate_hz);
+        joint_fit(&pts, &base_columns(&pts, rate_hz, f, with_q))
     };
     let plain = score(None)?;
-    let (f, chi) = log_search(fs / 2000.0, fs / 2.0, 40, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
+    let (f, chi) =
+        log_search(rate_hz / 2000.0, rate_hz / 2.0, 40, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
     if !(chi + CURVE_DELTA_CHI2 < plain.chi2) {
         return None;
     }

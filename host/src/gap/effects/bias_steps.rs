@@ -31,11 +31,11 @@ pub(super) struct Scan {
 
 /// The scan's window L, samples: the tau of the OADEV minimum, between 16 samples and a 64th of the record;
 /// `None` for a record shorter than 8 windows.
-pub(super) fn scan_window(x: &[f64], fs: f64) -> Option<usize> {
+pub(super) fn scan_window(x: &[f64], rate_hz: f64) -> Option<usize> {
     let n = x.len();
-    let pts = oadev_points(x, fs);
+    let pts = oadev_points(x, rate_hz);
     let tau_min = pts.iter().min_by(|a, b| a.avar.total_cmp(&b.avar)).map(|p| p.tau_s)?;
-    let l = ((tau_min * fs).round() as usize).clamp(16, (n / 64).max(16));
+    let l = ((tau_min * rate_hz).round() as usize).clamp(16, (n / 64).max(16));
     (n >= 8 * l).then_some(l)
 }
 
@@ -101,8 +101,8 @@ pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
 pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n = x.len();
-    let fs = d.fs_hz;
-    let l = scan_window(x, fs)?;
+    let rate_hz = d.rate_hz;
+    let l = scan_window(x, rate_hz)?;
     let Scan { threshold: thr, steps } = mosum_scan(x, l)?;
     // A rate and a size distribution need a few steps: one or two are events (a knock, a connector), not a
     // process that a simulation could repeat; CATS gyro_y has one jump, and its gap is the temperature's.
@@ -117,7 +117,7 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     };
     let (sigma, _) = log_search(thr * 0.05, thr * 100.0, 60, nll);
     let pdet = (2.0 * normal_sf(thr / sigma)).max(0.2);
-    let hours = n as f64 / fs / 3600.0;
+    let hours = n as f64 / rate_hz / 3600.0;
     let per_hour = steps.len() as f64 / pdet / hours;
     // The base terms re-fitted on the record without the detected steps (the base fit took them for K).
     let mut order = steps.clone();
@@ -135,9 +135,9 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
             v - level
         })
         .collect();
-    let refit = refit_base(d.base, d.gaps, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let refit = refit_base(d.base, d.gaps, &cleaned, rate_hz).map_or_else(|| d.base.clone(), |r| r.0);
     let gyro = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }), ..refit };
-    let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / fs).collect();
+    let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / rate_hz).collect();
     Some(EffectFit {
         effect: Effect::BiasSteps,
         params: json!({"per_hour": per_hour, "sigma_dps": sigma, "count": steps.len(), "at_s": at,

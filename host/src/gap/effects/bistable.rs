@@ -141,7 +141,7 @@ fn refined_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
 pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n = x.len();
-    let fs = d.fs_hz;
+    let rate_hz = d.rate_hz;
     let mut windows = Vec::new();
     let mut l = 8usize;
     while l <= n / 64 {
@@ -183,7 +183,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     }
     let last = edges.len() - 1;
     for (i, &(a, b, high)) in edges.iter().enumerate() {
-        let dt = (b - a) as f64 / fs;
+        let dt = (b - a) as f64 / rate_hz;
         let complete = i > 0 && i < last;
         if high {
             time_high += dt;
@@ -199,7 +199,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     let (obs_high, obs_low) = (time_high / count_high as f64, time_low / count_low as f64);
     // An excursion shows in the scan when its mean difference, `step min(1, w / L)` for a width w, passes the
     // threshold: shorter ones go unseen, and each merges two dwells of the other state.
-    let c = best.window as f64 * (best.threshold / step).min(1.0) / fs;
+    let c = best.window as f64 * (best.threshold / step).min(1.0) / rate_hz;
     let (mut dwell_high, mut dwell_low) = (obs_high, obs_low);
     for _ in 0..50 {
         let seen = ((-c / dwell_low).exp() + (-c / dwell_high).exp() - 1.0).max(0.2);
@@ -216,7 +216,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
             *c -= v;
         }
     }
-    let refit = refit_base(d.base, d.gaps, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let refit = refit_base(d.base, d.gaps, &cleaned, rate_hz).map_or_else(|| d.base.clone(), |r| r.0);
     let gyro = GyroSim {
         bistable: Some(BistableSim { step_dps: step, dwell_low_s: dwell_low, dwell_high_s: dwell_high }),
         ..refit
@@ -227,7 +227,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
                        "step_se_dps": step_se, "dwell_low_se_s": dwell_low / (count_low as f64).sqrt(),
                        "dwell_high_se_s": dwell_high / (count_high as f64).sqrt(),
                        "jumps": best.jumps.len(), "alternating": best.alternating,
-                       "window_s": best.window as f64 / fs, "shortest_seen_s": c,
+                       "window_s": best.window as f64 / rate_hz, "shortest_seen_s": c,
                        "p_value": best.p_value, "size_spread": spread}),
         n_params: 3,
         gyro,

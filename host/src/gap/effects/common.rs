@@ -23,8 +23,8 @@ pub(super) fn mean(x: &[f64]) -> f64 {
 pub(super) use crate::stats::robust::median;
 
 /// The overlapping Allan variance at octave tau, with Greenhall EDFs, as fit points.
-pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
-    let Ok(s) = Series::new(x, DataKind::Frequency, 1.0 / fs) else {
+pub(super) fn oadev_points(x: &[f64], rate_hz: f64) -> Vec<FitPoint> {
+    let Ok(s) = Series::new(x, DataKind::Frequency, 1.0 / rate_hz) else {
         return Vec::new();
     };
     octave_oadev(&s, Options::default().confidence).map(|rows| fit_input(&rows)).unwrap_or_default()
@@ -32,11 +32,11 @@ pub(super) fn oadev_points(x: &[f64], fs: f64) -> Vec<FitPoint> {
 
 /// [`oadev_points`] of `x` with the runs `gaps` (filled in `x`) taken as gaps: a stretch filled by a line has no
 /// noise, and would read the short-tau Allan deviation low by the share of the record it spans.
-pub(super) fn gapped_oadev_points(x: &[f64], gaps: &[Range<usize>], fs: f64) -> Vec<FitPoint> {
+pub(super) fn gapped_oadev_points(x: &[f64], gaps: &[Range<usize>], rate_hz: f64) -> Vec<FitPoint> {
     if gaps.is_empty() {
-        return oadev_points(x, fs);
+        return oadev_points(x, rate_hz);
     }
-    oadev_points(&with_gaps(x, gaps), fs)
+    oadev_points(&with_gaps(x, gaps), rate_hz)
 }
 
 /// The samples of `x` outside the runs `gaps` (in order; the few differences across a join are the only ones
@@ -73,9 +73,9 @@ pub(super) fn refit_base(
     base: &GyroSim,
     gaps: &[Range<usize>],
     cleaned: &[f64],
-    fs: f64,
+    rate_hz: f64,
 ) -> Option<(GyroSim, [f64; 5])> {
-    let pts = gapped_oadev_points(cleaned, gaps, fs);
+    let pts = gapped_oadev_points(cleaned, gaps, rate_hz);
     let terms = Term::ALL.into_iter().filter(|t| *t != Term::R || base.r_dps_per_s != 0.0).collect();
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
     let f = fit(&pts, &opts).ok()?;

@@ -42,10 +42,10 @@ pub(super) fn gm_avar(t_s: f64, tau: f64, tau0: f64) -> f64 {
 /// `Re((1 - i c) z^k)`, `c = (1 - r^2) / (1 + r^2) cot theta`: `(4 G(m) - G(2m)) / (2 m^2)`, with the variance of a
 /// sum of n samples `G(n) = n + 2 Re((1 - i c) S(n))`, `S(n) = sum_{k=1}^{n-1} (n - k) z^k
 /// = (z^{n+1} - n z^2 + (n - 1) z) / (1 - z)^2`.
-pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, fs: f64) -> f64 {
+pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, rate_hz: f64) -> f64 {
     type Complex = Complex64;
     let zeta = 0.5 / q;
-    let w0 = 2.0 * std::f64::consts::PI * freq_hz / fs;
+    let w0 = 2.0 * std::f64::consts::PI * freq_hz / rate_hz;
     let r = (-zeta * w0).exp();
     let theta = w0 * (1.0 - zeta * zeta).sqrt();
     let c = (1.0 - r * r) / (1.0 + r * r) / theta.tan();
@@ -103,15 +103,15 @@ pub(super) fn ar_avar(poles: &[Complex64], m: f64) -> f64 {
 }
 
 /// The pole of shared::sim's sampled first-order low-pass `y = a y + (1 - a) x` at `f3db_hz`: `exp(-2 pi f3dB /
-/// fs)`.
-pub(super) fn lowpass_pole(f3db_hz: f64, fs: f64) -> f64 {
-    (-2.0 * std::f64::consts::PI * f3db_hz / fs).exp()
+/// rate_hz)`.
+pub(super) fn lowpass_pole(f3db_hz: f64, rate_hz: f64) -> f64 {
+    (-2.0 * std::f64::consts::PI * f3db_hz / rate_hz).exp()
 }
 
-/// The power gain of that low-pass at `f`: `(1 - a)^2 / |1 - a e^{-i w}|^2`, `w = 2 pi f / fs`.
-pub(super) fn lowpass_gain(f3db_hz: f64, fs: f64, f: f64) -> f64 {
-    let a = lowpass_pole(f3db_hz, fs);
-    let w = 2.0 * std::f64::consts::PI * f / fs;
+/// The power gain of that low-pass at `f`: `(1 - a)^2 / |1 - a e^{-i w}|^2`, `w = 2 pi f / rate_hz`.
+pub(super) fn lowpass_gain(f3db_hz: f64, rate_hz: f64, f: f64) -> f64 {
+    let a = lowpass_pole(f3db_hz, rate_hz);
+    let w = 2.0 * std::f64::consts::PI * f / rate_hz;
     (1.0 - a) * (1.0 - a) / (1.0 - 2.0 * a * w.cos() + a * a)
 }
 
@@ -119,10 +119,10 @@ pub(super) fn lowpass_gain(f3db_hz: f64, fs: f64, f: f64) -> f64 {
 /// the white noise driving it, gives the unit variance) after the low-pass at `f3db_hz` (none: the process
 /// itself), as shared::sim adds a resonance, a Gauss-Markov process or a bistable bias before its output
 /// bandwidth: the low-pass adds its pole and scales the driving noise by `(1 - a)^2`.
-fn through_lowpass(poles: &[Complex64], innovation_var: f64, f3db_hz: Option<f64>, m: f64, fs: f64) -> f64 {
+fn through_lowpass(poles: &[Complex64], innovation_var: f64, f3db_hz: Option<f64>, m: f64, rate_hz: f64) -> f64 {
     match f3db_hz {
         Some(f) if f > 0.0 => {
-            let a = lowpass_pole(f, fs);
+            let a = lowpass_pole(f, rate_hz);
             let mut all = poles.to_vec();
             all.push(Complex64::new(a, 0.0));
             innovation_var * (1.0 - a) * (1.0 - a) * ar_avar(&all, m)
@@ -133,26 +133,26 @@ fn through_lowpass(poles: &[Complex64], innovation_var: f64, f3db_hz: Option<f64
 
 /// Allan variance at `m` samples of the unit-variance resonance of shared::sim after the low-pass at `f3db_hz`
 /// ([`resonance_avar`] without one).
-pub(super) fn filtered_resonance_avar(freq_hz: f64, q: f64, f3db_hz: Option<f64>, m: f64, fs: f64) -> f64 {
+pub(super) fn filtered_resonance_avar(freq_hz: f64, q: f64, f3db_hz: Option<f64>, m: f64, rate_hz: f64) -> f64 {
     if f3db_hz.is_none() {
-        return resonance_avar(freq_hz, q, m, fs);
+        return resonance_avar(freq_hz, q, m, rate_hz);
     }
-    let (a1, a2, b) = Resonance::coefficients(freq_hz, q, 1.0 / fs);
+    let (a1, a2, b) = Resonance::coefficients(freq_hz, q, 1.0 / rate_hz);
     // The roots of z^2 - a1 z - a2: a complex pair for Q > 1/2.
     let disc = Complex64::new(a1 * a1 + 4.0 * a2, 0.0).sqrt();
     let poles = [(Complex64::new(a1, 0.0) + disc) / 2.0, (Complex64::new(a1, 0.0) - disc) / 2.0];
-    through_lowpass(&poles, b * b, f3db_hz, m, fs)
+    through_lowpass(&poles, b * b, f3db_hz, m, rate_hz)
 }
 
 /// Allan variance at `tau` of a unit-variance Gauss-Markov process of correlation time `t_s` after the low-pass at
 /// `f3db_hz` ([`gm_avar`] without one, or where T is beyond a thousand samples: the low-pass, whose corner is at
-/// least fs/2000, then hardly touches it).
-pub(super) fn filtered_gm_avar(t_s: f64, f3db_hz: Option<f64>, tau: f64, fs: f64) -> f64 {
-    let tau0 = 1.0 / fs;
+/// least rate_hz/2000, then hardly touches it).
+pub(super) fn filtered_gm_avar(t_s: f64, f3db_hz: Option<f64>, tau: f64, rate_hz: f64) -> f64 {
+    let tau0 = 1.0 / rate_hz;
     match f3db_hz {
         Some(_) if t_s / tau0 <= 1000.0 => {
             let a = (-tau0 / t_s).exp();
-            through_lowpass(&[Complex64::new(a, 0.0)], 1.0 - a * a, f3db_hz, tau / tau0, fs)
+            through_lowpass(&[Complex64::new(a, 0.0)], 1.0 - a * a, f3db_hz, tau / tau0, rate_hz)
         }
         _ => gm_avar(t_s, tau, tau0),
     }
@@ -162,41 +162,41 @@ pub(super) fn filtered_gm_avar(t_s: f64, f3db_hz: Option<f64>, tau: f64, fs: f64
 /// resonance, a Gauss-Markov process, a bistable bias, each with its closed form), after the output bandwidth
 /// `f3db_hz` as the simulator applies it, which an estimator fitting the base terms and one more effect on the
 /// Allan curve must not take for its own.
-pub(super) fn known_avar(model: &GyroSim, f3db_hz: Option<f64>, tau: f64, fs: f64) -> f64 {
+pub(super) fn known_avar(model: &GyroSim, f3db_hz: Option<f64>, tau: f64, rate_hz: f64) -> f64 {
     let mut v = 0.0;
     if let Some(r) = &model.resonance {
-        v += r.sigma_dps * r.sigma_dps * filtered_resonance_avar(r.freq_hz, r.q, f3db_hz, tau * fs, fs);
+        v += r.sigma_dps * r.sigma_dps * filtered_resonance_avar(r.freq_hz, r.q, f3db_hz, tau * rate_hz, rate_hz);
     }
     if let Some(g) = &model.gauss_markov {
-        v += g.sigma_dps * g.sigma_dps * filtered_gm_avar(g.tau_s, f3db_hz, tau, fs);
+        v += g.sigma_dps * g.sigma_dps * filtered_gm_avar(g.tau_s, f3db_hz, tau, rate_hz);
     }
     if let Some(b) = &model.bistable {
         let (l1, l2) = (1.0 / b.dwell_low_s, 1.0 / b.dwell_high_s);
         let var = b.step_dps * b.step_dps * l1 * l2 / ((l1 + l2) * (l1 + l2));
-        v += var * filtered_gm_avar(1.0 / (l1 + l2), f3db_hz, tau, fs);
+        v += var * filtered_gm_avar(1.0 / (l1 + l2), f3db_hz, tau, rate_hz);
     }
     v
 }
 
 /// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`], through the bandwidth
 /// `f3db_hz`), each point kept at no less than a tenth of its own value (the rest is what the fit has to explain).
-pub(super) fn less_known(pts: &[FitPoint], model: &GyroSim, f3db_hz: Option<f64>, fs: f64) -> Vec<FitPoint> {
+pub(super) fn less_known(pts: &[FitPoint], model: &GyroSim, f3db_hz: Option<f64>, rate_hz: f64) -> Vec<FitPoint> {
     pts.iter()
-        .map(|p| FitPoint { avar: (p.avar - known_avar(model, f3db_hz, p.tau_s, fs)).max(0.1 * p.avar), ..*p })
+        .map(|p| FitPoint { avar: (p.avar - known_avar(model, f3db_hz, p.tau_s, rate_hz)).max(0.1 * p.avar), ..*p })
         .collect()
 }
 
-/// Allan variance of white rate noise of unit N (per-sample variance fs) through the sampled first-order
-/// low-pass `y = a y + (1 - a) x`, `a = exp(-2 pi f3dB / fs)`, as shared::sim applies it: an AR(1) of variance
+/// Allan variance of white rate noise of unit N (per-sample variance rate_hz) through the sampled first-order
+/// low-pass `y = a y + (1 - a) x`, `a = exp(-2 pi f3dB / rate_hz)`, as shared::sim applies it: an AR(1) of variance
 /// `fs (1 - a)/(1 + a)`. Tends to `fit::lowpass_white_factor(tau/T) / tau` when T >> tau0.
-pub(super) fn lowpass_white_avar(f3db: Option<f64>, tau: f64, fs: f64) -> f64 {
-    let m = (tau * fs).round().max(1.0);
+pub(super) fn lowpass_white_avar(f3db: Option<f64>, tau: f64, rate_hz: f64) -> f64 {
+    let m = (tau * rate_hz).round().max(1.0);
     match f3db {
         Some(f) if f > 0.0 => {
-            let a = lowpass_pole(f, fs);
-            fs * (1.0 - a) / (1.0 + a) * ar1_avar(a, m)
+            let a = lowpass_pole(f, rate_hz);
+            rate_hz * (1.0 - a) / (1.0 + a) * ar1_avar(a, m)
         }
-        _ => fs / m,
+        _ => rate_hz / m,
     }
 }
 
@@ -298,10 +298,10 @@ pub(super) const BASE_COLS: usize = 5;
 /// The columns of the base terms N (shaped by `bw`), B, K, R and Q at the points' taus, N per unit N^2. The Q
 /// column is all zero (so [`joint_fit`] never uses it) unless `with_q`: the base fit's choice, for at the
 /// shortest taus angle white noise and a low-pass corner or a fast Gauss-Markov trade against each other.
-pub(super) fn base_columns(pts: &[FitPoint], fs: f64, bw: Option<f64>, with_q: bool) -> Vec<Vec<f64>> {
+pub(super) fn base_columns(pts: &[FitPoint], rate_hz: f64, bw: Option<f64>, with_q: bool) -> Vec<Vec<f64>> {
     let q = if with_q { 3.0 } else { 0.0 };
     vec![
-        pts.iter().map(|p| lowpass_white_avar(bw, p.tau_s, fs)).collect(),
+        pts.iter().map(|p| lowpass_white_avar(bw, p.tau_s, rate_hz)).collect(),
         pts.iter().map(|_| FLICKER_AVAR_FACTOR).collect(),
         pts.iter().map(|p| p.tau_s / 3.0).collect(),
         pts.iter().map(|p| p.tau_s * p.tau_s / 2.0).collect(),

@@ -18,19 +18,19 @@ use super::{Effect, EffectFit, TrainingData};
 /// Allan variance somewhere on the curve; N, B, K, R and Q are re-fitted with it. On a model that already carries
 /// a resonance or a bistable bias, their Allan variance is taken off the curve first.
 pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
-    let fs = d.fs_hz;
-    let tau0 = 1.0 / fs;
+    let rate_hz = d.rate_hz;
+    let tau0 = 1.0 / rate_hz;
     let bw = d.base.bandwidth_hz;
     // A resonance or a bistable bias the model already has is not this process (a later step of the chain).
-    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, fs), d.base, bw, fs);
+    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, rate_hz), d.base, bw, rate_hz);
     if pts.len() < 6 {
         return None;
     }
-    let base_cols = base_columns(&pts, fs, bw, d.base.q_deg > 0.0);
+    let base_cols = base_columns(&pts, rate_hz, bw, d.base.q_deg > 0.0);
     let plain = joint_fit(&pts, &base_cols)?;
     let cols_for = |t: f64| {
         let mut c = base_cols.clone();
-        c.push(pts.iter().map(|q| filtered_gm_avar(t, bw, q.tau_s, fs)).collect());
+        c.push(pts.iter().map(|q| filtered_gm_avar(t, bw, q.tau_s, rate_hz)).collect());
         c
     };
     let record = d.rate_dps.len() as f64 * tau0;

@@ -129,7 +129,7 @@ pub struct TrainingData<'a> {
     /// The temperature at each sample, degC, where there is a temperature channel.
     pub temp_c: Option<&'a [f64]>,
     /// Sample rate, Hz.
-    pub fs_hz: f64,
+    pub rate_hz: f64,
     /// The base simulation model (IEEE terms fitted on these samples).
     pub base: &'a GyroSim,
     /// The base fit itself.
@@ -239,7 +239,7 @@ const SPREAD_SALT: u64 = 0x5a7e_ad00_0000;
 /// Fit `effect` on the training data; `None` when the data show no trace of it.
 pub fn estimate(effect: Effect, data: &TrainingData) -> Option<EffectFit> {
     let n = data.rate_dps.len();
-    if n < 64 || !(data.fs_hz.is_finite() && data.fs_hz > 0.0) {
+    if n < 64 || !(data.rate_hz.is_finite() && data.rate_hz > 0.0) {
         return None;
     }
     if data.rate_dps.iter().any(|v| !v.is_finite()) {

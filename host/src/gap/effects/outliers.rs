@@ -58,13 +58,13 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let sizes: Vec<f64> = hits.iter().map(|&i| r[i].abs()).collect();
     let size = median(&sizes);
     let p = hits.len() as f64 / (n - 6) as f64;
-    let fs = d.fs_hz;
+    let rate_hz = d.rate_hz;
     // The base terms re-fitted with the spikes replaced by their neighbours' median (they added white variance).
     let mut cleaned = x.to_vec();
     for &i in &hits {
         cleaned[i] = x[i] - r[i];
     }
-    let refit = refit_base(d.base, d.gaps, &cleaned, fs).map_or_else(|| d.base.clone(), |r| r.0);
+    let refit = refit_base(d.base, d.gaps, &cleaned, rate_hz).map_or_else(|| d.base.clone(), |r| r.0);
     let gyro = GyroSim { outliers: Some(Outliers { per_sample: p, size_dps: size, size_sigma: 0.0 }), ..refit };
     Some(EffectFit {
         effect: Effect::Outliers,

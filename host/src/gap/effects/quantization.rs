@@ -95,7 +95,7 @@ pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
     let kept = outside_gaps(d.rate_dps, d.gaps);
     let x: &[f64] = &kept;
     let (q, point) = lattice(x)?;
-    let fs = d.fs_hz;
+    let rate_hz = d.rate_hz;
     // The per-sample white variance from the first differences (half their mean square): below one step the
     // quantised noise is not white at longer tau, so N from the Allan curve would not do.
     let v_white = x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (x.len() - 1) as f64);
@@ -116,7 +116,7 @@ pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
     let mu = mean(x);
     let k0 = ((mu - point) / q).round();
     let m0 = point + k0 * q;
-    let gyro = GyroSim { n_deg_per_rt_s: sigma / fs.sqrt(), bias_dps: mu, ..d.base.clone() };
+    let gyro = GyroSim { n_deg_per_rt_s: sigma / rate_hz.sqrt(), bias_dps: mu, ..d.base.clone() };
     Some(EffectFit {
         effect: Effect::Quantization,
         params: json!({"step_dps": q, "lattice_point_dps": m0, "n_deg_per_rt_s": gyro.n_deg_per_rt_s}),

@@ -39,7 +39,7 @@ const CANDIDATES: usize = 3;
 /// The one-sided Welch spectrum of `x`, (deg/s)^2/Hz: Hann segments of `seg` samples, 50% overlap, each segment's
 /// mean removed, the segments that overlap a run of `gaps` (filled in `x`) left out; bins `k df`, `k =
 /// 0..seg/2`. Also the number of segments.
-fn welch(x: &[f64], gaps: &[std::ops::Range<usize>], fs: f64, seg: usize) -> (Vec<f64>, usize) {
+fn welch(x: &[f64], gaps: &[std::ops::Range<usize>], rate_hz: f64, seg: usize) -> (Vec<f64>, usize) {
     let fft = FftPlanner::new().plan_fft_forward(seg);
     let window: Vec<f64> =
         (0..seg).map(|i| 0.5 * (1.0 - (2.0 * std::f64::consts::PI * i as f64 / seg as f64).cos())).collect();
@@ -65,7 +65,7 @@ fn welch(x: &[f64], gaps: &[std::ops::Range<usize>], fs: f64, seg: usize) -> (Ve
         count += 1;
         start += seg / 2;
     }
-    let scale = 2.0 / (fs * w2 * count.max(1) as f64);
+    let scale = 2.0 / (rate_hz * w2 * count.max(1) as f64);
     (acc.iter().map(|a| a * scale).collect(), count)
 }
 
@@ -101,20 +101,20 @@ fn median_background(ln_p: &[f64], k_lo: usize, k_hi: usize) -> Vec<f64> {
 }
 
 /// The unit-variance resonance's one-sided spectrum, 1/Hz, at the frequencies `f`: the AR(2) of shared::sim,
-/// `2 tau0 b^2 / |1 - a1 e^{-iw} - a2 e^{-2iw}|^2`, `w = 2 pi f / fs`.
-fn unit_spectrum(freq_hz: f64, q: f64, fs: f64, f: impl Iterator<Item = f64>) -> impl Iterator<Item = f64> {
-    let (a1, a2, b) = Resonance::coefficients(freq_hz, q, 1.0 / fs);
+/// `2 tau0 b^2 / |1 - a1 e^{-iw} - a2 e^{-2iw}|^2`, `w = 2 pi f / rate_hz`.
+fn unit_spectrum(freq_hz: f64, q: f64, rate_hz: f64, f: impl Iterator<Item = f64>) -> impl Iterator<Item = f64> {
+    let (a1, a2, b) = Resonance::coefficients(freq_hz, q, 1.0 / rate_hz);
     f.map(move |f| {
-        let w = 2.0 * std::f64::consts::PI * f / fs;
+        let w = 2.0 * std::f64::consts::PI * f / rate_hz;
         let re = 1.0 - a1 * w.cos() - a2 * (2.0 * w).cos();
         let im = a1 * w.sin() + a2 * (2.0 * w).sin();
-        2.0 / fs * b * b / (re * re + im * im)
+        2.0 / rate_hz * b * b / (re * re + im * im)
     })
 }
 
 /// The unit-variance resonance's one-sided spectrum at one frequency.
-fn unit_spectrum_at(freq_hz: f64, q: f64, fs: f64, f: f64) -> f64 {
-    unit_spectrum(freq_hz, q, fs, std::iter::once(f)).next().unwrap_or(f64::NAN)
+fn unit_spectrum_at(freq_hz: f64, q: f64, rate_hz: f64, f: f64) -> f64 {
+    unit_spectrum(freq_hz, q, rate_hz, std::iter::once(f)).next().unwrap_or(f64::NAN)
 }
 
 /// A bump fitted over one window of the spectrum.
@@ -141,7 +141,7 @@ struct Window<'a> {
     f: &'a [f64],
     u: Vec<f64>,
     y: &'a [f64],
-    fs: f64,
+    rate_hz: f64,
     /// The power gain of the model's output bandwidth at each bin (1 without one): the simulator passes the
     /// resonance through it, so the bump in the record is the resonance's spectrum times this gain.
     gain: Vec<f64>,
@@ -151,11 +151,11 @@ impl Window<'_> {
     /// The model's ln P at every bin of the window; `None` outside the parameters' range.
     fn model(&self, th: &[f64; 6]) -> Option<Vec<f64>> {
         let (f0, q) = (th[4].exp(), th[5].exp());
-        if !(q > 0.5 && f0 > 0.0 && f0 < 0.5 * self.fs && th.iter().all(|v| v.is_finite())) {
+        if !(q > 0.5 && f0 > 0.0 && f0 < 0.5 * self.rate_hz && th.iter().all(|v| v.is_finite())) {
             return None;
         }
         let s2 = th[3].exp();
-        let v: Vec<f64> = unit_spectrum(f0, q, self.fs, self.f.iter().copied())
+        let v: Vec<f64> = unit_spectrum(f0, q, self.rate_hz, self.f.iter().copied())
             .zip(self.u.iter().zip(&self.gain))
             .map(|(h, (&u, g))| ((th[0] + th[1] * u + th[2] * u * u).exp() + s2 * h * g).ln())
             .collect();
@@ -279,10 +279,10 @@ fn fit_bump(
     k_range: (usize, usize),
     k0: usize,
     hw: f64,
-    fs: f64,
+    rate_hz: f64,
     bw: Option<f64>,
 ) -> Option<Bump> {
-    let gain_at = |x: f64| bw.map_or(1.0, |b| lowpass_gain(b, fs, x));
+    let gain_at = |x: f64| bw.map_or(1.0, |b| lowpass_gain(b, rate_hz, x));
     let (k_lo, k_hi) = k_range;
     let df = f[1] - f[0];
     let mut f0 = f[k0];
@@ -301,7 +301,7 @@ fn fit_bump(
             f: &f[lo..=hi],
             u: f[lo..=hi].iter().map(|x| (x / f0).ln()).collect(),
             y: &ln_p[lo..=hi],
-            fs,
+            rate_hz,
             gain: f[lo..=hi].iter().map(|&x| gain_at(x)).collect(),
         };
         let (bg, rss0) = w.background()?;
@@ -320,7 +320,7 @@ fn fit_bump(
         let bg_fit = |i: usize| (th[0] + th[1] * w.u[i] + th[2] * w.u[i] * w.u[i]).exp();
         let i0 = (0..w.f.len()).min_by(|&a, &b| (w.f[a] - f_fit).abs().total_cmp(&(w.f[b] - f_fit).abs()))?;
         let power = th[3].exp();
-        let peak_ratio = power * unit_spectrum_at(f_fit, q_fit, fs, f_fit) * gain_at(f_fit) / bg_fit(i0);
+        let peak_ratio = power * unit_spectrum_at(f_fit, q_fit, rate_hz, f_fit) * gain_at(f_fit) / bg_fit(i0);
         let thr = 3.0 * sigma2.sqrt();
         let (mut run, mut longest) = (0, 0);
         for i in 0..w.y.len() {
@@ -365,18 +365,18 @@ fn fit_bump(
 /// and is filtered once more in the simulation.
 pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
-    let fs = d.fs_hz;
+    let rate_hz = d.rate_hz;
     let n = x.len();
     let target = (n / 32).max(256);
     let seg = (1usize << (usize::BITS - 1 - target.leading_zeros())).min(1 << 16);
     if n < seg * (MIN_SEGMENTS / 2 + 1) {
         return None;
     }
-    let (p, segments) = welch(x, d.gaps, fs, seg);
+    let (p, segments) = welch(x, d.gaps, rate_hz, seg);
     if segments < MIN_SEGMENTS {
         return None;
     }
-    let df = fs / seg as f64;
+    let df = rate_hz / seg as f64;
     let f: Vec<f64> = (0..p.len()).map(|k| k as f64 * df).collect();
     let ln_p: Vec<f64> = p.iter().map(|v| v.max(1e-300).ln()).collect();
     let (k_lo, k_hi) = (4, p.len() - 3);
@@ -410,7 +410,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
             let drop = ex[k] - std::f64::consts::LN_2;
             let right = (k..k_hi - 2).find(|&j| ex[j] < drop).unwrap_or(k_hi - 2) - k;
             let left = k - (k_lo + 2..=k).rev().find(|&j| ex[j] < drop).unwrap_or(k_lo + 2);
-            fit_bump(&f, &ln_p, (k_lo, k_hi), k, 0.5 * (left + right) as f64, fs, d.base.bandwidth_hz)
+            fit_bump(&f, &ln_p, (k_lo, k_hi), k, 0.5 * (left + right) as f64, rate_hz, d.base.bandwidth_hz)
         })
         .collect();
     let bump = bumps
@@ -420,7 +420,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
                 && b.peak_ratio >= MIN_PEAK_RATIO
                 && b.freq_hz / b.q >= MIN_WIDTH_BINS * df
                 && b.run_bins >= MIN_RUN_BINS
-                && b.freq_hz < 0.49 * fs
+                && b.freq_hz < 0.49 * rate_hz
                 && b.q >= MIN_Q
                 && b.peak_ratio.is_finite()
         })
@@ -450,11 +450,12 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
 /// resonance makes up more than 80% of the Allan variance, and without a ramp where the base fit has none; the
 /// base model itself where that fit fails.
 fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim {
-    let fs = d.fs_hz;
-    let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, fs)
+    let rate_hz = d.rate_hz;
+    let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz)
         .into_iter()
         .filter_map(|mut p| {
-            let own = bump.power * filtered_resonance_avar(bump.freq_hz, bump.q, d.base.bandwidth_hz, p.tau_s * fs, fs);
+            let own = bump.power
+                * filtered_resonance_avar(bump.freq_hz, bump.q, d.base.bandwidth_hz, p.tau_s * rate_hz, rate_hz);
             (own < 0.8 * p.avar).then(|| {
                 p.avar -= own;
                 p
@@ -464,7 +465,7 @@ fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim 
     if pts.len() < 3 {
         return d.base.clone();
     }
-    let mut cols = base_columns(&pts, fs, d.base.bandwidth_hz, d.base.q_deg > 0.0);
+    let mut cols = base_columns(&pts, rate_hz, d.base.bandwidth_hz, d.base.q_deg > 0.0);
     // No ramp the base fit did not have (as `refit_base`): an all-zero column is never used.
     if d.base.r_dps_per_s == 0.0 {
         cols[3].iter_mut().for_each(|v| *v = 0.0);

@@ -333,8 +333,8 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     if n < 64 {
         return None;
     }
-    let dt = dec as f64 / d.fs_hz;
-    let t_off = (dec as f64 - 1.0) / 2.0 / d.fs_hz;
+    let dt = dec as f64 / d.rate_hz;
+    let t_off = (dec as f64 - 1.0) / 2.0 / d.rate_hz;
     let nfft = n.next_power_of_two();
     let pad = nfft as f64 / n as f64;
     let mut re = vec![0.0; nfft];
@@ -438,9 +438,9 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     let mut list: Vec<(Sinusoid, [f64; 3], usize, f64)> = Vec::new();
     for (j, &f) in freqs.iter().enumerate() {
         let (a, b) = (ls.coef[3 + 2 * j], ls.coef[4 + 2 * j]);
-        // Block averaging scales a sinusoid by sin(pi f D/fs) / (D sin(pi f/fs)).
+        // Block averaging scales a sinusoid by sin(pi f D/rate_hz) / (D sin(pi f/rate_hz)).
         let g = if dec > 1 {
-            let u = std::f64::consts::PI * f / d.fs_hz;
+            let u = std::f64::consts::PI * f / d.rate_hz;
             ((u * dec as f64).sin() / (dec as f64 * u.sin())).abs().max(1e-3)
         } else {
             1.0
@@ -466,12 +466,12 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         .iter()
         .enumerate()
         .map(|(i, &v)| {
-            let t = i as f64 / d.fs_hz;
+            let t = i as f64 / d.rate_hz;
             v - list.iter().map(|s| s.amplitude_dps * (two_pi * t / s.period_s + s.phase_rad).sin()).sum::<f64>()
         })
         .collect();
     let (mut gyro, squares) =
-        refit_base(d.base, d.gaps, &cleaned, d.fs_hz).unwrap_or_else(|| (d.base.clone(), d.base_fit.squares));
+        refit_base(d.base, d.gaps, &cleaned, d.rate_hz).unwrap_or_else(|| (d.base.clone(), d.base_fit.squares));
     // The least squares' own errors under the noise model, leakage of its red noise included; the Hann
     // background above sees only the noise at the peak's bins.
     let se: Vec<[f64; 3]> = fitted
@@ -504,7 +504,7 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         n_params: 3 * list.len(),
         gyro,
         channel: None,
-        spread: Some(ParamSpread::Sinusoids { se, centre_s: n0 as f64 / d.fs_hz / 2.0 }),
+        spread: Some(ParamSpread::Sinusoids { se, centre_s: n0 as f64 / d.rate_hz / 2.0 }),
         cleaned: None,
     })
 }

@@ -32,7 +32,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     if n < 64 || temp[..n].iter().any(|v| !v.is_finite()) {
         return None;
     }
-    let m = ((n / 8192).max(1)).min((d.fs_hz.max(1.0)) as usize).max(1);
+    let m = ((n / 8192).max(1)).min((d.rate_hz.max(1.0)) as usize).max(1);
     let mut r = block_means(&d.rate_dps[..n], m);
     let mut t = block_means(&temp[..n], m);
     // The FFT grid is 2 (nb + 1) long: trim a few blocks (under 1%) so that it has no prime factor above 7.
@@ -42,7 +42,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     if nb < 16 {
         return None;
     }
-    let dt = m as f64 / d.fs_hz;
+    let dt = m as f64 / d.rate_hz;
     let t_spread = t.iter().fold(f64::MIN, |a, &b| a.max(b)) - t.iter().fold(f64::MAX, |a, &b| a.min(b));
     if !(t_spread > 0.0) {
         return None;
@@ -104,7 +104,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let (k1, _, _) = gls(&transform(&lagged(lag1)), &rt1, &s1);
     // The lagged temperature at every sample.
     let response = |lag: f64| -> Vec<f64> {
-        let a_full = if lag > 0.0 { (-1.0 / (d.fs_hz * lag)).exp() } else { 0.0 };
+        let a_full = if lag > 0.0 { (-1.0 / (d.rate_hz * lag)).exp() } else { 0.0 };
         let mut y = temp[0];
         temp[..n]
             .iter()
@@ -123,7 +123,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     // Pass 2: the noise of the record without the coupling; where the record had gaps, the rate with them filled
     // from the first pass's coupling (a line through a gap lacks the response there, and reads the coupling low).
     let cleaned1 = cleaned_of(k1, lag1);
-    let (_, squares) = refit_base(d.base, d.gaps, &cleaned1, d.fs_hz)?;
+    let (_, squares) = refit_base(d.base, d.gaps, &cleaned1, d.rate_hz)?;
     if !d.gaps.is_empty() {
         let refilled: Vec<f64> = cleaned1.iter().zip(response(lag1)).map(|(c, y)| c + k1 * y).collect();
         r = block_means(&refilled, m);
@@ -149,7 +149,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         .map(|(xr, xi)| (1..=half).map(|k| (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k] * k as f64 * df).sum::<f64>())
         .sum::<f64>()
         / sxx;
-    let (refit, _) = refit_base(d.base, d.gaps, &cleaned_of(k, lag), d.fs_hz)?;
+    let (refit, _) = refit_base(d.base, d.gaps, &cleaned_of(k, lag), d.rate_hz)?;
     // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
     let c0 = mean(&r) - k * mean(&x);
     let ref_c = (d.base.bias_dps - c0) / k;

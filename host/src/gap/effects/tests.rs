@@ -13,11 +13,17 @@ use octavar_shared::sim::{BiasSteps, BistableSim, GaussMarkovSim, Outliers, Reso
 use octavar_shared::sim::{TemperatureProfile, VirtualGyro, Wander};
 
 /// The analog rate (and the bench temperature) of `model` for `n` samples.
-fn simulate(model: &GyroSim, fs: f64, n: usize, seed: u64, temp: Option<&TemperatureProfile>) -> (Vec<f64>, Vec<f64>) {
-    let mut g = VirtualGyro::new(model, Channel::bench(ADXRS300), fs, seed).unwrap();
+fn simulate(
+    model: &GyroSim,
+    rate_hz: f64,
+    n: usize,
+    seed: u64,
+    temp: Option<&TemperatureProfile>,
+) -> (Vec<f64>, Vec<f64>) {
+    let mut g = VirtualGyro::new(model, Channel::bench(ADXRS300), rate_hz, seed).unwrap();
     let mut rng = SimRng::new(seed ^ 0xabcdef);
     let p = temp.copied().unwrap_or_default();
-    let mut th = Thermal::new(&p, fs, &mut rng);
+    let mut th = Thermal::new(&p, rate_hz, &mut rng);
     let mut x = Vec::with_capacity(n);
     let mut t = Vec::with_capacity(n);
     for _ in 0..n {
@@ -29,15 +35,15 @@ fn simulate(model: &GyroSim, fs: f64, n: usize, seed: u64, temp: Option<&Tempera
 }
 
 /// The base model as the diagnosis makes it: the IEEE fit on the OADEV, identifiable terms, the mean as bias.
-fn base_of(x: &[f64], fs: f64) -> (GyroSim, NoiseFit) {
-    let pts = oadev_points(x, fs);
+fn base_of(x: &[f64], rate_hz: f64) -> (GyroSim, NoiseFit) {
+    let pts = oadev_points(x, rate_hz);
     let f = fit(&pts, &FitOptions::default()).unwrap();
     (crate::gap::base_model(&f, x), f)
 }
 
-fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, fs: f64) -> Option<EffectFit> {
-    let (g, f) = base_of(x, fs);
-    let d = TrainingData { rate_dps: x, temp_c: t, fs_hz: fs, base: &g, base_fit: &f, gaps: &[] };
+fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, rate_hz: f64) -> Option<EffectFit> {
+    let (g, f) = base_of(x, rate_hz);
+    let d = TrainingData { rate_dps: x, temp_c: t, rate_hz, base: &g, base_fit: &f, gaps: &[] };
     let t0 = std::time::Instant::now();
     let out = estimate(effect, &d);
     eprintln!("{effect}: {:?} in {:?}", out.as_ref().map(|e| &e.params), t0.elapsed());
@@ -64,7 +70,7 @@ fn names_round_trip() {
 #[test]
 fn clean_data_has_no_effect() {
     for seed in [1, 2] {
-        let fs: f64 = 100.0;
+        let rate_hz: f64 = 100.0;
         let temp = TemperatureProfile {
             min_c: 22.0,
             max_c: 25.0,
@@ -72,11 +78,11 @@ fn clean_data_has_no_effect() {
             wander: Some(Wander { sigma_c: 0.2, tau_s: 600.0 }),
             ..Default::default()
         };
-        let (x, t) = simulate(&base_model(), fs, 500_000, seed, Some(&temp));
+        let (x, t) = simulate(&base_model(), rate_hz, 500_000, seed, Some(&temp));
         let mut alarms = Vec::new();
         for e in Effect::ALL {
             let tc = (e == Effect::Temperature).then_some(&t[..]);
-            if let Some(r) = run(e, &x, tc, fs) {
+            if let Some(r) = run(e, &x, tc, rate_hz) {
                 alarms.push((e, r.params));
             }
         }
@@ -86,7 +92,7 @@ fn clean_data_has_no_effect() {
 
 #[test]
 fn temperature_recovers_coefficient_and_lag() {
-    let fs = 50.0;
+    let rate_hz = 50.0;
     let temp = TemperatureProfile {
         min_c: 20.0,
         max_c: 30.0,
@@ -95,8 +101,8 @@ fn temperature_recovers_coefficient_and_lag() {
         ..Default::default()
     };
     let m = GyroSim { temperature: Some(TempCoupling { dps_per_c: 0.02, ref_c: 25.0, lag_s: 300.0 }), ..base_model() };
-    let (x, t) = simulate(&m, fs, 500_000, 3, Some(&temp));
-    let e = run(Effect::Temperature, &x, Some(&t), fs).unwrap();
+    let (x, t) = simulate(&m, rate_hz, 500_000, 3, Some(&temp));
+    let e = run(Effect::Temperature, &x, Some(&t), rate_hz).unwrap();
     let c = e.gyro.temperature.unwrap();
     // Tolerance: 5% on the coefficient, 20% on the lag.
     assert!(rel(c.dps_per_c, 0.02) < 0.05, "{c:?}");
@@ -134,7 +140,7 @@ fn sine_tapers_from_one_fft_match_the_direct_transforms() {
 /// deg/s/degC here) and reported 0.72 of its scatter: the test fails on it.
 #[test]
 fn temperature_standard_error_is_the_scatter() {
-    let fs = 10.0;
+    let rate_hz = 10.0;
     let temp = TemperatureProfile {
         min_c: 22.0,
         max_c: 24.0,
@@ -144,14 +150,14 @@ fn temperature_standard_error_is_the_scatter() {
     };
     let k_true = 0.012;
     let m = GyroSim { temperature: Some(TempCoupling { dps_per_c: k_true, ref_c: 23.0, lag_s: 60.0 }), ..base_model() };
-    let (_, t) = simulate(&m, fs, 96_000, 1, Some(&temp));
+    let (_, t) = simulate(&m, rate_hz, 96_000, 1, Some(&temp));
     let draws: Vec<(f64, f64)> = (0..40u64)
         .into_par_iter()
         .map(|seed| {
-            let mut g = VirtualGyro::new(&m, Channel::bench(ADXRS300), fs, 100 + seed).unwrap();
+            let mut g = VirtualGyro::new(&m, Channel::bench(ADXRS300), rate_hz, 100 + seed).unwrap();
             let x: Vec<f64> = t.iter().map(|&tc| g.next_rate(tc)).collect();
-            let (b, f) = base_of(&x, fs);
-            let d = TrainingData { rate_dps: &x, temp_c: Some(&t), fs_hz: fs, base: &b, base_fit: &f, gaps: &[] };
+            let (b, f) = base_of(&x, rate_hz);
+            let d = TrainingData { rate_dps: &x, temp_c: Some(&t), rate_hz, base: &b, base_fit: &f, gaps: &[] };
             let e = estimate(Effect::Temperature, &d).expect("a 10-sigma coupling is found");
             let k = e.params["dps_per_c"].as_f64().unwrap();
             (k, k / e.params["t_stat"].as_f64().unwrap())
@@ -168,12 +174,12 @@ fn temperature_standard_error_is_the_scatter() {
 
 #[test]
 fn sinusoids_recovered() {
-    let fs = 200.0;
+    let rate_hz = 200.0;
     let mut m = base_model();
     m.sinusoids.push(Sinusoid { amplitude_dps: 0.02, period_s: 7.3, phase_rad: 0.4 }).unwrap();
     m.sinusoids.push(Sinusoid { amplitude_dps: 0.05, period_s: 0.5, phase_rad: -1.0 }).unwrap();
-    let (x, _) = simulate(&m, fs, 1 << 20, 4, None);
-    let e = run(Effect::Sinusoid, &x, None, fs).unwrap();
+    let (x, _) = simulate(&m, rate_hz, 1 << 20, 4, None);
+    let e = run(Effect::Sinusoid, &x, None, rate_hz).unwrap();
     assert_eq!(e.gyro.sinusoids.len(), 2, "{:?}", e.params);
     let s = &e.gyro.sinusoids;
     // Tolerance: 5% on amplitudes, 1e-3 on periods, 0.1 rad on phases.
@@ -188,7 +194,7 @@ fn sinusoids_recovered() {
 /// sinusoid 16 it gave 3.1e-4 against a scatter of 4.4e-4 over ten noise draws; the exact form gives 3.7e-4).
 #[test]
 fn sinusoid_amplitude_standard_error_is_its_scatter() {
-    let fs = 50.0;
+    let rate_hz = 50.0;
     let n = 1 << 17;
     let sine = Sinusoid { amplitude_dps: 0.01, period_s: 80.0, phase_rad: 0.3 };
     let se_of = |e: &EffectFit| match &e.spread {
@@ -197,17 +203,17 @@ fn sinusoid_amplitude_standard_error_is_its_scatter() {
     };
     let mut white = GyroSim { n_deg_per_rt_s: 0.01, ..Default::default() };
     white.sinusoids.push(sine).unwrap();
-    let (x, _) = simulate(&white, fs, n, 11, None);
-    let closed = (2.0 / n as f64).sqrt() * 0.01 * fs.sqrt();
-    let se = se_of(&run(Effect::Sinusoid, &x, None, fs).unwrap());
+    let (x, _) = simulate(&white, rate_hz, n, 11, None);
+    let closed = (2.0 / n as f64).sqrt() * 0.01 * rate_hz.sqrt();
+    let se = se_of(&run(Effect::Sinusoid, &x, None, rate_hz).unwrap());
     assert!(rel(se, closed) < 0.05, "white: se {se:.3e}, closed form {closed:.3e}");
     let mut red = base_model();
     red.sinusoids.push(Sinusoid { amplitude_dps: 0.02, ..sine }).unwrap();
     let fits: Vec<(f64, f64)> = (0..16u64)
         .into_par_iter()
         .map(|seed| {
-            let (x, _) = simulate(&red, fs, n, 100 + seed, None);
-            let e = run(Effect::Sinusoid, &x, None, fs).unwrap();
+            let (x, _) = simulate(&red, rate_hz, n, 100 + seed, None);
+            let e = run(Effect::Sinusoid, &x, None, rate_hz).unwrap();
             (e.gyro.sinusoids[0].amplitude_dps, se_of(&e))
         })
         .collect();
@@ -223,11 +229,11 @@ fn sinusoid_amplitude_standard_error_is_its_scatter() {
 #[test]
 fn long_period_sinusoid_with_decimation() {
     // A day-long period in a 10-day record at 5 Hz (4.3 M samples: the periodogram is block-averaged).
-    let fs = 5.0;
+    let rate_hz = 5.0;
     let mut m = base_model();
     m.sinusoids.push(Sinusoid { amplitude_dps: 0.03, period_s: 86_400.0, phase_rad: 1.0 }).unwrap();
-    let (x, _) = simulate(&m, fs, 4_320_000, 5, None);
-    let e = run(Effect::Sinusoid, &x, None, fs).unwrap();
+    let (x, _) = simulate(&m, rate_hz, 4_320_000, 5, None);
+    let e = run(Effect::Sinusoid, &x, None, rate_hz).unwrap();
     let s = e.gyro.sinusoids[0];
     // Flicker (B = 0.005) at 1/day leaves an amplitude error of about 0.0015 deg/s (1 sigma): 15%.
     assert!(rel(s.amplitude_dps, 0.03) < 0.15 && rel(s.period_s, 86_400.0) < 0.02, "{s:?}");
@@ -235,10 +241,10 @@ fn long_period_sinusoid_with_decimation() {
 
 #[test]
 fn bandwidth_recovered() {
-    for (fs, f3) in [(1000.0, 100.0), (1000.0, 20.0)] {
+    for (rate_hz, f3) in [(1000.0, 100.0), (1000.0, 20.0)] {
         let m = GyroSim { bandwidth_hz: Some(f3), ..base_model() };
-        let (x, _) = simulate(&m, fs, 500_000, 6, None);
-        let e = run(Effect::Bandwidth, &x, None, fs).unwrap();
+        let (x, _) = simulate(&m, rate_hz, 500_000, 6, None);
+        let e = run(Effect::Bandwidth, &x, None, rate_hz).unwrap();
         // Tolerance: 10% on f3dB, 3% on N.
         assert!(rel(e.gyro.bandwidth_hz.unwrap(), f3) < 0.1, "{:?}", e.params);
         assert!(rel(e.gyro.n_deg_per_rt_s, 0.01) < 0.03, "{:?}", e.params);
@@ -255,10 +261,10 @@ fn filtered_allan_forms_match_the_impulse_response() {
     use super::curve::*;
     use octavar_shared::sim::noise::Resonance;
     use rustfft::num_complex::Complex64;
-    let fs = 200.0;
+    let rate_hz = 200.0;
     let brute = |ar: &[f64], b: f64, lp: Option<f64>, m: usize| -> f64 {
         let len = 40_000;
-        let a_lp = lp.map(|f| (-2.0 * std::f64::consts::PI * f / fs).exp());
+        let a_lp = lp.map(|f| (-2.0 * std::f64::consts::PI * f / rate_hz).exp());
         let (mut x, mut y) = (vec![0.0; len], vec![0.0; len]);
         for i in 0..len {
             let mut v = if i == 0 { b } else { 0.0 };
@@ -289,17 +295,17 @@ fn filtered_allan_forms_match_the_impulse_response() {
         var / (2.0 * (m * m) as f64)
     };
     for (f0, q, lp) in [(13.7, 7.7, Some(23.2)), (30.0, 3.0, Some(50.0)), (5.0, 20.0, None), (40.0, 2.0, Some(8.0))] {
-        let (a1, a2, b) = Resonance::coefficients(f0, q, 1.0 / fs);
+        let (a1, a2, b) = Resonance::coefficients(f0, q, 1.0 / rate_hz);
         for m in [1usize, 2, 5, 16, 64] {
-            let got = filtered_resonance_avar(f0, q, lp, m as f64, fs);
+            let got = filtered_resonance_avar(f0, q, lp, m as f64, rate_hz);
             let want = brute(&[a1, a2], b, lp, m);
             assert!(rel(got, want) < 1e-6, "resonance {f0} Hz Q {q} through {lp:?}, m {m}: {got} vs {want}");
         }
     }
     for (t_s, lp) in [(0.05, Some(10.0)), (0.5, Some(3.0)), (0.02, Some(40.0))] {
-        let a = (-1.0 / (fs * t_s)).exp();
+        let a = (-1.0 / (rate_hz * t_s)).exp();
         for m in [1usize, 3, 8, 32, 128] {
-            let got = filtered_gm_avar(t_s, lp, m as f64 / fs, fs);
+            let got = filtered_gm_avar(t_s, lp, m as f64 / rate_hz, rate_hz);
             let want = brute(&[a], (1.0 - a * a).sqrt(), lp, m);
             assert!(rel(got, want) < 1e-6, "Gauss-Markov T {t_s} through {lp:?}, m {m}: {got} vs {want}");
         }
@@ -309,8 +315,8 @@ fn filtered_allan_forms_match_the_impulse_response() {
         let one = ar_avar(&[Complex64::new(a, 0.0)], m) * (1.0 - a * a);
         assert!(rel(one, ar1_avar(a, m)) < 1e-9, "one pole, m {m}");
         let (f0, q) = (12.0, 6.0);
-        let two = filtered_resonance_avar(f0, q, Some(1e9), m, fs);
-        assert!(rel(two, resonance_avar(f0, q, m, fs)) < 1e-6, "a corner far above the band, m {m}");
+        let two = filtered_resonance_avar(f0, q, Some(1e9), m, rate_hz);
+        assert!(rel(two, resonance_avar(f0, q, m, rate_hz)) < 1e-6, "a corner far above the band, m {m}");
     }
 }
 
@@ -322,7 +328,7 @@ fn filtered_allan_forms_match_the_impulse_response() {
 /// variance comes out about 4% low with N as much.
 #[test]
 fn bandwidth_and_resonance_each_read_under_the_other() {
-    let fs = 200.0;
+    let rate_hz = 200.0;
     let (f3, f0, q, sigma) = (23.2, 13.7, 7.7, 0.013);
     let res = ResonanceSim { sigma_dps: sigma, freq_hz: f0, q };
     let m = GyroSim {
@@ -333,10 +339,10 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
         ..Default::default()
     };
     for seed in [1, 2] {
-        let (x, _) = simulate(&m, fs, 1 << 19, seed, None);
-        let (g, f) = base_of(&x, fs);
+        let (x, _) = simulate(&m, rate_hz, 1 << 19, seed, None);
+        let (g, f) = base_of(&x, rate_hz);
         let with_bw = GyroSim { bandwidth_hz: Some(f3), ..g.clone() };
-        let d = TrainingData { rate_dps: &x, temp_c: None, fs_hz: fs, base: &with_bw, base_fit: &f, gaps: &[] };
+        let d = TrainingData { rate_dps: &x, temp_c: None, rate_hz, base: &with_bw, base_fit: &f, gaps: &[] };
         let e = estimate(Effect::Resonance, &d).expect("the resonance under the filter is found");
         for (key, se, truth) in [("sigma_dps", "sigma_se_dps", sigma), ("freq_hz", "freq_se_hz", f0), ("q", "q_se", q)]
         {
@@ -354,10 +360,10 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
 fn gauss_markov_recovered() {
     // The slow process at 0.008 deg/s: its hump stands clear of the base model's flicker floor (0.0033 deg/s) on
     // every seed; at half that it is found on about two seeds in five, as the flicker's scatter allows.
-    for (fs, sigma, t) in [(100.0, 0.02, 2.0), (10.0, 0.008, 300.0)] {
+    for (rate_hz, sigma, t) in [(100.0, 0.02, 2.0), (10.0, 0.008, 300.0)] {
         let m = GyroSim { gauss_markov: Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t }), ..base_model() };
-        let (x, _) = simulate(&m, fs, 1_000_000, 7, None);
-        let e = run(Effect::GaussMarkov, &x, None, fs).unwrap();
+        let (x, _) = simulate(&m, rate_hz, 1_000_000, 7, None);
+        let e = run(Effect::GaussMarkov, &x, None, rate_hz).unwrap();
         let g = e.gyro.gauss_markov.unwrap();
         // Tolerance: 25% on sigma, a factor 1.5 on T (the hump's position on an octave grid).
         assert!(rel(g.sigma_dps, sigma) < 0.25, "{g:?}");
@@ -369,13 +375,14 @@ fn gauss_markov_recovered() {
 fn quantization_recovered() {
     let ch = Channel::bench(ADXRS300);
     let q = ch.dps_per_code();
-    let fs: f64 = 500.0;
+    let rate_hz: f64 = 500.0;
     // Half a step of white noise, and a random walk that moves the offset over a few steps (the inversion
     // assumes the offset wanders over the lattice).
-    let m = GyroSim { n_deg_per_rt_s: 0.5 * q / fs.sqrt(), k_dps_per_rt_s: 0.01, bias_dps: 0.1, ..Default::default() };
-    let mut g = VirtualGyro::new(&m, ch, fs, 8).unwrap();
+    let m =
+        GyroSim { n_deg_per_rt_s: 0.5 * q / rate_hz.sqrt(), k_dps_per_rt_s: 0.01, bias_dps: 0.1, ..Default::default() };
+    let mut g = VirtualGyro::new(&m, ch, rate_hz, 8).unwrap();
     let x: Vec<f64> = (0..1_000_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
-    let e = run(Effect::Quantization, &x, None, fs).unwrap();
+    let e = run(Effect::Quantization, &x, None, rate_hz).unwrap();
     assert!(rel(e.params["step_dps"].as_f64().unwrap(), q) < 1e-6, "{:?}", e.params);
     // The channel puts codes on the data's lattice.
     let c = e.channel.unwrap();
@@ -388,10 +395,10 @@ fn quantization_recovered() {
 
 #[test]
 fn bias_steps_recovered() {
-    let fs: f64 = 100.0;
+    let rate_hz: f64 = 100.0;
     let m = GyroSim { bias_steps: Some(BiasSteps { per_hour: 2.0, sigma_dps: 0.05 }), ..base_model() };
-    let (x, _) = simulate(&m, fs, 2_000_000, 9, None);
-    let e = run(Effect::BiasSteps, &x, None, fs).unwrap();
+    let (x, _) = simulate(&m, rate_hz, 2_000_000, 9, None);
+    let e = run(Effect::BiasSteps, &x, None, rate_hz).unwrap();
     let b = e.gyro.bias_steps.unwrap();
     // 11 expected steps in 5.6 h: Poisson and a handful of sizes, so factor-2 tolerances.
     assert!((b.per_hour / 2.0).ln().abs() < 2f64.ln() && (b.sigma_dps / 0.05).ln().abs() < 2f64.ln(), "{b:?}");
@@ -403,12 +410,12 @@ fn bias_steps_recovered() {
 /// a process, and at most 4 show a single peak beyond the threshold.
 #[test]
 fn bias_step_scan_holds_its_threshold_on_noise() {
-    let fs: f64 = 100.0;
+    let rate_hz: f64 = 100.0;
     let counts: Vec<usize> = (0..40u64)
         .into_par_iter()
         .map(|seed| {
-            let (x, _) = simulate(&base_model(), fs, 1 << 18, 500 + seed, None);
-            let l = bias_steps::scan_window(&x, fs).unwrap();
+            let (x, _) = simulate(&base_model(), rate_hz, 1 << 18, 500 + seed, None);
+            let l = bias_steps::scan_window(&x, rate_hz).unwrap();
             bias_steps::mosum_scan(&x, l).unwrap().steps.len()
         })
         .collect();
@@ -419,12 +426,12 @@ fn bias_step_scan_holds_its_threshold_on_noise() {
 
 #[test]
 fn outliers_recovered() {
-    let fs: f64 = 100.0;
+    let rate_hz: f64 = 100.0;
     let m = GyroSim { outliers: Some(Outliers { per_sample: 1e-4, size_dps: 0.0, size_sigma: 10.0 }), ..base_model() };
-    let (x, _) = simulate(&m, fs, 1_000_000, 10, None);
-    let e = run(Effect::Outliers, &x, None, fs).unwrap();
+    let (x, _) = simulate(&m, rate_hz, 1_000_000, 10, None);
+    let e = run(Effect::Outliers, &x, None, rate_hz).unwrap();
     let o = e.gyro.outliers.unwrap();
-    let size = 10.0 * 0.01 * fs.sqrt();
+    let size = 10.0 * 0.01 * rate_hz.sqrt();
     // Tolerance: 25% on the rate (100 events), 5% on the size.
     assert!(rel(o.per_sample, 1e-4) < 0.25 && rel(o.size_dps, size) < 0.05, "{o:?}");
 }
@@ -482,12 +489,12 @@ fn within_se(e: &EffectFit, key: &str, se_key: &str, truth: f64, k: f64) -> bool
 /// white noise).
 #[test]
 fn resonance_recovered() {
-    let fs = 100.0;
+    let rate_hz = 100.0;
     for (sigma, f0, q) in [(0.05, 20.0, 10.0), (0.05, 2.0, 4.0), (0.03, 7.0, 30.0)] {
         for seed in [1, 2] {
             let m = GyroSim { resonance: Some(ResonanceSim { sigma_dps: sigma, freq_hz: f0, q }), ..base_model() };
-            let (x, _) = simulate(&m, fs, 500_000, seed, None);
-            let e = run(Effect::Resonance, &x, None, fs).expect("a resonance 4-18 times the background is found");
+            let (x, _) = simulate(&m, rate_hz, 500_000, seed, None);
+            let e = run(Effect::Resonance, &x, None, rate_hz).expect("a resonance 4-18 times the background is found");
             let r = e.gyro.resonance.unwrap();
             assert_eq!((r.sigma_dps, r.freq_hz, r.q), (param(&e, "sigma_dps"), param(&e, "freq_hz"), param(&e, "q")));
             for (key, se, truth) in
@@ -509,7 +516,7 @@ fn resonance_recovered() {
 /// shapes of the background).
 #[test]
 fn resonance_is_not_found_in_noise_lines_or_broad_shapes() {
-    let fs = 100.0;
+    let rate_hz = 100.0;
     let mut records: Vec<(String, GyroSim)> = (0..4).map(|i| (format!("plain {i}"), base_model())).collect();
     for p in [0.05, 0.31, 3.7] {
         let mut m = base_model();
@@ -525,8 +532,8 @@ fn resonance_is_not_found_in_noise_lines_or_broad_shapes() {
         .par_iter()
         .enumerate()
         .filter_map(|(i, (what, m))| {
-            let (x, _) = simulate(m, fs, 500_000, 40 + i as u64, None);
-            run(Effect::Resonance, &x, None, fs).map(|e| format!("{what}: {}", e.params))
+            let (x, _) = simulate(m, rate_hz, 500_000, 40 + i as u64, None);
+            run(Effect::Resonance, &x, None, rate_hz).map(|e| format!("{what}: {}", e.params))
         })
         .collect();
     assert!(found.is_empty(), "false resonances: {found:?}");
@@ -538,15 +545,15 @@ fn resonance_is_not_found_in_noise_lines_or_broad_shapes() {
 /// (300 s low, 30 s high, many of them shorter than the scan can see one by one).
 #[test]
 fn bistable_recovered() {
-    let fs = 10.0;
+    let rate_hz = 10.0;
     for (step, lo, hi) in [(0.1, 120.0, 60.0), (0.15, 20.0, 20.0), (0.08, 300.0, 30.0)] {
         for seed in [1, 2] {
             let m = GyroSim {
                 bistable: Some(BistableSim { step_dps: step, dwell_low_s: lo, dwell_high_s: hi }),
                 ..base_model()
             };
-            let (x, _) = simulate(&m, fs, 500_000, seed, None);
-            let e = run(Effect::Bistable, &x, None, fs).expect("a bistable bias is found");
+            let (x, _) = simulate(&m, rate_hz, 500_000, seed, None);
+            let e = run(Effect::Bistable, &x, None, rate_hz).expect("a bistable bias is found");
             let b = e.gyro.bistable.unwrap();
             assert_eq!(b.step_dps, param(&e, "step_dps"));
             for (key, se, truth) in [
@@ -568,7 +575,7 @@ fn bistable_recovered() {
 /// candidate's), nor in a Gauss-Markov process (whose Allan variance is the same form), 3 seeds each.
 #[test]
 fn bistable_is_not_found_in_noise_steps_or_gauss_markov() {
-    let fs = 10.0;
+    let rate_hz = 10.0;
     let steps = GyroSim { bias_steps: Some(BiasSteps { per_hour: 6.0, sigma_dps: 0.04 }), ..base_model() };
     let gm = GyroSim { gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.02, tau_s: 60.0 }), ..base_model() };
     let base = base_model();
@@ -577,8 +584,8 @@ fn bistable_is_not_found_in_noise_steps_or_gauss_markov() {
     let found: Vec<String> = cases
         .par_iter()
         .filter_map(|&(what, m, seed)| {
-            let (x, _) = simulate(m, fs, 500_000, seed, None);
-            run(Effect::Bistable, &x, None, fs).map(|e| format!("{what} seed {seed}: {}", e.params))
+            let (x, _) = simulate(m, rate_hz, 500_000, seed, None);
+            run(Effect::Bistable, &x, None, rate_hz).map(|e| format!("{what} seed {seed}: {}", e.params))
         })
         .collect();
     assert!(found.is_empty(), "false bistable biases: {found:?}");
@@ -589,12 +596,12 @@ fn bistable_is_not_found_in_noise_steps_or_gauss_markov() {
 /// sign, two seeds each.
 #[test]
 fn warm_up_recovered() {
-    let fs = 10.0;
+    let rate_hz = 10.0;
     for (size, tau) in [(0.08, 60.0), (-0.1, 2000.0)] {
         for seed in [1, 2] {
             let m = GyroSim { warm_up: Some(WarmUpSim { size_dps: size, tau_s: tau }), ..base_model() };
-            let (x, _) = simulate(&m, fs, 262_144, seed, None);
-            let e = run(Effect::WarmUp, &x, None, fs).expect("a warm-up is found");
+            let (x, _) = simulate(&m, rate_hz, 262_144, seed, None);
+            let e = run(Effect::WarmUp, &x, None, rate_hz).expect("a warm-up is found");
             let w = e.gyro.warm_up.unwrap();
             assert!(within_se(&e, "size_dps", "size_se_dps", size, 4.0), "seed {seed}: {}", e.params);
             assert!((w.tau_s / tau).ln().abs() < 1.5f64.ln(), "seed {seed}: {}", e.params);
@@ -605,7 +612,7 @@ fn warm_up_recovered() {
 /// No warm-up in plain noise, nor in a tenfold random walk with a ramp, 4 seeds each.
 #[test]
 fn warm_up_is_not_found_in_noise_random_walk_or_ramp() {
-    let fs = 10.0;
+    let rate_hz = 10.0;
     let drift = GyroSim { k_dps_per_rt_s: 2e-4, r_dps_per_s: 1e-6, ..base_model() };
     let base = base_model();
     let cases: Vec<(&str, &GyroSim, u64)> =
@@ -613,8 +620,8 @@ fn warm_up_is_not_found_in_noise_random_walk_or_ramp() {
     let found: Vec<String> = cases
         .par_iter()
         .filter_map(|&(what, m, seed)| {
-            let (x, _) = simulate(m, fs, 262_144, seed, None);
-            run(Effect::WarmUp, &x, None, fs).map(|e| format!("{what} seed {seed}: {}", e.params))
+            let (x, _) = simulate(m, rate_hz, 262_144, seed, None);
+            run(Effect::WarmUp, &x, None, rate_hz).map(|e| format!("{what} seed {seed}: {}", e.params))
         })
         .collect();
     assert!(found.is_empty(), "false warm-ups: {found:?}");
@@ -626,15 +633,15 @@ fn warm_up_is_not_found_in_noise_random_walk_or_ramp() {
 /// below [`warm_up::T_STAT`] (about 4 at most where it was measured on 40).
 #[test]
 fn warm_up_scan_holds_its_threshold_on_noise() {
-    let fs = 10.0;
+    let rate_hz = 10.0;
     let drift = GyroSim { k_dps_per_rt_s: 2e-4, r_dps_per_s: 1e-6, ..base_model() };
     let largest: Vec<f64> = (0..48u64)
         .into_par_iter()
         .map(|i| {
             let m = if i % 2 == 0 { base_model() } else { drift.clone() };
-            let (x, _) = simulate(&m, fs, 262_144, 700 + i, None);
-            let (g, f) = base_of(&x, fs);
-            warm_up::largest_t(&x, fs, &f.squares, g.r_dps_per_s != 0.0)
+            let (x, _) = simulate(&m, rate_hz, 262_144, 700 + i, None);
+            let (g, f) = base_of(&x, rate_hz);
+            warm_up::largest_t(&x, rate_hz, &f.squares, g.r_dps_per_s != 0.0)
         })
         .collect();
     assert!(largest.iter().all(|&t| t < warm_up::T_STAT), "largest |t| per record: {largest:?}");

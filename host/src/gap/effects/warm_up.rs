@@ -33,15 +33,15 @@ const T_STAT_FIRST: f64 = 3.0;
 /// trend, fitted, not noise): white `N^2 / T`; flicker `(2 B^2 / pi) J(k)` with
 /// `J(k) = [-4 ln 2 - 4 k^2 ln 2k + 2 (k+1)^2 ln 2(k+1) + 2 (k-1)^2 ln 2(k-1)] / 8` (the integral of its spectrum
 /// through the two block means; `J(1) = ln 2`, the Allan variance); random walk `K^2 T (k - 1/3) / 2`; white
-/// angle noise `(Q fs / b)^2` times 3 (neighbours share an end) or 2.
-fn semivariogram(sq: &[f64; 5], t_s: f64, b: f64, fs: f64, k: usize) -> f64 {
+/// angle noise `(Q rate_hz / b)^2` times 3 (neighbours share an end) or 2.
+fn semivariogram(sq: &[f64; 5], t_s: f64, b: f64, rate_hz: f64, k: usize) -> f64 {
     if k == 0 {
         return 0.0;
     }
     let kf = k as f64;
     let xlnx = |v: f64| if v > 0.0 { v * v * (2.0 * v).ln() } else { 0.0 };
     let j = (-4.0 * std::f64::consts::LN_2 - 4.0 * xlnx(kf) + 2.0 * xlnx(kf + 1.0) + 2.0 * xlnx(kf - 1.0)) / 8.0;
-    let q = (sq[0].sqrt() * fs / b).powi(2) * if k == 1 { 3.0 } else { 2.0 };
+    let q = (sq[0].sqrt() * rate_hz / b).powi(2) * if k == 1 { 3.0 } else { 2.0 };
     sq[1] / t_s + 2.0 * sq[2] / std::f64::consts::PI * j + sq[3] * t_s * (kf - 1.0 / 3.0) / 2.0 + q
 }
 
@@ -97,7 +97,7 @@ struct Blocks {
 impl Blocks {
     /// The first `min(n / b, MAX_BLOCKS)` block means of the record whose running sums are `pre`, as contrasts
     /// against the last of them, whitened under the noise of squares `sq`; with a `trend` column or without.
-    fn new(pre: &[f64], b: usize, sq: &[f64; 5], fs: f64, trend: bool) -> Option<Blocks> {
+    fn new(pre: &[f64], b: usize, sq: &[f64; 5], rate_hz: f64, trend: bool) -> Option<Blocks> {
         let n = pre.len() - 1;
         let nb = (n / b).min(MAX_BLOCKS);
         if nb < 32 {
@@ -105,8 +105,8 @@ impl Blocks {
         }
         let m = nb - 1;
         let y: Vec<f64> = (0..nb).map(|j| (pre[(j + 1) * b] - pre[j * b]) / b as f64).collect();
-        let t_s = b as f64 / fs;
-        let gam: Vec<f64> = (0..nb).map(|k| semivariogram(sq, t_s, b as f64, fs, k)).collect();
+        let t_s = b as f64 / rate_hz;
+        let gam: Vec<f64> = (0..nb).map(|k| semivariogram(sq, t_s, b as f64, rate_hz, k)).collect();
         let last = nb - 1;
         let mut l = vec![0.0; m * m];
         for i in 0..m {
@@ -152,7 +152,7 @@ impl Blocks {
 
 /// The best warm-up over every block length and time constant, with a trend or without: `(size, se, tau_s)` with
 /// the largest `|size| / se`.
-fn scan(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64, f64)> {
+fn scan(x: &[f64], rate_hz: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64, f64)> {
     let n = x.len();
     let mut pre = Vec::with_capacity(n + 1);
     let mut acc = 0.0;
@@ -164,7 +164,7 @@ fn scan(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64, f64
     let mut best: Option<(f64, f64, f64)> = None;
     let mut b = MIN_BLOCK;
     while 8 * b <= n / 4 {
-        if let Some(blocks) = Blocks::new(&pre, b, sq, fs, trend) {
+        if let Some(blocks) = Blocks::new(&pre, b, sq, rate_hz, trend) {
             for &k in &TAU_BLOCKS {
                 let tau = k * b as f64;
                 if tau > n as f64 / 4.0 {
@@ -172,7 +172,7 @@ fn scan(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64, f64
                 }
                 if let Some((size, se)) = blocks.fit(tau) {
                     if best.is_none_or(|(s, e, _)| (size / se).abs() > (s / e).abs()) {
-                        best = Some((size, se, tau / fs));
+                        best = Some((size, se, tau / rate_hz));
                     }
                 }
             }
@@ -185,8 +185,8 @@ fn scan(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64, f64
 /// The scan's largest |t| on `x` under the noise of squares `sq`, with a trend or without (for the threshold's
 /// test).
 #[cfg(test)]
-pub(super) fn largest_t(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> f64 {
-    scan(x, fs, sq, trend).map_or(0.0, |(s, e, _)| (s / e).abs())
+pub(super) fn largest_t(x: &[f64], rate_hz: f64, sq: &[f64; 5], trend: bool) -> f64 {
+    scan(x, rate_hz, sq, trend).map_or(0.0, |(s, e, _)| (s / e).abs())
 }
 
 /// The bias settling after power-on.
@@ -203,14 +203,14 @@ pub(super) fn largest_t(x: &[f64], fs: f64, sq: &[f64; 5], trend: bool) -> f64 {
 /// beyond [`T_STAT`] standard errors.
 pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
-    let fs = d.fs_hz;
+    let rate_hz = d.rate_hz;
     let trend = d.base.r_dps_per_s != 0.0;
-    let (size1, se1, tau1) = scan(x, fs, &d.base_fit.squares, trend)?;
+    let (size1, se1, tau1) = scan(x, rate_hz, &d.base_fit.squares, trend)?;
     if !((size1 / se1).abs() > T_STAT_FIRST) {
         return None;
     }
     let cleaned_of = |size: f64, tau_s: f64| -> Vec<f64> {
-        let decay = (-1.0 / (fs * tau_s)).exp();
+        let decay = (-1.0 / (rate_hz * tau_s)).exp();
         let mut w = size;
         x.iter()
             .map(|&v| {
@@ -220,12 +220,12 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
             })
             .collect()
     };
-    let (_, squares) = refit_base(d.base, d.gaps, &cleaned_of(size1, tau1), fs)?;
-    let (size, se, tau_s) = scan(x, fs, &squares, trend)?;
+    let (_, squares) = refit_base(d.base, d.gaps, &cleaned_of(size1, tau1), rate_hz)?;
+    let (size, se, tau_s) = scan(x, rate_hz, &squares, trend)?;
     if !((size / se).abs() > T_STAT) {
         return None;
     }
-    let (refit, _) = refit_base(d.base, d.gaps, &cleaned_of(size, tau_s), fs)?;
+    let (refit, _) = refit_base(d.base, d.gaps, &cleaned_of(size, tau_s), rate_hz)?;
     let gyro = GyroSim { warm_up: Some(WarmUpSim { size_dps: size, tau_s }), ..refit };
     Some(EffectFit {
         effect: Effect::WarmUp,

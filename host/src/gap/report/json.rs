@@ -117,7 +117,7 @@ impl GapReport {
             n_train: self.n_train,
             n_holdout: self.n_holdout,
             missing_samples: Missing { training: self.missing[0], holdout: self.missing[1] },
-            fs_hz: self.fs_hz,
+            rate_hz: self.rate_hz,
             seeds: self.seeds,
         }
     }
@@ -199,7 +199,9 @@ pub struct Document<'a> {
     n_train: usize,
     n_holdout: usize,
     missing_samples: Missing,
-    fs_hz: f64,
+    /// The sample rate, Hz (the document's key is `fs_hz`).
+    #[serde(rename = "fs_hz")]
+    rate_hz: f64,
     seeds: usize,
 }
 

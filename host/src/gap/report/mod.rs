@@ -17,7 +17,7 @@
 //! `fit_strain` (the base fit's reduced chi-square when it is far above 1), `size`, `significant`, `explained`,
 //! `threshold`, `total_before`, `total_after`, `base_model`, `base_fit`, `views` (every view's gap on both parts,
 //! base and chain), `worst`, `views_detail`, `n_train`, `n_holdout`, `missing_samples` `{training, holdout}`,
-//! `fs_hz`, `seeds`; `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
+//! `rate_hz`, `seeds`; `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
 //! [`super::input::HoldoutCheck::Predictive`] (null without).
 //!
 //! This module holds the report's types, its assembly from the chain the diagnosis found and the accessors both
@@ -98,7 +98,7 @@ pub struct GapReport {
     /// Real training OADEV (with intervals), for the plot.
     pub real_adev: Vec<DevPoint>,
     /// Sample rate, Hz.
-    pub fs_hz: f64,
+    pub rate_hz: f64,
     /// Training samples.
     pub n_train: usize,
     /// Held-out samples.
@@ -117,7 +117,7 @@ pub struct GapReport {
 
 /// What [`assemble`] needs.
 pub(crate) struct Parts {
-    pub fs_hz: f64,
+    pub rate_hz: f64,
     pub n_train: usize,
     pub n_holdout: usize,
     pub missing: [usize; 2],
@@ -206,7 +206,7 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
         base_eval: p.base_eval,
         final_eval: p.final_eval,
         real_adev: p.real_adev,
-        fs_hz: p.fs_hz,
+        rate_hz: p.rate_hz,
         n_train: p.n_train,
         n_holdout: p.n_holdout,
         missing: p.missing,

@@ -43,7 +43,7 @@ impl GapReport {
             "gap diagnosis: {} training samples{} at {} Hz, {hold}; {masked}; ensemble of {} seeds{}",
             self.n_train,
             missing(self.missing[0]),
-            self.fs_hz,
+            self.rate_hz,
             self.seeds,
             if self.has_temperature { ", driven by the recorded temperature" } else { "" }
         );

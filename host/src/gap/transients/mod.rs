@@ -259,18 +259,18 @@ impl Scan {
     }
 }
 
-/// Find the transient disturbances of `x` (deg/s at `fs_hz`; NaN and infinities are gaps). See the module doc for
+/// Find the transient disturbances of `x` (deg/s at `rate_hz`; NaN and infinities are gaps). See the module doc for
 /// the method. A part with fewer than 67 valid samples, or an invalid rate, gives an empty scan; nothing panics.
-pub fn scan(x: &[f64], fs_hz: f64) -> Scan {
+pub fn scan(x: &[f64], rate_hz: f64) -> Scan {
     let n = x.len();
     let n_valid = x.iter().filter(|v| v.is_finite()).count();
     let mut out = Scan::empty();
-    if !(fs_hz.is_finite() && fs_hz > 0.0) || n_valid < MIN_SAMPLES {
+    if !(rate_hz.is_finite() && rate_hz > 0.0) || n_valid < MIN_SAMPLES {
         return out;
     }
     let q = quantum(x);
     out.quantum_dps = q;
-    let max_len = (MAX_EVENT_S * fs_hz).min(MAX_EVENT_FRACTION * n as f64).max(1.0) as usize;
+    let max_len = (MAX_EVENT_S * rate_hz).min(MAX_EVENT_FRACTION * n as f64).max(1.0) as usize;
     out.max_len = max_len;
 
     // Scale 1: each sample against the medians of its sides.

@@ -29,8 +29,8 @@ fn odd_inputs_give_no_events() {
     x[200..300].iter_mut().for_each(|v| *v = f64::NAN);
     assert!(scan(&x, 10.0).events.is_empty());
     // An invalid rate gives an empty scan (its sigma NaN, which no equality holds for).
-    for fs in [0.0, f64::NAN, -1.0] {
-        let s = scan(&x, fs);
+    for rate_hz in [0.0, f64::NAN, -1.0] {
+        let s = scan(&x, rate_hz);
         assert!(s.events.is_empty() && s.left_alone.is_empty() && s.scales.is_empty() && s.spikes == 0, "{s:?}");
     }
     // A lattice much coarser than the noise: a few percent of the samples flip to a neighbouring code.

@@ -6,7 +6,7 @@ use crate::stats::{analyze_series, DataKind, Options, Series, Statistic, TauSpec
 /// The octave taus of a part's Allan deviation.
 #[derive(Clone, Debug)]
 pub(super) struct AdevPlan {
-    fs_hz: f64,
+    rate_hz: f64,
     /// Cluster sizes, samples, in increasing order.
     ms: Vec<u64>,
 }
@@ -14,10 +14,10 @@ pub(super) struct AdevPlan {
 impl AdevPlan {
     /// The octave taus where the real part has an Allan deviation, with the EDF of the real curve as each point's
     /// floor.
-    pub fn new(real: &[f64], fs_hz: f64) -> (AdevPlan, Vec<PointInfo>) {
+    pub fn new(real: &[f64], rate_hz: f64) -> (AdevPlan, Vec<PointInfo>) {
         let mut ms = Vec::new();
         let mut points = Vec::new();
-        if let Ok(series) = Series::new(real, DataKind::Frequency, 1.0 / fs_hz) {
+        if let Ok(series) = Series::new(real, DataKind::Frequency, 1.0 / rate_hz) {
             let opts = Options { intervals: true, ..Default::default() };
             if let Ok(rows) = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &opts) {
                 for r in rows.iter().filter(|r| r.dev > 0.0 && r.n >= 2) {
@@ -33,14 +33,14 @@ impl AdevPlan {
                 }
             }
         }
-        (AdevPlan { fs_hz, ms }, points)
+        (AdevPlan { rate_hz, ms }, points)
     }
 
     /// The overlapping Allan deviation of `x` at the plan's taus (NaN where it cannot be computed). `parallel`:
     /// let the statistics use rayon.
     pub fn deviations(&self, x: &[f64], parallel: bool) -> Vec<f64> {
         let mut out = vec![f64::NAN; self.ms.len()];
-        let Ok(series) = Series::new(x, DataKind::Frequency, 1.0 / self.fs_hz) else { return out };
+        let Ok(series) = Series::new(x, DataKind::Frequency, 1.0 / self.rate_hz) else { return out };
         let opts = Options { intervals: false, parallel, ..Default::default() };
         if let Ok(rows) = analyze_series(&series, Statistic::Oadev, &TauSpec::Octave, &opts) {
             for r in rows {

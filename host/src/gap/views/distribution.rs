@@ -33,10 +33,10 @@ pub(super) struct DistributionPlan {
 }
 
 impl DistributionPlan {
-    /// The points of `real` (deg/s, NaN gaps) sampled at `fs_hz`.
-    pub fn new(real: &[f64], fs_hz: f64) -> (DistributionPlan, Vec<PointInfo>) {
+    /// The points of `real` (deg/s, NaN gaps) sampled at `rate_hz`.
+    pub fn new(real: &[f64], rate_hz: f64) -> (DistributionPlan, Vec<PointInfo>) {
         let n = real.len();
-        let tau0 = 1.0 / fs_hz;
+        let tau0 = 1.0 / rate_hz;
         let valid = real.iter().filter(|v| v.is_finite()).count().max(1) as f64;
         let dist_pt = |label: &'static str, floor_sd: f64| PointInfo {
             label,

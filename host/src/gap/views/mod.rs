@@ -112,16 +112,16 @@ pub struct Measure {
 }
 
 impl Plan {
-    /// Lay out the views for `real` (deg/s, NaN gaps) sampled at `fs_hz`, with the temperature if there is one.
-    pub fn new(real: &[f64], temp_c: Option<&[f64]>, fs_hz: f64) -> Plan {
+    /// Lay out the views for `real` (deg/s, NaN gaps) sampled at `rate_hz`, with the temperature if there is one.
+    pub fn new(real: &[f64], temp_c: Option<&[f64]>, rate_hz: f64) -> Plan {
         let n = real.len();
         let mut planner = FftPlanner::new();
         // The whole-part multitaper layout of the PSD's long periods and the temperature view.
         let taper = Multitaper::new(n, &mut planner).map(Arc::new);
-        let (adev, adev_pts) = AdevPlan::new(real, fs_hz);
-        let (psd, psd_pts) = PsdPlan::new(n, fs_hz, taper.clone(), &mut planner);
-        let (distribution, dist_pts) = DistributionPlan::new(real, fs_hz);
-        let (temperature, temp_pts) = TemperaturePlan::new(n, fs_hz, temp_c, taper);
+        let (adev, adev_pts) = AdevPlan::new(real, rate_hz);
+        let (psd, psd_pts) = PsdPlan::new(n, rate_hz, taper.clone(), &mut planner);
+        let (distribution, dist_pts) = DistributionPlan::new(real, rate_hz);
+        let (temperature, temp_pts) = TemperaturePlan::new(n, rate_hz, temp_c, taper);
         Plan { n, adev, psd, distribution, temperature, points: [adev_pts, psd_pts, dist_pts, temp_pts] }
     }
 
@@ -228,20 +228,25 @@ mod tests {
 
     #[test]
     fn psd_reaches_one_cycle_per_part_in_physical_units_and_sees_a_slow_line() {
-        // White noise of unit variance at 10 Hz: a one-sided PSD of 2 / fs in every band, Welch's and the
+        // White noise of unit variance at 10 Hz: a one-sided PSD of 2 / rate_hz in every band, Welch's and the
         // multitaper's alike, down to one cycle per part.
-        let (n, fs) = (1usize << 16, 10.0);
+        let (n, rate_hz) = (1usize << 16, 10.0);
         let noise = white(n, 21);
-        let plan = Plan::new(&noise, None, fs);
+        let plan = Plan::new(&noise, None, rate_hz);
         let pts = &plan.points[1];
-        let part_s = n as f64 / fs;
+        let part_s = n as f64 / rate_hz;
         let longest = pts.iter().map(|p| p.tau_hi_s).fold(0.0, f64::max);
         assert!(longest > 0.99 * part_s && longest <= part_s, "{longest} of {part_s}");
         assert!(pts.iter().filter(|p| p.tau_lo_s >= part_s / 16.5).count() >= 5, "{pts:?}");
         let psd = plan.measure(&noise, None, true).values[1].clone();
         for (p, v) in pts.iter().zip(&psd) {
             let sd = p.floor_sd.max(0.02);
-            assert!((v - (2.0 / fs).ln()).abs() < 4.0 * sd, "band at {:.1} s: {v} vs {}", p.tau_s, (2.0 / fs).ln());
+            assert!(
+                (v - (2.0 / rate_hz).ln()).abs() < 4.0 * sd,
+                "band at {:.1} s: {v} vs {}",
+                p.tau_s,
+                (2.0 / rate_hz).ln()
+            );
         }
         // A sinusoid of 8 cycles per part with a quarter of the noise's power: its band sees a line far above
         // the noise; the Welch bands, from a sixteenth of the part down, do not move.
@@ -258,18 +263,18 @@ mod tests {
     #[test]
     fn the_long_psd_bands_see_through_a_linear_drift() {
         // White noise of unit variance with a drift of 40 sds over the part. A line is no stationary noise: the
-        // multitaper bands take it out and keep the white level 2 / fs within 4 of their sds; centred only, the
+        // multitaper bands take it out and keep the white level 2 / rate_hz within 4 of their sds; centred only, the
         // antisymmetric tapers would turn it into power 6 (in ln) above the noise at a cycle per part.
-        let (n, fs) = (1usize << 16, 10.0);
+        let (n, rate_hz) = (1usize << 16, 10.0);
         let drifted: Vec<f64> = white(n, 22).iter().enumerate().map(|(i, v)| v + 40.0 * i as f64 / n as f64).collect();
-        let plan = Plan::new(&drifted, None, fs);
-        let part_s = n as f64 / fs;
+        let plan = Plan::new(&drifted, None, rate_hz);
+        let part_s = n as f64 / rate_hz;
         let psd = plan.measure(&drifted, None, true).values[1].clone();
         let long: Vec<(&PointInfo, f64)> =
             plan.points[1].iter().zip(psd).filter(|(p, _)| p.tau_lo_s >= part_s / 16.5).collect();
         assert!(long.len() >= 5);
         for (p, v) in long {
-            assert!((v - (2.0 / fs).ln()).abs() < 4.0 * p.floor_sd, "band at {:.1} s: {v}", p.tau_s);
+            assert!((v - (2.0 / rate_hz).ln()).abs() < 4.0 * p.floor_sd, "band at {:.1} s: {v}", p.tau_s);
         }
     }
 
@@ -324,8 +329,8 @@ mod tests {
     }
 
     /// The band of the temperature view that holds `cycles` cycles per part.
-    fn band_of(plan: &Plan, n: usize, fs: f64, cycles: f64) -> usize {
-        let tau = n as f64 / fs / cycles;
+    fn band_of(plan: &Plan, n: usize, rate_hz: f64, cycles: f64) -> usize {
+        let tau = n as f64 / rate_hz / cycles;
         plan.points[3].iter().position(|p| p.tau_lo_s <= tau && tau < p.tau_hi_s).unwrap()
     }
 

@@ -36,7 +36,7 @@ struct WelchBand {
 /// The bands of a part's PSD.
 #[derive(Clone)]
 pub(super) struct PsdPlan {
-    fs_hz: f64,
+    rate_hz: f64,
     levels: Vec<WelchLevel>,
     bands: Vec<WelchBand>,
     /// The whole-part multitaper layout (shared with the temperature view).
@@ -46,14 +46,14 @@ pub(super) struct PsdPlan {
 }
 
 impl PsdPlan {
-    /// The bands of a part of `n` samples at `fs_hz`, with the part's multitaper layout.
+    /// The bands of a part of `n` samples at `rate_hz`, with the part's multitaper layout.
     pub fn new(
         n: usize,
-        fs_hz: f64,
+        rate_hz: f64,
         taper: Option<Arc<Multitaper>>,
         planner: &mut FftPlanner<f64>,
     ) -> (PsdPlan, Vec<PointInfo>) {
-        let tau0 = 1.0 / fs_hz;
+        let tau0 = 1.0 / rate_hz;
         // Levels of block-mean decimation while four segments fit.
         let mut levels = Vec::new();
         let mut decim = 1usize;
@@ -73,13 +73,13 @@ impl PsdPlan {
         let mut points = Vec::new();
         // The ratio of a band's edges, and the top of the next band down.
         let step = 10f64.powf(1.0 / BANDS_PER_DECADE);
-        let mut f_hi = fs_hz / 2.0;
+        let mut f_hi = rate_hz / 2.0;
         if !levels.is_empty() {
             loop {
                 let f_lo = f_hi / step;
                 // The finest level that puts at least 4 bins between DC and the band.
                 let found = levels.iter().enumerate().find_map(|(k, l)| {
-                    let fs_k = fs_hz / l.decim as f64;
+                    let fs_k = rate_hz / l.decim as f64;
                     let df = fs_k / l.seg as f64;
                     let lo = (f_lo / df).ceil() as usize;
                     let hi = ((f_hi / df).floor() as usize).min(l.seg / 2);
@@ -131,7 +131,7 @@ impl PsdPlan {
                 f_hi /= step;
             }
         }
-        (PsdPlan { fs_hz, levels, bands, taper, taper_bands }, points)
+        (PsdPlan { rate_hz, levels, bands, taper, taper_bands }, points)
     }
 
     /// ln PSD of `x` in every band (NaN where a band cannot be estimated), Welch bands first.
@@ -149,7 +149,7 @@ impl PsdPlan {
                 dec = block_means(x, l.decim);
                 &dec
             };
-            spectra.push(welch(data, l, self.fs_hz / l.decim as f64));
+            spectra.push(welch(data, l, self.rate_hz / l.decim as f64));
         }
         let mut out: Vec<f64> = self
             .bands
@@ -193,7 +193,7 @@ impl PsdPlan {
             .iter()
             .zip(bands)
             .map(|(p, &(k0, k1))| {
-                let fs_blocks = self.fs_hz / mt.decim as f64;
+                let fs_blocks = self.rate_hz / mt.decim as f64;
                 let mean = 2.0 * p / ((k1 + 1 - k0) * mt.tapers.len()) as f64 / fs_blocks;
                 if mean > 0.0 {
                     mean.ln()

@@ -24,14 +24,14 @@ pub(super) struct TemperaturePlan {
 }
 
 impl TemperaturePlan {
-    /// The bands of a part of `n` samples at `fs_hz` with the temperature `temp_c` (none without one).
+    /// The bands of a part of `n` samples at `rate_hz` with the temperature `temp_c` (none without one).
     pub fn new(
         n: usize,
-        fs_hz: f64,
+        rate_hz: f64,
         temp_c: Option<&[f64]>,
         taper: Option<Arc<Multitaper>>,
     ) -> (TemperaturePlan, Vec<PointInfo>) {
-        let tau0 = 1.0 / fs_hz;
+        let tau0 = 1.0 / rate_hz;
         let mut bands = Vec::new();
         let mut points = Vec::new();
         if let (Some(t), Some(mt)) = (temp_c, &taper) {

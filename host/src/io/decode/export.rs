@@ -118,7 +118,7 @@ impl CsvSet {
 
     fn record(&mut self, d: &Decoded, hello: Option<&Hello>) -> Result<(), DecodeError> {
         let seq = d.meta.seq.to_string();
-        let rate = hello.map(|h| f64::from(h.sample_rate_hz));
+        let rate = hello.map(|h| f64::from(h.rate_hz));
         match &d.message {
             Message::Samples(s) => {
                 if self.samples.is_none() {
@@ -235,7 +235,7 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
         }
     }
     let csv_files = csv.map(CsvSet::finish).transpose()?.unwrap_or_default();
-    let rate = hello.as_ref().map(|h| f64::from(h.sample_rate_hz));
+    let rate = hello.as_ref().map(|h| f64::from(h.rate_hz));
     let name_of = |ch: u8| hello.as_ref().and_then(|h| h.channels.get(usize::from(ch))).map(|c| c.name.to_string());
     let summarize = |m: BTreeMap<u8, (u32, Snapshot)>| -> Vec<SnapshotSummary> {
         m.into_iter()

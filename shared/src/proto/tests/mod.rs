@@ -104,7 +104,7 @@ pub(super) fn worst_frames() -> Vec<Frame> {
         protocol_version: u16::MAX,
         firmware: full_string(),
         board: full_string(),
-        sample_rate_hz: u32::MAX,
+        rate_hz: u32::MAX,
         adc_bits: 255,
         vref_mv: u16::MAX,
         stride: 255,
