@@ -22,25 +22,25 @@ use octavar_shared::sim::{
 use std::f64::consts::{LN_2, PI};
 
 /// Sample rate of the statistical tests (tau0 = 10 ms).
-const FS: f64 = 100.0;
+pub(crate) const FS: f64 = 100.0;
 /// Family-wise two-sided error per test.
-const FAMILY_ALPHA: f64 = 1e-3;
+pub(crate) const FAMILY_ALPHA: f64 = 1e-3;
 /// How flat the flicker bank is from tau = 32 tau0: its design (every process updated each sample) is within 0.6%
 /// of the closed form; holding the slow processes adds a ripple measured at about +0.8% at 32 tau0 and +0.3% above.
 const FLATNESS: f64 = 0.01;
 
-fn channel() -> Channel {
+pub(crate) fn channel() -> Channel {
     Channel::bench(GENERIC)
 }
 
 /// `n` analog rates of a model (the noise-only path), at a constant 25 degC.
-fn rates(model: &GyroSim, n: usize, seed: u64) -> Vec<f64> {
+pub(crate) fn rates(model: &GyroSim, n: usize, seed: u64) -> Vec<f64> {
     let mut g = VirtualGyro::new(model, channel(), FS, seed).unwrap();
     (0..n).map(|_| g.next_rate(25.0)).collect()
 }
 
 /// Fully overlapping Allan variance of rate samples at `m` samples, and the number of differences.
-fn oavar(y: &[f64], m: usize) -> (f64, usize) {
+pub(crate) fn oavar(y: &[f64], m: usize) -> (f64, usize) {
     let mut x = Vec::with_capacity(y.len() + 1);
     let mut acc = 0.0;
     x.push(0.0);
@@ -58,7 +58,7 @@ fn oavar(y: &[f64], m: usize) -> (f64, usize) {
 }
 
 /// Octave averaging factors from `lo` while at least `min_clusters` clusters fit in `n` samples.
-fn octaves(lo: usize, n: usize, min_clusters: usize) -> Vec<usize> {
+pub(crate) fn octaves(lo: usize, n: usize, min_clusters: usize) -> Vec<usize> {
     let mut v = Vec::new();
     let mut m = lo;
     while n / m >= min_clusters {
@@ -69,13 +69,13 @@ fn octaves(lo: usize, n: usize, min_clusters: usize) -> Vec<usize> {
 }
 
 /// The smallest Greenhall EDF over the candidate noise exponents (conservative for mixtures).
-fn edf(alphas: &[i32], m: f64, stride: f64, n_phase: f64) -> f64 {
+pub(crate) fn edf(alphas: &[i32], m: f64, stride: f64, n_phase: f64) -> f64 {
     alphas.iter().map(|&a| greenhall_edf(a, 2, m, m, stride, n_phase)).fold(f64::INFINITY, f64::min)
 }
 
 /// Check `est` against `expected` at `dof` degrees of freedom with per-check error `p`:
 /// `dof est / expected` must lie between the chi-square quantiles `p/2` and `1 - p/2`.
-fn within_chi2(what: &str, m: usize, est: f64, expected: f64, dof: f64, p: f64) {
+pub(crate) fn within_chi2(what: &str, m: usize, est: f64, expected: f64, dof: f64, p: f64) {
     within_chi2_range(what, m, est, (expected, expected), dof, p);
 }
 
@@ -114,7 +114,7 @@ fn check_oavar(
 
 /// Exact Allan variance at `m` samples of a stationary AR(1) sequence (variance `var`, lag-one correlation `a`),
 /// from its autocovariance `var a^|k|`: AVAR = (4 G(m) - G(2m)) / (2 m^2), G(n) = Var(sum of n samples).
-fn ar1_avar_exact(var: f64, a: f64, m: usize) -> f64 {
+pub(crate) fn ar1_avar_exact(var: f64, a: f64, m: usize) -> f64 {
     let g = |n: f64| n * (1.0 + a) / (1.0 - a) - 2.0 * a * (1.0 - a.powf(n)) / ((1.0 - a) * (1.0 - a));
     let m = m as f64;
     var * (4.0 * g(m) - g(2.0 * m)) / (2.0 * m * m)
@@ -522,301 +522,4 @@ fn sim_state_is_constant_memory() {
     println!("size_of VirtualGyro = {gyro} B, Bench (8 channels) = {bench} B");
     assert!(gyro <= 1152, "VirtualGyro is {gyro} B");
     assert!(bench <= 10 * 1024, "Bench is {bench} B");
-}
-
-/// The poles `r e^{+-i theta}` (per sample at [`FS`]) of a resonance at `f0` Hz with quality factor `q`:
-/// `r = exp(-zeta w0 tau0)`, `theta = w0 tau0 sqrt(1 - zeta^2)`, `zeta = 1 / (2 q)`.
-fn resonance_poles(f0: f64, q: f64) -> (f64, f64) {
-    let zeta = 0.5 / q;
-    let w0 = 2.0 * PI * f0 / FS;
-    ((-zeta * w0).exp(), w0 * (1.0 - zeta * zeta).sqrt())
-}
-
-/// Autocovariance at lag `k` samples of the AR(2) with poles `r e^{+-i theta}` and variance `var`:
-/// `var r^k (cos k theta + c sin k theta)`, `c = (1 - r^2) / (1 + r^2) cot theta` (it satisfies the AR(2)
-/// recursion for k >= 2 and the Yule-Walker equation at lag 1).
-fn resonance_acov(var: f64, (r, theta): (f64, f64), k: usize) -> f64 {
-    let c = (1.0 - r * r) / (1.0 + r * r) / theta.tan();
-    let k = k as f64;
-    var * r.powf(k) * ((k * theta).cos() + c * (k * theta).sin())
-}
-
-/// The equivalent degrees of freedom of the fully overlapping Allan variance at `m` of `n` samples of a stationary
-/// Gaussian sequence of autocovariance `acov` (zero beyond its length), exactly: the estimate is `sum d_i^2` over the
-/// `T = n + 1 - 2m` second differences `d_i` of the phase, whose covariance at lag k is
-/// `c(k) = -1/2 sum_{p,q} w_p w_q G(|k + q - p|)` (weights 1, -2, 1 at 0, m, 2m; `G(j)` the variance of a sum of j
-/// samples), so `Var(sum d^2) = 2 sum_{i,j} c(i - j)^2` and the EDF is `2 (T c(0))^2 / Var(sum d^2)`. Greenhall's
-/// EDF is for power-law noise; a narrowband process's differences stay correlated over its decay time.
-fn oavar_dof_exact(acov: &[f64], m: usize, n: usize) -> f64 {
-    let top = 4 * m + acov.len() + 2;
-    // G(j) = j acov(0) + 2 sum_{k=1}^{j-1} (j - k) acov(k), by running sums.
-    let mut g = vec![0.0; top + 1];
-    let (mut s1, mut sk) = (0.0, 0.0);
-    for j in 1..=top {
-        if j >= 2 && j - 1 < acov.len() {
-            s1 += acov[j - 1];
-            sk += (j - 1) as f64 * acov[j - 1];
-        }
-        g[j] = j as f64 * acov[0] + 2.0 * (j as f64 * s1 - sk);
-    }
-    let w = [(0usize, 1.0), (m, -2.0), (2 * m, 1.0)];
-    let c = |k: usize| -> f64 {
-        let mut v = 0.0;
-        for &(p, wp) in &w {
-            for &(q, wq) in &w {
-                v += wp * wq * g[(k + q).abs_diff(p)];
-            }
-        }
-        -0.5 * v
-    };
-    let terms = n + 1 - 2 * m;
-    let reach = (2 * m + acov.len()).min(terms - 1);
-    let c0 = c(0);
-    let var =
-        2.0 * (terms as f64 * c0 * c0 + 2.0 * (1..=reach).map(|k| (terms - k) as f64 * c(k).powi(2)).sum::<f64>());
-    2.0 * (terms as f64 * c0).powi(2) / var
-}
-
-/// One-sided spectrum, (deg/s)^2/Hz, of the AR(2) `x = a1 x_1 + a2 x_2 + e` with poles `r e^{+-i theta}` and
-/// variance `var`: `2 tau0 s_e^2 / |1 - a1 e^{-iw} - a2 e^{-2iw}|^2`, `a1 = 2 r cos theta`, `a2 = -r^2`, the
-/// innovation variance `s_e^2 = var (1 + a2) ((1 - a2)^2 - a1^2) / (1 - a2)`.
-fn resonance_psd(var: f64, (r, theta): (f64, f64), f: f64) -> f64 {
-    let (a1, a2) = (2.0 * r * theta.cos(), -r * r);
-    let se2 = var * (1.0 + a2) * ((1.0 - a2).powi(2) - a1 * a1) / (1.0 - a2);
-    let w = 2.0 * PI * f / FS;
-    let re = 1.0 - a1 * w.cos() - a2 * (2.0 * w).cos();
-    let im = a1 * w.sin() + a2 * (2.0 * w).sin();
-    2.0 / FS * se2 / (re * re + im * im)
-}
-
-/// Allan variance at `m` samples of a stationary sequence from its autocovariance: `(4 G(m) - G(2m)) / (2 m^2)`,
-/// `G(n) = n acov(0) + 2 sum_{k=1}^{n-1} (n - k) acov(k)`, the variance of a sum of n consecutive samples.
-fn avar_from_acov(acov: &[f64], m: usize) -> f64 {
-    let g = |n: usize| n as f64 * acov[0] + 2.0 * (1..n.min(acov.len())).map(|k| (n - k) as f64 * acov[k]).sum::<f64>();
-    (4.0 * g(m) - g(2 * m)) / (2.0 * (m * m) as f64)
-}
-
-/// The resonance's two closed forms agree: the AR(2) spectrum is the Fourier sum of the damped-cosine
-/// autocovariance, it integrates to sigma^2, peaks within its half-width of f0, and its half-power width is f0/Q
-/// within 5% (Q = 8 and 30).
-#[test]
-fn sim_resonance_spectrum_and_autocovariance_agree() {
-    for (f0, q) in [(7.0, 8.0), (20.0, 30.0)] {
-        let sigma = 0.2;
-        let poles = resonance_poles(f0, q);
-        let acov: Vec<f64> = (0..20_000).map(|k| resonance_acov(sigma * sigma, poles, k)).collect();
-        let grid: Vec<f64> = (1..50_000).map(|i| i as f64 * (FS / 2.0) / 50_000.0).collect();
-        let psd: Vec<f64> = grid.iter().map(|&f| resonance_psd(sigma * sigma, poles, f)).collect();
-        for &f in &[0.3 * f0, f0, 1.2 * f0, 2.0 * f0] {
-            let w = 2.0 * PI * f / FS;
-            let sum = 2.0 / FS
-                * (acov[0] + 2.0 * acov.iter().enumerate().skip(1).map(|(k, g)| g * (w * k as f64).cos()).sum::<f64>());
-            let s = resonance_psd(sigma * sigma, poles, f);
-            assert!((sum / s - 1.0).abs() < 1e-6, "f0 {f0} at {f}: Fourier sum {sum:e} vs AR(2) form {s:e}");
-        }
-        let df = grid[1] - grid[0];
-        let total: f64 = psd.iter().sum::<f64>() * df;
-        assert!((total / (sigma * sigma) - 1.0).abs() < 1e-3, "f0 {f0}: the spectrum integrates to {total:e}");
-        let (ipk, &pk) = psd.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap();
-        assert!((grid[ipk] - f0).abs() < 0.5 * f0 / q, "f0 {f0}: peak at {}", grid[ipk]);
-        let above: Vec<f64> = grid.iter().zip(&psd).filter(|(_, &p)| p >= 0.5 * pk).map(|(f, _)| *f).collect();
-        let width = above[above.len() - 1] - above[0];
-        assert!((width / (f0 / q) - 1.0).abs() < 0.05, "f0 {f0} Q {q}: half-power width {width} Hz");
-    }
-}
-
-/// The simulated resonance against its closed forms: the overlapping Allan variance against the exact form from
-/// the autocovariance (chi-square at the estimator's exact EDF for this process, [`oavar_dof_exact`]), and a Hann-windowed segment-averaged periodogram at seven
-/// frequencies across the bump against its exact expectation, `sum_k acov(k) R_w(k) e^{-iwk}` (`R_w` the window's
-/// autocorrelation), each within the chi-square band of its degrees of freedom (`2K` over K segments, less where
-/// the real and imaginary parts of a segment's transform differ in variance). Its stationary variance is sigma^2.
-#[test]
-fn sim_resonance_matches_its_discrete_closed_form() {
-    // The exact EDF on white noise: 2T/3 at m = 1 (c(0) = 2, c(1) = -1), and Greenhall's from m = 64.
-    let n_w = 1 << 20;
-    assert!((oavar_dof_exact(&[1.0], 1, n_w) / (2.0 * (n_w - 1) as f64 / 3.0) - 1.0).abs() < 1e-5);
-    for m in [64usize, 1024, 16384] {
-        let ratio = oavar_dof_exact(&[1.0], m, n_w) / edf(&[0], m as f64, m as f64, (n_w + 1) as f64);
-        assert!((ratio - 1.0).abs() < 1e-3, "white noise m={m}: exact EDF / Greenhall's = {ratio}");
-    }
-    let (sigma, f0, q) = (0.2, 7.0, 8.0);
-    let model = GyroSim { resonance: Some(ResonanceSim { sigma_dps: sigma, freq_hz: f0, q }), ..Default::default() };
-    let poles = resonance_poles(f0, q);
-    let var = sigma * sigma;
-    // r^k falls below 1e-30 of the variance within 2600 lags.
-    let acov: Vec<f64> = (0..4096).map(|k| resonance_acov(var, poles, k)).collect();
-    let n = 1 << 21;
-    let ms = octaves(1, n, 16);
-    let seeds = [81u64, 82];
-    const SEG: usize = 512;
-    let freqs = [0.3 * f0, 0.7 * f0, f0 * (1.0 - 0.5 / q), f0, f0 * (1.0 + 0.5 / q), 1.5 * f0, 3.0 * f0];
-    let checks = seeds.len() * (ms.len() + freqs.len() + 1);
-    let p = FAMILY_ALPHA / checks as f64;
-    let window: Vec<f64> = (0..SEG).map(|i| 0.5 * (1.0 - (2.0 * PI * (i as f64 + 0.5) / SEG as f64).cos())).collect();
-    let r_w: Vec<f64> = (0..SEG).map(|k| (0..SEG - k).map(|i| window[i] * window[i + k]).sum()).collect();
-    for &seed in &seeds {
-        let y = rates(&model, n, seed);
-        // Stationary variance: n / (2 Q / (pi f0 tau0)) ~ 30000 independent stretches; bound from the exact
-        // variance of the sample variance of a Gaussian sequence, 2 sum_k acov(k)^2 / n.
-        let s2 = y.iter().map(|v| v * v).sum::<f64>() / n as f64;
-        let sd = (2.0 * (acov[0] * acov[0] + 2.0 * acov[1..].iter().map(|g| g * g).sum::<f64>()) / n as f64).sqrt();
-        let z = chi2_quantile(1.0 - p, 1.0).sqrt();
-        assert!((s2 - var).abs() < z * sd, "seed {seed}: variance {s2:e} against {var:e} (sd {sd:e})");
-        for &m in &ms {
-            let (est, _) = oavar(&y, m);
-            let dof = oavar_dof_exact(&acov, m, n);
-            within_chi2(&format!("resonance seed {seed}"), m, est, avar_from_acov(&acov, m), dof, p);
-        }
-        for &f in &freqs {
-            let w = 2.0 * PI * f / FS;
-            let (c, s) = (w.cos(), w.sin());
-            let k_seg = n / SEG;
-            let mut est = 0.0;
-            for j in 0..k_seg {
-                let (mut re, mut im, mut pc, mut ps) = (0.0, 0.0, 1.0f64, 0.0f64);
-                for (i, wi) in window.iter().enumerate() {
-                    let v = wi * y[j * SEG + i];
-                    re += v * pc;
-                    im -= v * ps;
-                    let pc2 = pc * c - ps * s;
-                    ps = ps * c + pc * s;
-                    pc = pc2;
-                }
-                est += re * re + im * im;
-            }
-            est /= k_seg as f64;
-            let mean = acov[0] * r_w[0] + 2.0 * (1..SEG).map(|k| acov[k] * r_w[k] * (w * k as f64).cos()).sum::<f64>();
-            // E[Z^2] = sum_{a,b} w_a w_b acov(a - b) e^{-iw(a + b)}; Var|Z|^2 = mean^2 + |E Z^2|^2.
-            let (mut zr, mut zi) = (0.0, 0.0);
-            for a in 0..SEG {
-                for b in 0..SEG {
-                    let g = window[a] * window[b] * acov[a.abs_diff(b)];
-                    let ph = w * (a + b) as f64;
-                    zr += g * ph.cos();
-                    zi -= g * ph.sin();
-                }
-            }
-            let dof = 2.0 * k_seg as f64 * mean * mean / (mean * mean + zr * zr + zi * zi);
-            let what = format!("resonance periodogram seed {seed} at {f:.3} Hz");
-            within_chi2(&what, SEG, est, mean, dof, p);
-            // The expectation is the closed-form spectrum seen through the window: within 10% where the bump is
-            // several window widths (4 FS / SEG = 0.8 Hz) wide.
-            let closed = resonance_psd(var, poles, f) * FS / 2.0 * r_w[0];
-            assert!((mean / closed - 1.0).abs() < 0.1, "{what}: expectation {mean:e} against the spectrum {closed:e}");
-        }
-    }
-}
-
-/// The t quantile at `1 - p/2` for `dof` degrees of freedom (Cornish-Fisher, to order 1/dof^2 from the normal's).
-fn t_quantile_two_sided(p: f64, dof: f64) -> f64 {
-    let z = chi2_quantile(1.0 - p, 1.0).sqrt();
-    z + (z.powi(3) + z) / (4.0 * dof) + (5.0 * z.powi(5) + 16.0 * z.powi(3) + 3.0 * z) / (96.0 * dof * dof)
-}
-
-/// The bistable bias (random telegraph) against its closed forms. Its sampled autocovariance is
-/// `var a^|k|`, `var = step^2 l1 l2 / (l1 + l2)^2`, `a = exp(-(l1 + l2) tau0)`: the overlapping Allan variance is the
-/// discrete AR(1) form, checked by chi-square at Greenhall's EDF where a cluster spans twenty flips or more
-/// (m >= 256) and by a t-test on 64 batch means below, where the differences are far from Gaussian. The share of
-/// time in the high level is `l1 / (l1 + l2)` and the expected number of flips in n samples `2 n p_low p_up`
-/// (`p_up = l1 / (l1 + l2) (1 - a)`), within normal bounds of their exact and renewal variances.
-#[test]
-fn sim_bistable_matches_its_discrete_closed_form() {
-    let (step, dwell_low, dwell_high) = (0.3, 0.2, 0.05); // 20 and 5 samples
-    let model = GyroSim {
-        bistable: Some(BistableSim { step_dps: step, dwell_low_s: dwell_low, dwell_high_s: dwell_high }),
-        ..Default::default()
-    };
-    let (l1, l2) = (1.0 / dwell_low, 1.0 / dwell_high);
-    let total = l1 + l2;
-    let var = step * step * l1 * l2 / (total * total);
-    let a = (-total / FS).exp();
-    let p_high = l1 / total;
-    let (high, low) = (step * (1.0 - p_high), -step * p_high);
-    let n = 1 << 21;
-    let seeds = [91u64, 92];
-    let ms = octaves(1, n, 16);
-    let p = FAMILY_ALPHA / (seeds.len() * (ms.len() + 2)) as f64;
-    const BATCHES: usize = 64;
-    for &seed in &seeds {
-        let mut g = VirtualGyro::new(&model, channel(), FS, seed).unwrap();
-        let y: Vec<f64> = (0..n).map(|_| g.next_rate(25.0)).collect();
-        assert!(y.iter().all(|&v| v == high || v == low), "only the two zero-mean levels");
-        for &m in &ms {
-            let want = ar1_avar_exact(var, a, m);
-            let what = format!("bistable seed {seed}");
-            if m >= 256 {
-                let (est, _) = oavar(&y, m);
-                let dof = edf(&[0, -1, -2], m as f64, m as f64, (n + 1) as f64);
-                within_chi2(&what, m, est, want, dof, p);
-            } else {
-                // The mean of d_i^2 / (2 m^2) over the overlapping differences, in 64 consecutive batches.
-                let mut x = vec![0.0; n + 1];
-                for i in 0..n {
-                    x[i + 1] = x[i] + y[i];
-                }
-                let terms = n + 1 - 2 * m;
-                let per = terms / BATCHES;
-                let means: Vec<f64> = (0..BATCHES)
-                    .map(|b| {
-                        (b * per..(b + 1) * per).map(|i| (x[i + 2 * m] - 2.0 * x[i + m] + x[i]).powi(2)).sum::<f64>()
-                            / (2.0 * (m * m) as f64 * per as f64)
-                    })
-                    .collect();
-                let mu = means.iter().sum::<f64>() / BATCHES as f64;
-                let sd = (means.iter().map(|v| (v - mu).powi(2)).sum::<f64>() / (BATCHES - 1) as f64).sqrt();
-                let t = (mu - want) / (sd / (BATCHES as f64).sqrt());
-                let bound = t_quantile_two_sided(p, (BATCHES - 1) as f64);
-                assert!(t.abs() < bound, "{what} m={m}: AVAR {mu:.6e} vs {want:.6e}, t = {t:.2} (bound {bound:.2})");
-            }
-        }
-        let z = chi2_quantile(1.0 - p, 1.0).sqrt();
-        // Occupancy: the mean of a stationary two-state chain's indicator, variance p_h p_l (1 + a) / ((1 - a) n).
-        let share = y.iter().filter(|&&v| v == high).count() as f64 / n as f64;
-        let sd = (p_high * (1.0 - p_high) * (1.0 + a) / ((1.0 - a) * n as f64)).sqrt();
-        assert!((share - p_high).abs() < z * sd, "seed {seed}: high share {share} against {p_high} (sd {sd:.2e})");
-        // Flips: a renewal count of low + high cycles (geometric dwells of means 1/p_up, 1/p_down samples).
-        let (p_up, p_down) = (l1 / total * (1.0 - a), l2 / total * (1.0 - a));
-        let mu_c = 1.0 / p_up + 1.0 / p_down;
-        let var_c = (1.0 - p_up) / (p_up * p_up) + (1.0 - p_down) / (p_down * p_down);
-        let mean = 2.0 * n as f64 / mu_c;
-        let sd = (4.0 * n as f64 * var_c / mu_c.powi(3)).sqrt() + 2.0;
-        let flips = g.flip_count() as f64;
-        assert!((flips - mean).abs() < z * sd, "seed {seed}: {flips} flips, expected {mean:.0} (sd {sd:.0})");
-        // The count is the level changes seen in the samples (and one more where sample 0 flipped already).
-        let changes = y.windows(2).filter(|w| w[0] != w[1]).count() as u64;
-        assert!((0..=1).contains(&(g.flip_count() - changes)), "{} flips, {changes} changes", g.flip_count());
-    }
-}
-
-/// The warm-up is `size exp(-t / tau)` from the first sample, exactly, and it enters before the sensor's
-/// first-order filter: through the filter `y_n = a y_{n-1} + (1 - a) x_n` (started at x_0) the exponential
-/// `S d^n` becomes `S [(1 - a) d (d^n - a^n) / (d - a) + a^n]`. White noise beside it adds without touching it:
-/// the same seed without the warm-up gives the same noise.
-#[test]
-fn sim_warm_up_is_exact() {
-    let (size, tau) = (0.3, 2.0);
-    let warm = WarmUpSim { size_dps: size, tau_s: tau };
-    let model = GyroSim { warm_up: Some(warm), ..Default::default() };
-    let y = rates(&model, 100_000, 1);
-    for (i, &v) in y.iter().enumerate() {
-        let want = size * (-(i as f64) / FS / tau).exp();
-        assert!((v - want).abs() <= 1e-12 * want + 1e-200, "sample {i}: {v} vs {want}");
-    }
-    let f3 = 5.0;
-    let filtered = GyroSim { warm_up: Some(warm), bandwidth_hz: Some(f3), ..Default::default() };
-    let y = rates(&filtered, 20_000, 1);
-    let a = (-2.0 * PI * f3 / FS).exp();
-    let d = (-1.0 / (FS * tau)).exp();
-    for (i, &v) in y.iter().enumerate() {
-        let k = i as i32;
-        let want = size * ((1.0 - a) * d * (d.powi(k) - a.powi(k)) / (d - a) + a.powi(k));
-        assert!((v - want).abs() <= 1e-11 * size, "filtered sample {i}: {v} vs {want}");
-    }
-    let noisy = GyroSim { n_deg_per_rt_s: 0.01, warm_up: Some(warm), ..Default::default() };
-    let plain = GyroSim { n_deg_per_rt_s: 0.01, ..Default::default() };
-    let (a_n, b_n) = (rates(&noisy, 50_000, 2), rates(&plain, 50_000, 2));
-    for (i, (x, z)) in a_n.iter().zip(&b_n).enumerate() {
-        let want = size * (-(i as f64) / FS / tau).exp();
-        assert!((x - z - want).abs() <= 1e-15 * (x.abs() + 1.0), "sample {i}: {} vs {want}", x - z);
-    }
 }

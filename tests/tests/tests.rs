@@ -15,6 +15,7 @@ mod reference_nbs14;
 mod reference_stable32;
 mod ros2_bag;
 mod sim_closed_form;
+mod sim_narrowband;
 mod tdms;
 mod transients;
 mod util;
