@@ -1,6 +1,6 @@
 //! The bandwidth candidate: a first-order low-pass on the output, fitted on the short-tau Allan curve.
 
-use serde_json::json;
+use super::params::{to_value, BandwidthParams};
 
 use super::common::*;
 use super::curve::*;
@@ -43,8 +43,11 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     gyro.bandwidth_hz = Some(f);
     Some(EffectFit {
         effect: Effect::Bandwidth,
-        params: json!({"bandwidth_hz": f, "n_deg_per_rt_s": gyro.n_deg_per_rt_s,
-                       "delta_chi2": plain.chi2 - chi}),
+        params: to_value(&BandwidthParams {
+            bandwidth_hz: f,
+            n_deg_per_rt_s: gyro.n_deg_per_rt_s,
+            delta_chi2: plain.chi2 - chi,
+        }),
         n_params: 1,
         gyro,
         channel: None,

@@ -1,7 +1,7 @@
 //! The bias-steps candidate: random steps of the bias, found by a windowed scan of mean differences.
 
+use super::params::{to_value, BiasStepsParams};
 use octavar_shared::sim::{BiasSteps, GyroSim};
-use serde_json::json;
 use std::sync::Arc;
 
 use super::common::*;
@@ -140,8 +140,14 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / rate_hz).collect();
     Some(EffectFit {
         effect: Effect::BiasSteps,
-        params: json!({"per_hour": per_hour, "sigma_dps": sigma, "count": steps.len(), "at_s": at,
-                       "sizes_dps": sizes, "threshold_dps": thr}),
+        params: to_value(&BiasStepsParams {
+            per_hour,
+            sigma_dps: sigma,
+            count: steps.len(),
+            at_s: at,
+            sizes_dps: sizes,
+            threshold_dps: thr,
+        }),
         n_params: 2,
         gyro,
         channel: None,

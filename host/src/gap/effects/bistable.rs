@@ -7,8 +7,8 @@
 //! (the bias returns to the level it left), where random bias steps (a random walk of Gaussian jumps) go up or down
 //! at random and by any amount.
 
+use super::params::{to_value, BistableParams};
 use octavar_shared::sim::{BistableSim, GyroSim};
-use serde_json::json;
 use std::sync::Arc;
 
 use super::bias_steps::mosum_scan;
@@ -223,12 +223,20 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     };
     Some(EffectFit {
         effect: Effect::Bistable,
-        params: json!({"step_dps": step, "dwell_low_s": dwell_low, "dwell_high_s": dwell_high,
-                       "step_se_dps": step_se, "dwell_low_se_s": dwell_low / (count_low as f64).sqrt(),
-                       "dwell_high_se_s": dwell_high / (count_high as f64).sqrt(),
-                       "jumps": best.jumps.len(), "alternating": best.alternating,
-                       "window_s": best.window as f64 / rate_hz, "shortest_seen_s": c,
-                       "p_value": best.p_value, "size_spread": spread}),
+        params: to_value(&BistableParams {
+            step_dps: step,
+            dwell_low_s: dwell_low,
+            dwell_high_s: dwell_high,
+            step_se_dps: step_se,
+            dwell_low_se_s: dwell_low / (count_low as f64).sqrt(),
+            dwell_high_se_s: dwell_high / (count_high as f64).sqrt(),
+            jumps: best.jumps.len(),
+            alternating: best.alternating,
+            window_s: best.window as f64 / rate_hz,
+            shortest_seen_s: c,
+            p_value: best.p_value,
+            size_spread: spread,
+        }),
         n_params: 3,
         gyro,
         channel: None,

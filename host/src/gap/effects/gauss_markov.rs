@@ -1,8 +1,8 @@
 //! The Gauss-Markov candidate: an exponentially correlated rate noise, fitted jointly with the base terms on
 //! the Allan curve.
 
+use super::params::{to_value, GaussMarkovParams};
 use octavar_shared::sim::GaussMarkovSim;
-use serde_json::json;
 
 use super::common::*;
 use super::curve::*;
@@ -59,7 +59,7 @@ pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
     gyro.gauss_markov = Some(GaussMarkovSim { sigma_dps: s2.sqrt(), tau_s: t });
     Some(EffectFit {
         effect: Effect::GaussMarkov,
-        params: json!({"sigma_dps": s2.sqrt(), "tau_s": t, "delta_chi2": plain.chi2 - chi}),
+        params: to_value(&GaussMarkovParams { sigma_dps: s2.sqrt(), tau_s: t, delta_chi2: plain.chi2 - chi }),
         n_params: 2,
         gyro,
         channel: None,

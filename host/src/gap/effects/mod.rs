@@ -43,6 +43,7 @@ mod common;
 mod curve;
 mod gauss_markov;
 mod outliers;
+pub mod params;
 mod quantization;
 mod resonance;
 mod sinusoid;

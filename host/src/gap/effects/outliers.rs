@@ -1,7 +1,7 @@
 //! The outliers candidate: isolated spikes beyond a robust threshold above a running median.
 
+use super::params::{to_value, OutliersParams};
 use octavar_shared::sim::{GyroSim, Outliers};
-use serde_json::json;
 use std::sync::Arc;
 
 use super::common::*;
@@ -68,7 +68,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let gyro = GyroSim { outliers: Some(Outliers { per_sample: p, size_dps: size, size_sigma: 0.0 }), ..refit };
     Some(EffectFit {
         effect: Effect::Outliers,
-        params: json!({"per_sample": p, "size_dps": size, "count": hits.len(), "robust_sigma_dps": scale}),
+        params: to_value(&OutliersParams { per_sample: p, size_dps: size, count: hits.len(), robust_sigma_dps: scale }),
         n_params: 2,
         gyro,
         channel: None,

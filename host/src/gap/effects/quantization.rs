@@ -1,9 +1,9 @@
 //! The quantization candidate: the lattice the sample values sit on (an ADC step), and the channel that
 //! reproduces it.
 
+use super::params::{to_value, QuantizationParams};
 use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::GyroSim;
-use serde_json::json;
 
 use super::common::*;
 use super::{Effect, EffectFit, TrainingData};
@@ -119,7 +119,11 @@ pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
     let gyro = GyroSim { n_deg_per_rt_s: sigma / rate_hz.sqrt(), bias_dps: mu, ..d.base.clone() };
     Some(EffectFit {
         effect: Effect::Quantization,
-        params: json!({"step_dps": q, "lattice_point_dps": m0, "n_deg_per_rt_s": gyro.n_deg_per_rt_s}),
+        params: to_value(&QuantizationParams {
+            step_dps: q,
+            lattice_point_dps: m0,
+            n_deg_per_rt_s: gyro.n_deg_per_rt_s,
+        }),
         n_params: 1,
         gyro,
         channel: Some(lattice_channel(q, m0)),

@@ -8,11 +8,11 @@
 //! angle noise; the spectrum shows its centre, width and power directly. A sinusoid is a line, as narrow as the
 //! spectral window: that is the `sinusoid` candidate, and a bump no wider than a few bins is left to it.
 
+use super::params::{to_value, ResonanceParams};
 use octavar_shared::sim::noise::Resonance;
 use octavar_shared::sim::ResonanceSim;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
-use serde_json::json;
 
 use super::common::*;
 use super::curve::*;
@@ -433,11 +433,17 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
     };
     Some(EffectFit {
         effect: Effect::Resonance,
-        params: json!({"sigma_dps": sigma, "freq_hz": bump.freq_hz, "q": bump.q,
-                       "width_hz": bump.freq_hz / bump.q, "peak_ratio": bump.peak_ratio,
-                       "sigma_se_dps": 0.5 * sigma * bump.se_ln[0], "freq_se_hz": bump.freq_hz * bump.se_ln[1],
-                       "q_se": bump.q * bump.se_ln[2],
-                       "delta_chi2": bump.delta_chi2}),
+        params: to_value(&ResonanceParams {
+            sigma_dps: sigma,
+            freq_hz: bump.freq_hz,
+            q: bump.q,
+            width_hz: bump.freq_hz / bump.q,
+            peak_ratio: bump.peak_ratio,
+            sigma_se_dps: 0.5 * sigma * bump.se_ln[0],
+            freq_se_hz: bump.freq_hz * bump.se_ln[1],
+            q_se: bump.q * bump.se_ln[2],
+            delta_chi2: bump.delta_chi2,
+        }),
         n_params: 3,
         gyro,
         channel: None,

@@ -1,8 +1,8 @@
 //! The sinusoid candidate: up to four sinusoids on the rate, from the periodogram and a joint least squares.
 
+use super::params::{to_value, SinusoidParams, SinusoidsParams};
 use octavar_shared::sim::{Sinusoid, MAX_SINUSOIDS};
 use rayon::prelude::*;
-use serde_json::{json, Value};
 
 use super::common::*;
 use super::curve::*;
@@ -489,18 +489,25 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         let _ = gyro.sinusoids.push(*s);
     }
     let s0 = list[0];
-    let all: Vec<Value> = list
+    let all: Vec<SinusoidParams> = list
         .iter()
         .zip(&se)
-        .map(|(s, e)| {
-            json!({"amplitude_dps": s.amplitude_dps, "period_s": s.period_s, "phase_rad": s.phase_rad,
-                   "amplitude_se_dps": e[0], "period_se_s": e[2] * s.period_s * s.period_s})
+        .map(|(s, e)| SinusoidParams {
+            amplitude_dps: s.amplitude_dps,
+            period_s: s.period_s,
+            phase_rad: s.phase_rad,
+            amplitude_se_dps: e[0],
+            period_se_s: e[2] * s.period_s * s.period_s,
         })
         .collect();
     Some(EffectFit {
         effect: Effect::Sinusoid,
-        params: json!({"amplitude_dps": s0.amplitude_dps, "period_s": s0.period_s, "phase_rad": s0.phase_rad,
-                       "sinusoids": all}),
+        params: to_value(&SinusoidsParams {
+            amplitude_dps: s0.amplitude_dps,
+            period_s: s0.period_s,
+            phase_rad: s0.phase_rad,
+            sinusoids: all,
+        }),
         n_params: 3 * list.len(),
         gyro,
         channel: None,
