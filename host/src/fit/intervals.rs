@@ -8,9 +8,11 @@
 //!   fit's model-error floor, a weighting device that keeps the first octaves from deciding the whole curve).
 //!   Its covariance under the correlated errors is the sandwich `A^-1 J^T W S W J A^-1`: `J` the Jacobian of
 //!   `ln model` in the logs of the squares, `W` the fit's weights, `S` the statistical covariance of `ln AVAR`,
-//!   `A = J^T W J`. Where the model fits worse than `S` says, it is inflated by the generalised reduced
-//!   chi-square `r^T S^-1 r / dof` (the Birge ratio), so a misfit widens the intervals by what it shows and no
-//!   more. The interval is in the log of the square and found by test inversion: its ends are the values `v`
+//!   `A = J^T W J`. Where the model fits worse than `S` and the model-error floor `E = e^2 I` together allow,
+//!   it is inflated by the generalised reduced chi-square `r^T (S + E)^-1 r / dof`, `dof = tr((S + E)^-1 S) -
+//!   p` (a Birge ratio whose degrees of freedom are those the residuals have when the model holds), so a misfit
+//!   widens the intervals by what it shows and no more, and a misfit inside the floor at taus whose statistical
+//!   errors are tiny (a sensor's roll-off in the first octaves of a long record) widens nothing. The interval is in the log of the square and found by test inversion: its ends are the values `v`
 //!   with `ln theta - ln v = -+ z sd_u(v)`, the spread taken as if the term were `v`, the other terms as
 //!   fitted. A term estimated high by chance also looks more precise than it is (its share of the curve is
 //!   larger), so a spread taken at the estimate alone draws the lower end too high; the inverted ends are where
@@ -158,12 +160,31 @@ impl<'a> Correlated<'a> {
     /// The sandwich covariance of the log-domain estimate (see the module doc) and its inflation, at the fit.
     fn sandwich(&self, best: &Solution) -> Option<Sandwich> {
         let (cov_u, s, f) = self.sandwich_at(&best.theta, &best.active)?;
-        // Generalised chi-square of the log residuals.
+        // Generalised chi-square of the log residuals against the statistical covariance plus the fit's own
+        // model-error floor (independent per tau, as its weights take it), over the degrees of freedom it has when
+        // the model holds: `tr((S + E)^-1 S) - p`. A point whose statistical error is tiny beside the floor (the
+        // first octaves of a long record) then counts for neither: a misfit there that the floor allows, such as
+        // a sensor's roll-off, widens nothing, while a misfit of the taus the statistics do weigh widens every
+        // interval by what it shows.
         let r: Vec<f64> = self.inp.pts.iter().zip(&f).map(|(q, fk)| q.avar.ln() - fk.ln()).collect();
-        let l = cholesky(&s)?;
+        let e2 = self.inp.e2;
+        let mut total = s;
+        for (k, row) in total.iter_mut().enumerate() {
+            row[k] += e2;
+        }
+        let l = cholesky(&total)?;
         let chi2: f64 = forward_solve(&l, &r).iter().map(|v| v * v).sum();
-        let dof = self.inp.pts.len().saturating_sub(best.active.len());
-        let inflation = if dof > 0 { (chi2 / dof as f64).max(1.0) } else { 1.0 };
+        let n = r.len();
+        // tr((S + E)^-1) = sum of the squares of L^-1's entries.
+        let trace_inv: f64 = (0..n)
+            .map(|i| {
+                let mut unit = vec![0.0; n];
+                unit[i] = 1.0;
+                forward_solve(&l, &unit).iter().map(|v| v * v).sum::<f64>()
+            })
+            .sum();
+        let dof = n as f64 - e2 * trace_inv - best.active.len() as f64;
+        let inflation = if dof > 0.5 { (chi2 / dof).max(1.0) } else { 1.0 };
         Some(Sandwich { cov_u, inflation })
     }
 
