@@ -12,6 +12,7 @@ fn main() {
     }
     let hours: f64 = std::env::var("OCTAVAR_DEMO_HOURS").ok().and_then(|h| h.parse().ok()).unwrap_or(72.0);
     let samples = (hours * 3600.0 * BENCH_RATE_HZ) as u64;
+    demo::retain_freed_memory();
     let model = demo::paper_bench(1);
     let t0 = Instant::now();
     let runs = demo::accumulate_bench(&model, samples, (600.0 * BENCH_RATE_HZ) as u64, 2000, &|_| {}).unwrap();

@@ -34,6 +34,7 @@ impl Args {
             anyhow::bail!("--hours {} must be a positive number", self.hours);
         }
         std::fs::create_dir_all(&self.out).with_context(|| format!("creating {}", self.out.display()))?;
+        demo::retain_freed_memory();
         let model = demo::paper_bench(self.seed);
         let samples = (self.hours * 3600.0 * BENCH_RATE_HZ).round() as u64;
         let started = Instant::now();

@@ -191,6 +191,21 @@ impl HeldGaussMarkov {
         }
         self.x
     }
+
+    /// [`HeldGaussMarkov::next`] with the update out of line: for loops where the hold is long and the update
+    /// (a Gaussian draw) would only crowd the registers.
+    #[inline(always)]
+    pub(crate) fn next_held(&mut self, n: u64, rng: &mut SimRng) -> f64 {
+        if n & self.mask == 0 {
+            self.update(rng);
+        }
+        self.x
+    }
+
+    #[inline(never)]
+    fn update(&mut self, rng: &mut SimRng) {
+        self.x = self.a * self.x + self.b * rng.normal();
+    }
 }
 
 #[cfg(test)]

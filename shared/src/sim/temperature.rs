@@ -48,15 +48,16 @@ impl Thermal {
 
     /// The temperatures of the next `out.len()` samples, degC: the values of as many calls of [`Thermal::next`].
     pub fn fill(&mut self, rng: &mut SimRng, out: &mut [f64]) {
-        let n0 = self.n;
-        out.fill(0.0);
-        self.cycle.add_block(n0, out);
-        for (k, t) in out.iter_mut().enumerate() {
-            *t += self.mid;
-            if let Some(w) = &mut self.wander {
-                *t += w.next(n0 + k as u64, rng);
+        let (n0, mid) = (self.n, self.mid);
+        let mut wander = self.wander.clone();
+        self.cycle.for_each(n0, out.len(), |k, cycle| {
+            let mut t = mid + cycle;
+            if let Some(w) = &mut wander {
+                t += w.next_held(n0 + k as u64, rng);
             }
-        }
+            out[k] = t;
+        });
+        self.wander = wander;
         self.n += out.len() as u64;
     }
 }

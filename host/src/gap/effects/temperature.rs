@@ -206,9 +206,11 @@ pub(super) fn sine_tapered(v: &[f64], k: usize, fft: &dyn rustfft::Fft<f64>) -> 
             let (ea, eb) = (Complex::from_polar(1.0, a), Complex::from_polar(1.0, -a));
             let mut re = Vec::with_capacity(half + 1);
             let mut im = Vec::with_capacity(half + 1);
+            // Bins m - j and m + j, wrapped around the grid (j < nfft, m <= nfft / 2: one wrap at most each).
+            let wrap = |b: usize| if b >= nfft { b - nfft } else { b };
             for m in 0..=half {
-                let lo = buf[(m + nfft - j) % nfft];
-                let hi = buf[(m + j) % nfft];
+                let lo = buf[wrap(m + nfft - j)];
+                let hi = buf[wrap(m + j)];
                 // (ea lo - eb hi) / 2i = -i (ea lo - eb hi) / 2
                 let d = ea * lo - eb * hi;
                 re.push(c * d.im);
