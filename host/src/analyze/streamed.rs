@@ -15,7 +15,7 @@ use crate::io::binary::BinaryFormat;
 use crate::io::csv::{CsvOptions, RecordingError};
 use crate::io::decode::{CaptureReader, DecodeError, Message};
 use crate::stats::streamed::{StreamOadev, StreamTotals, DEFAULT_STRIDE};
-use crate::stats::{Statistic, StatsError};
+use crate::stats::{DevPoint, Statistic, StatsError};
 
 /// What went wrong.
 #[derive(Debug, thiserror::Error)]
@@ -140,7 +140,12 @@ fn channel_result(
         return Err(StreamError::TooShort { name: source.into(), channel: name.into(), samples: totals.samples });
     }
     let counts = Counts { tau0_s, n_samples: totals.samples as usize, n_gaps: totals.gaps as usize };
-    Ok(ChannelAnalysis::fitted(name, counts, vec![(Statistic::Oadev, points.clone())], points, opts.fit.as_ref()))
+    Ok(octave_channel(name, counts, points, opts))
+}
+
+/// A streamed channel: its one statistic is the OADEV at octave tau, which is also what the fit reads.
+fn octave_channel(name: &str, counts: Counts, points: Vec<DevPoint>, opts: &StreamOptions) -> ChannelAnalysis {
+    ChannelAnalysis::fitted(name, counts, vec![(Statistic::Oadev, points.clone())], points, opts.fit.as_ref())
 }
 
 /// Read exactly `buf.len()` bytes or up to the end; returns the bytes read.
@@ -427,8 +432,7 @@ pub fn analyze_capture<R: Read>(
             continue;
         }
         let counts = Counts { tau0_s: tau0, n_samples: snap.samples as usize, n_gaps: 0 };
-        let stats = vec![(Statistic::Oadev, points.clone())];
-        out.push(ChannelAnalysis::fitted(&ch_name(c), counts, stats, points, opts.fit.as_ref()));
+        out.push(octave_channel(&ch_name(c), counts, points, opts));
     }
     if out.is_empty() {
         return Err(StreamError::Capture { name, what: "neither raw samples nor snapshots".into() });
