@@ -5,6 +5,7 @@ mod corruption;
 mod demo_bench;
 mod fft_gyro;
 mod fit_coverage;
+mod gap_evidence;
 mod gap_real;
 mod gap_withheld;
 mod interval_coverage;

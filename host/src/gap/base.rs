@@ -15,11 +15,10 @@ pub(crate) fn training_adev(training: &[f64], rate_hz: f64) -> Result<Vec<DevPoi
 }
 
 /// The base fit of a training part: its octave OADEV and the IEEE 952 fit of it.
-pub(crate) fn fit_base(
-    training: &[f64],
-    rate_hz: f64,
-    opts: &FitOptions,
-) -> Result<(Vec<DevPoint>, NoiseFit), GapError> {
+///
+/// # Errors
+/// A part too short for an Allan deviation, or a fit that fails.
+pub fn fit_base(training: &[f64], rate_hz: f64, opts: &FitOptions) -> Result<(Vec<DevPoint>, NoiseFit), GapError> {
     let real_adev = training_adev(training, rate_hz)?;
     let f = fit_deviations(&real_adev, Some(opts))?;
     Ok((real_adev, f))

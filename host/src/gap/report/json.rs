@@ -10,6 +10,7 @@ use serde_json::Value;
 
 use super::{GapReport, Verdict};
 use crate::fit::NoiseFit;
+use crate::gap::chain::NamedBy;
 use crate::gap::compare::ViewGap;
 use crate::gap::describe::GapShape;
 use crate::gap::disturbances::Masked;
@@ -55,6 +56,7 @@ impl GapReport {
                 params: &s.final_fit().params,
                 found_params: s.refit.as_ref().map(|_| &s.fit.params),
                 backfitted: s.refit.is_some(),
+                evidence: s.named_by,
                 view: s.location.view,
                 band_s: s.location.band_s,
                 sign: s.location.sign,
@@ -267,6 +269,9 @@ struct StepDoc<'a> {
     found_params: Option<&'a Value>,
     /// Whether a backfitting round estimated the effect again on the final model less itself.
     backfitted: bool,
+    /// What named the effect: `{"route": "view"}`, or `{"route": "estimator", "statistic", "value",
+    /// "threshold"}` where its estimator's own test named it and no view's gap did.
+    evidence: NamedBy,
     view: ViewKind,
     band_s: [f64; 2],
     sign: Sign,

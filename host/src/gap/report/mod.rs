@@ -7,9 +7,10 @@
 //! located band), `candidates` `[{effect, params, gap_after, shrink, ...}]` (the first step's ranking), `model`
 //! (the base model with every effect of the chain, as a `model.toml` channel's `gyro`), `effect_params` (the first
 //! effect's). The chain: `effects` `[{effect, params, view, band_s, sign, gap_before, gap_after, holdout:
-//! {gap_before, gap_after}, backfitted, found_params}]` in the order found (`params` as the final model carries
+//! {gap_before, gap_after}, backfitted, found_params, evidence}]` in the order found (`params` as the final model carries
 //! them; where a backfitting round estimated the effect again, `backfitted` is true and `found_params` are the
-//! step's first values; the gaps are the step's own), and `holdout_total` `{gap_before, gap_after, shrink}`, the
+//! step's first values; the gaps are the step's own; `evidence` is `{"route": "view"}` or, where the effect's
+//! estimator named it and no view's gap did, `{"route": "estimator", "statistic", "value", "threshold"}`), and `holdout_total` `{gap_before, gap_after, shrink}`, the
 //! largest held-out gap over the chain's located bands, of the base model and of the whole chain, every
 //! parameter frozen. Also:
 //! `transients` `[{part, start_s, duration_s, peak_dps}]` (the disturbances masked as gaps, `start_s` from the
@@ -222,7 +223,8 @@ pub(crate) fn assemble(p: Parts) -> GapReport {
 pub enum Verdict {
     /// The simulation of the fitted model agrees with the record.
     NoGap,
-    /// A significant gap, and the chain leaves none.
+    /// The chain leaves no significant gap: it explained a significant gap, or its effects were named by their
+    /// estimators' own tests where the views showed none (each step's `evidence` says which).
     Explained,
     /// A significant gap is left that no candidate explains (after the chain, if it found any effect).
     Unexplained,
@@ -273,8 +275,8 @@ impl GapReport {
     /// No gap, explained, or a gap left unexplained.
     pub fn verdict(&self) -> Verdict {
         match (self.significant, &self.unexplained) {
-            (false, _) => Verdict::NoGap,
-            (true, None) if !self.chain.is_empty() => Verdict::Explained,
+            (false, _) if self.chain.is_empty() => Verdict::NoGap,
+            (_, None) if !self.chain.is_empty() => Verdict::Explained,
             _ => Verdict::Unexplained,
         }
     }

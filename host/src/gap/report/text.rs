@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use serde_json::Value;
 
 use super::{GapReport, Verdict};
-use crate::gap::chain::Step;
+use crate::gap::chain::{NamedBy, Step};
 use crate::gap::compare::ViewGap;
 use crate::gap::disturbances;
 use crate::gap::effects::Effect;
@@ -143,8 +143,9 @@ impl GapReport {
         if let Some(first) = self.chain.first() {
             let _ = write!(
                 s,
-                "diagnosis: {} (gap {:.2} -> {:.2} on training, shrink {:.0}%",
+                "diagnosis: {}{} (gap {:.2} -> {:.2} on training, shrink {:.0}%",
                 first.effect.name(),
+                named_by_text(first),
                 self.training.gap_before,
                 self.training.gap_after,
                 100.0 * self.training.shrink
@@ -171,8 +172,9 @@ impl GapReport {
             for step in &self.chain[1..] {
                 let _ = writeln!(
                     s,
-                    "  then {} ({} {}, gap {:.2} -> {:.2} on training{})",
+                    "  then {}{} ({} {}, gap {:.2} -> {:.2} on training{})",
                     step.effect.name(),
+                    named_by_text(step),
                     step.location.view.name(),
                     band_text(&step.location),
                     step.training.gap_before,
@@ -228,6 +230,18 @@ impl GapReport {
             Verdict::Explained => {}
         }
         s
+    }
+}
+
+/// `, named by its estimator's test (t = 6.20, beyond 5)` for a step its estimator named; empty for a step the
+/// views named.
+fn named_by_text(step: &Step) -> String {
+    match step.named_by {
+        NamedBy::View => String::new(),
+        NamedBy::Estimator(ev) => format!(
+            ", named by its estimator's test where no view's gap did ({} = {:.2}, beyond {})",
+            ev.statistic, ev.value, ev.threshold
+        ),
     }
 }
 

@@ -1,0 +1,442 @@
+//! The search for the chain: each step ranks the remaining candidates on the model so far and adds the effect
+//! the views or its own estimator name (see the module doc of [`crate::gap::chain`]).
+
+use std::ops::Range;
+
+use rayon::prelude::*;
+
+use super::backfit::backfit;
+use super::data::StepData;
+use super::model::{Model, NamedBy, Step, MAX_STEPS};
+use crate::fit::NoiseFit;
+use crate::gap::effects::{self, Effect, EffectFit};
+use crate::gap::error::GapError;
+use crate::gap::evidence;
+use crate::gap::fill::{fill_gaps, gap_runs};
+use crate::gap::judge::{Evaluated, Judge};
+use crate::gap::rank::{self, CandidateResult, Location, PartGap};
+
+/// Candidates of a later step that get a second chance with the chain backfitted around them, best score first.
+const SECOND_CHANCES: usize = 2;
+
+/// The best-scored candidates tried in pairs when no single one explains the gap.
+const PAIR_POOL: usize = 3;
+
+/// Progress: `(stage, done, total)`, called after each ensemble.
+pub type ProgressFn<'a> = dyn Fn(&str, usize, usize) + Sync + 'a;
+
+/// Counts the ensembles run against the ones expected, for a progress bar.
+pub(crate) struct Progress<'a> {
+    report: &'a ProgressFn<'a>,
+    /// Ensembles run.
+    pub done: usize,
+    /// Ensembles expected.
+    pub total: usize,
+}
+
+impl<'a> Progress<'a> {
+    /// A count of `total` expected ensembles, none run.
+    pub fn new(report: &'a ProgressFn<'a>, total: usize) -> Self {
+        Progress { report, done: 0, total }
+    }
+
+    /// One more ensemble run, of `stage`.
+    pub fn tick(&mut self, stage: &str) {
+        self.done += 1;
+        self.total = self.total.max(self.done);
+        (self.report)(stage, self.done, self.total);
+    }
+
+    /// `stage` begins, with `more` ensembles expected beyond those counted.
+    pub fn expect(&mut self, stage: &str, more: usize) {
+        self.total += more;
+        (self.report)(stage, self.done, self.total);
+    }
+}
+
+/// What the search found.
+pub(crate) struct Found {
+    /// The steps, in the order found.
+    pub steps: Vec<Step>,
+    /// The first step's candidates, in vocabulary order.
+    pub first_candidates: Vec<CandidateResult>,
+    /// The candidates tried on the chain's model when none explained what it left.
+    pub last_tried: Vec<CandidateResult>,
+    /// The final model.
+    pub model: Model,
+    /// Its comparison with the record.
+    pub eval: Evaluated,
+}
+
+/// The search's fixed inputs and its state between steps.
+struct Search<'a, 'p> {
+    judge: &'a Judge<'a>,
+    base_fit: &'a NoiseFit,
+    temp: Option<&'a [f64]>,
+    rate_hz: f64,
+    /// The runs of missing or masked training samples.
+    gaps: Vec<Range<usize>>,
+    /// The training samples, gaps filled.
+    filled: Vec<f64>,
+    progress: &'a mut Progress<'p>,
+    /// The training samples less the realisations the steps so far recovered (what the next step learns from).
+    series: Vec<f64>,
+    /// What the steps recovered of their effects' realisations (`filled - series`); `None` before any.
+    realised: Option<Vec<f64>>,
+    steps: Vec<Step>,
+    model: Model,
+    eval: Evaluated,
+}
+
+/// The chain of `effects` on the training samples `training` (gaps as NaN) and their temperature, from the base
+/// model `base` (fitted as `base_fit`) whose comparison is `base_eval`.
+///
+/// # Errors
+/// [`GapError::Sim`]: the simulator rejects a candidate's model.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn search<'p>(
+    judge: &Judge,
+    effects: &[Effect],
+    base: Model,
+    base_eval: Evaluated,
+    base_fit: &NoiseFit,
+    training: &[f64],
+    temp: Option<&[f64]>,
+    rate_hz: f64,
+    progress: &mut Progress<'p>,
+) -> Result<Found, GapError> {
+    let filled = fill_gaps(training);
+    let mut s = Search {
+        judge,
+        base_fit,
+        temp,
+        rate_hz,
+        gaps: gap_runs(training),
+        series: filled.clone(),
+        filled,
+        progress,
+        realised: None,
+        steps: Vec::new(),
+        model: base,
+        eval: base_eval,
+    };
+    let mut first_candidates = Vec::new();
+    let mut last_tried = Vec::new();
+    while s.steps.len() < MAX_STEPS {
+        let first = s.steps.is_empty();
+        let significant = rank::gap_of(&s.eval.training) > rank::SIGNIFICANT_GAP;
+        let remaining: Vec<Effect> =
+            effects.iter().copied().filter(|e| !s.steps.iter().any(|st| st.effect == *e)).collect();
+        let Some(location) = rank::locate(&s.eval.training) else { break };
+        if remaining.is_empty() {
+            break;
+        }
+        let data = s.step_data(first);
+        // The views' route (the first step always ranks the candidates, for the report).
+        let mut candidates = Vec::new();
+        if first || significant {
+            candidates = s.rank(&remaining, &data, &location)?;
+            if first {
+                first_candidates = candidates.clone();
+            }
+            if significant && s.view_step(&data, &mut candidates, &location, first)? {
+                last_tried.clear();
+                continue;
+            }
+            if !first {
+                last_tried = candidates.clone();
+            }
+        }
+        // The estimators' route.
+        if s.evidence_step(&remaining, &data, candidates, &location, first.then_some(&mut first_candidates))? {
+            last_tried.clear();
+            continue;
+        }
+        break;
+    }
+    s.final_backfit()?;
+    Ok(Found { steps: s.steps, first_candidates, last_tried, model: s.model, eval: s.eval })
+}
+
+impl Search<'_, '_> {
+    /// What this step's estimators learn from.
+    fn step_data(&self, first: bool) -> StepData {
+        StepData::new(&self.model.gyro, &self.series, &self.gaps, self.temp, self.rate_hz, self.base_fit, first)
+    }
+
+    /// The realisations known on the model with `fit` added to this step's model (`data` its data).
+    fn known_with(&self, data: &StepData, fit: &EffectFit) -> Option<Vec<f64>> {
+        data.realised_with(self.realised.as_deref(), fit).or_else(|| self.realised.clone())
+    }
+
+    /// `m` compared with the record (`known`: the realisations recovered so far), one ensemble.
+    fn evaluate(&mut self, m: &Model, known: Option<&[f64]>, stage: &str) -> Result<Evaluated, GapError> {
+        let e = self.judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), known, stage)?;
+        self.progress.tick(stage);
+        Ok(e)
+    }
+
+    /// Every remaining effect estimated on `data`, added to the model and compared with the record.
+    fn rank(
+        &mut self,
+        remaining: &[Effect],
+        data: &StepData,
+        location: &Location,
+    ) -> Result<Vec<CandidateResult>, GapError> {
+        if !self.steps.is_empty() {
+            self.progress.expect("chain", remaining.len());
+        }
+        let training = data.training(&self.model.gyro, self.temp, self.rate_hz);
+        let fits: Vec<(Effect, Option<EffectFit>)> =
+            remaining.par_iter().map(|&e| (e, effects::estimate(e, &training))).collect();
+        let mut candidates = Vec::with_capacity(fits.len());
+        for (effect, fit) in fits {
+            let eval = match &fit {
+                Some(f) => {
+                    let m = self.model.with(f);
+                    let known = self.known_with(data, f);
+                    Some(self.evaluate(&m, known.as_deref(), effect.name())?)
+                }
+                None => None,
+            };
+            candidates.push(CandidateResult::new(effect, fit, eval, Some(location)));
+        }
+        Ok(candidates)
+    }
+
+    /// The views' route: the candidate that explains the significant gap, alone, with the chain backfitted
+    /// around it (a later step), or in a pair; adds its step (two for a pair) and says whether it did.
+    fn view_step(
+        &mut self,
+        data: &StepData,
+        candidates: &mut [CandidateResult],
+        location: &Location,
+        first: bool,
+    ) -> Result<bool, GapError> {
+        let total_before = rank::total_of(&self.eval.training);
+        if let Some(i) = rank::choose(candidates, total_before, Some(location)) {
+            let (Some(fit), Some(after)) = (candidates[i].fit.clone(), candidates[i].eval.clone()) else {
+                return Ok(false);
+            };
+            self.model = self.model.with(&fit);
+            self.add(data, fit, after, candidates.to_vec(), location, NamedBy::View, None);
+            return Ok(true);
+        }
+        if !first {
+            if let Some((i, model, refits)) = self.second_chance(data, candidates, location, total_before)? {
+                let (Some(fit), Some(after)) = (candidates[i].fit.clone(), candidates[i].eval.clone()) else {
+                    return Ok(false);
+                };
+                self.model = model;
+                self.add(data, fit, after, candidates.to_vec(), location, NamedBy::View, Some(refits));
+                if let Some(last) = self.steps.last_mut() {
+                    last.backfitted = true;
+                }
+                return Ok(true);
+            }
+        }
+        self.pair_step(data, candidates, location, total_before)
+    }
+
+    /// A later step whose best candidates explain too little alone: each gets a second chance with the chain
+    /// backfitted around it (an effect read before the one under it took part of it: a bandwidth's corner read
+    /// low under a resonance). Returns the index of the candidate that then explains the gap (its entry replaced
+    /// by the backfitted one), the backfitted model and the earlier steps' refits.
+    #[allow(clippy::type_complexity)]
+    fn second_chance(
+        &mut self,
+        data: &StepData,
+        candidates: &mut [CandidateResult],
+        location: &Location,
+        total_before: f64,
+    ) -> Result<Option<(usize, Model, Vec<Option<EffectFit>>)>, GapError> {
+        for i in by_score(candidates).into_iter().take(SECOND_CHANCES) {
+            let Some(f) = candidates[i].fit.clone() else { continue };
+            let mut taken = self.series.clone();
+            data.take_out(&mut taken, &f);
+            let mut fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
+            fits.push(&f);
+            let (m, refits) =
+                backfit(&self.model.with(&f), &fits, &taken, &self.gaps, self.temp, self.rate_hz, self.base_fit);
+            if refits.iter().all(Option::is_none) {
+                continue;
+            }
+            let known = self.known_with(data, &f);
+            self.progress.expect("backfit", 1);
+            let e = self.evaluate(&m, known.as_deref(), f.effect.name())?;
+            let fit = refits.last().cloned().flatten().unwrap_or(f);
+            let c = CandidateResult::new(candidates[i].effect, Some(fit), Some(e), Some(location));
+            if rank::choose(std::slice::from_ref(&c), total_before, Some(location)).is_some() {
+                candidates[i] = c;
+                let earlier = refits[..refits.len() - 1].to_vec();
+                return Ok(Some((i, m, earlier)));
+            }
+        }
+        Ok(None)
+    }
+
+    /// Two effects that share the gap, neither removing a quarter of it alone: the [`PAIR_POOL`] best-scored
+    /// candidates in pairs, the better-scored one first and the other estimated on the model with it; the best
+    /// pair that explains the gap (the parameters of both paid for) is added as two steps.
+    fn pair_step(
+        &mut self,
+        data: &StepData,
+        candidates: &[CandidateResult],
+        location: &Location,
+        total_before: f64,
+    ) -> Result<bool, GapError> {
+        let pool: Vec<usize> = by_score(candidates).into_iter().take(PAIR_POOL).collect();
+        let mut best: Option<(f64, usize, EffectFit, Evaluated)> = None;
+        for (k, &i) in pool.iter().enumerate() {
+            let Some(a) = candidates[i].fit.as_ref() else { continue };
+            let with_a = self.model.with(a);
+            let mut series_a = self.series.clone();
+            data.take_out(&mut series_a, a);
+            let known_a = self.known_with(data, a);
+            let data_a =
+                StepData::new(&with_a.gyro, &series_a, &self.gaps, self.temp, self.rate_hz, self.base_fit, false);
+            let training_a = data_a.training(&with_a.gyro, self.temp, self.rate_hz);
+            for &j in &pool[k + 1..] {
+                let Some(b) = effects::estimate(candidates[j].effect, &training_a) else { continue };
+                let m = with_a.with(&b);
+                let known = data_a.realised_with(known_a.as_deref(), &b).or_else(|| known_a.clone());
+                self.progress.expect("pair", 1);
+                let e = self.evaluate(&m, known.as_deref(), b.effect.name())?;
+                let score = rank::score(rank::total_of(&e.training), a.n_params + b.n_params);
+                if rank::explains(score, total_before) && best.as_ref().is_none_or(|(s, ..)| score < *s) {
+                    best = Some((score, i, b, e));
+                }
+            }
+        }
+        let Some((_, i, b, e)) = best else { return Ok(false) };
+        let (Some(a), Some(a_eval)) = (candidates[i].fit.clone(), candidates[i].eval.clone()) else {
+            return Ok(false);
+        };
+        self.model = self.model.with(&a);
+        self.add(data, a, a_eval, candidates.to_vec(), location, NamedBy::View, None);
+        // The second step learns from the samples less the first's realisation, on the model with it.
+        let data_b = self.step_data(false);
+        let c = CandidateResult::new(b.effect, Some(b.clone()), Some(e.clone()), Some(location));
+        self.model = self.model.with(&b);
+        self.add(&data_b, b, e, vec![c], location, NamedBy::View, None);
+        Ok(true)
+    }
+
+    /// The estimators' route: the remaining effect whose own test names it most strongly beyond its calibrated
+    /// threshold, added when the views find the model with it no worse; says whether it added one. `candidates`
+    /// are the step's ranking where it ranked (their fits are reused), and `first_candidates` the report's first
+    /// ranking when this is the first step.
+    fn evidence_step(
+        &mut self,
+        remaining: &[Effect],
+        data: &StepData,
+        mut candidates: Vec<CandidateResult>,
+        location: &Location,
+        first_candidates: Option<&mut Vec<CandidateResult>>,
+    ) -> Result<bool, GapError> {
+        let training = data.training(&self.model.gyro, self.temp, self.rate_hz);
+        let Some(fit) = evidence::strongest(remaining, &candidates, &training) else { return Ok(false) };
+        let Some(ev) = evidence::of(&fit) else { return Ok(false) };
+        let m = self.model.with(&fit);
+        let known = self.known_with(data, &fit);
+        self.progress.expect("evidence", 1);
+        let after = self.evaluate(&m, known.as_deref(), fit.effect.name())?;
+        // Named on its own test, it must still leave the views no worse than it found them.
+        if rank::total_of(&after.training) > evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training) {
+            return Ok(false);
+        }
+        let c = CandidateResult::new(fit.effect, Some(fit.clone()), Some(after.clone()), Some(location));
+        match candidates.iter_mut().find(|x| x.effect == fit.effect) {
+            Some(x) => *x = c,
+            None => candidates.push(c),
+        }
+        if let Some(f) = first_candidates {
+            *f = candidates.clone();
+        }
+        self.model = m;
+        self.add(data, fit, after, candidates, location, NamedBy::Estimator(ev), None);
+        Ok(true)
+    }
+
+    /// Add a step whose model is already `self.model`: `fit` learnt from `data`, `after` its comparison, its
+    /// realisation (if it recovered one) taken out of what the next step learns from, and where a backfitting
+    /// round chose it, each earlier step's refit.
+    #[allow(clippy::too_many_arguments)]
+    fn add(
+        &mut self,
+        data: &StepData,
+        fit: EffectFit,
+        after: Evaluated,
+        candidates: Vec<CandidateResult>,
+        location: &Location,
+        named_by: NamedBy,
+        refits: Option<Vec<Option<EffectFit>>>,
+    ) {
+        let chosen = candidates.iter().find(|c| c.effect == fit.effect);
+        let gap_after = chosen.and_then(|c| c.gap_after).unwrap_or(0.0);
+        let holdout_after = chosen.and_then(|c| c.holdout_after);
+        let training = PartGap::new(rank::band_gap(&self.eval.training, location).unwrap_or(0.0), gap_after);
+        let holdout = rank::band_gap(&self.eval.holdout, location).map(|b| PartGap::new(b, holdout_after.unwrap_or(b)));
+        if fit.cleaned.is_some() {
+            data.take_out(&mut self.series, &fit);
+            self.realised = Some(self.filled.iter().zip(&self.series).map(|(f, s)| f - s).collect());
+        }
+        for (s, r) in self.steps.iter_mut().zip(refits.into_iter().flatten()) {
+            if r.is_some() {
+                s.refit = r;
+            }
+        }
+        self.steps.push(Step {
+            effect: fit.effect,
+            named_by,
+            fit,
+            eval: after.clone(),
+            location: location.clone(),
+            training,
+            holdout,
+            candidates,
+            refit: None,
+            backfitted: false,
+        });
+        self.eval = after;
+    }
+
+    /// A backfitting round over a chain of two or more whose last step had none: kept when the final model's
+    /// training total falls.
+    fn final_backfit(&mut self) -> Result<(), GapError> {
+        if self.steps.len() < 2 || self.steps.last().is_some_and(|s| s.backfitted) {
+            return Ok(());
+        }
+        let fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
+        let (refitted, refits) =
+            backfit(&self.model, &fits, &self.series, &self.gaps, self.temp, self.rate_hz, self.base_fit);
+        if refits.iter().all(Option::is_none) {
+            return Ok(());
+        }
+        self.progress.expect("backfit", 1);
+        let realised = self.realised.clone();
+        let after = self.evaluate(&refitted, realised.as_deref(), "backfit")?;
+        if rank::total_of(&after.training) < rank::total_of(&self.eval.training) {
+            for (s, r) in self.steps.iter_mut().zip(refits) {
+                if r.is_some() {
+                    s.refit = r;
+                }
+            }
+            if let Some(last) = self.steps.last_mut() {
+                last.backfitted = true;
+            }
+            self.model = refitted;
+            self.eval = after;
+        }
+        Ok(())
+    }
+}
+
+/// The indices of the candidates that have a score, best (lowest) first.
+fn by_score(candidates: &[CandidateResult]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..candidates.len()).filter(|&i| candidates[i].score.is_some()).collect();
+    order.sort_by(|&a, &b| {
+        candidates[a].score.unwrap_or(f64::INFINITY).total_cmp(&candidates[b].score.unwrap_or(f64::INFINITY))
+    });
+    order
+}

@@ -1,0 +1,82 @@
+//! Naming an effect by its estimator's own test, where no view's gap shows it.
+//!
+//! The views compare stationary statistics of the record with the ensemble: an Allan deviation, a spectrum, a
+//! distribution, a coherence. A warm-up that settles in the first minutes, or a small temperature coupling beside
+//! a larger effect, moves none of them beyond the significance threshold, yet its estimator sees it plainly: a
+//! generalised least-squares estimate many standard errors from zero. Such an effect is named on that evidence
+//! when its statistic passes a threshold whose false-alarm rate on effect-free records is at most 1% per effect
+//! per record, measured on records of octavar's simulator and of an independent generator
+//! (tests/tests/gap_evidence.rs).
+//!
+//! | effect | statistic | threshold | why |
+//! |---|---|---|---|
+//! | temperature | coefficient / its GLS standard error (the lag searched) | 5 | the estimator's own acceptance |
+//! | warm_up | size / its GLS standard error (block length and tau searched) | 5 | the estimator's own acceptance |
+//!
+//! The other effects have no such test: their estimators find a trace only where a view would show it too (a
+//! spectral bump, heavy tails, a lattice), or their detection threshold is a rate of events, not a standard
+//! error.
+
+use serde::Serialize;
+
+use super::effects::{self, Effect, EffectFit, TrainingData};
+use super::rank::CandidateResult;
+
+/// How strongly an estimator's own test names its effect.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Evidence {
+    /// The statistic: `t`, the estimate over its standard error.
+    pub statistic: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// The threshold of |value| beyond which the effect is named without a view's gap.
+    pub threshold: f64,
+}
+
+impl Evidence {
+    /// Whether the statistic names the effect on its own.
+    pub fn names(&self) -> bool {
+        self.value.abs() >= self.threshold
+    }
+
+    /// |value| over the threshold: which of several effects the evidence names first.
+    pub fn strength(&self) -> f64 {
+        self.value.abs() / self.threshold
+    }
+}
+
+/// The threshold of `effect`'s test statistic (`None`: the effect has no test that names it alone).
+pub fn threshold(effect: Effect) -> Option<f64> {
+    match effect {
+        Effect::Temperature | Effect::WarmUp => Some(5.0),
+        _ => None,
+    }
+}
+
+/// The evidence of a fit's own test, for the effects that have one.
+pub fn of(fit: &EffectFit) -> Option<Evidence> {
+    let threshold = threshold(fit.effect)?;
+    let value = fit.params.get("t_stat")?.as_f64().filter(|v| v.is_finite())?;
+    Some(Evidence { statistic: "t", value, threshold })
+}
+
+/// How much worse than the model before it the views may find a model with an effect named by its estimator:
+/// the effect is named because the views cannot see it, so they should not move, but the ensemble's draw moves the
+/// total by a few percent.
+pub const VIEWS_TOLERANCE: f64 = 1.1;
+
+/// The fit, among the `remaining` effects that have a test, whose evidence names it most strongly (its statistic
+/// furthest beyond its threshold), estimated on `data`, or taken from `candidates` where the step's ranking
+/// estimated it already; `None` when no test names its effect.
+pub fn strongest(remaining: &[Effect], candidates: &[CandidateResult], data: &TrainingData) -> Option<EffectFit> {
+    remaining
+        .iter()
+        .filter(|&&e| threshold(e).is_some())
+        .filter_map(|&e| match candidates.iter().find(|c| c.effect == e) {
+            Some(c) => c.fit.clone(),
+            None => effects::estimate(e, data),
+        })
+        .filter_map(|f| of(&f).filter(Evidence::names).map(|ev| (ev.strength(), f)))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, f)| f)
+}
