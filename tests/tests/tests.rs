@@ -7,6 +7,7 @@ mod fft_gyro;
 mod fit_coverage;
 mod gap_real;
 mod gap_withheld;
+mod indep_gyro;
 mod interval_coverage;
 mod pipeline;
 mod qemu;
