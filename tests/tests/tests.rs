@@ -6,6 +6,7 @@ mod demo_bench;
 mod fft_gyro;
 mod fit_coverage;
 mod gap_real;
+mod gap_sweep;
 mod gap_withheld;
 mod indep_gyro;
 mod interval_coverage;
