@@ -1,0 +1,360 @@
+//! The sweep's cases: the kinds, the record and parameters each seed draws (ranges in the parent module's doc),
+//! and each generator's record of them.
+
+use std::f64::consts::{PI, SQRT_2};
+
+use octavar::gap::Effect;
+use octavar_shared::sensor::Channel;
+use octavar_shared::sim::rng::SimRng;
+use octavar_shared::sim::temperature::Thermal;
+use octavar_shared::sim::{GyroSim, TemperatureProfile, VirtualGyro};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+use super::TRIPLES;
+use crate::indep_gyro::{
+    oracle, BenchTemperature, Contamination, Coupling, IndepGyro, Jumps, Lattice, Markov, Oscillator, Settling, Sine,
+    Telegraph,
+};
+use crate::util::coarse_channel;
+
+/// Which generator makes a record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Gen {
+    /// `octavar_shared::sim`'s virtual gyro.
+    Sim,
+    /// [`crate::indep_gyro`].
+    Indep,
+}
+
+impl Gen {
+    pub fn name(self) -> &'static str {
+        match self {
+            Gen::Sim => "sim",
+            Gen::Indep => "indep",
+        }
+    }
+}
+
+/// A control: a record whose answer must be `none`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    /// The base gyro alone.
+    None,
+    /// The base gyro and a transient bump.
+    Bump,
+    /// The base gyro and a temperature channel the rate does not follow.
+    Temperature,
+}
+
+/// What a record holds besides the base gyro.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// One or more effects of the vocabulary.
+    Effects(Vec<Effect>),
+    Control(Control),
+}
+
+impl Kind {
+    pub fn effects(&self) -> Vec<Effect> {
+        match self {
+            Kind::Effects(e) => e.clone(),
+            Kind::Control(_) => Vec::new(),
+        }
+    }
+
+    pub fn name(&self) -> String {
+        match self {
+            Kind::Effects(e) => e.iter().map(|e| e.name()).collect::<Vec<_>>().join("+"),
+            Kind::Control(Control::None) => "none".into(),
+            Kind::Control(Control::Bump) => "none+bump".into(),
+            Kind::Control(Control::Temperature) => "none+temperature".into(),
+        }
+    }
+
+    pub fn group(&self) -> &'static str {
+        match self {
+            Kind::Effects(e) if e.len() == 1 => "single",
+            Kind::Effects(e) if e.len() == 2 => "pair",
+            Kind::Effects(_) => "triple",
+            Kind::Control(_) => "control",
+        }
+    }
+
+    /// `temperature`, `bandwidth+resonance`, `a+b+c`, `none`, `none+bump`, `none+temperature`.
+    pub fn parse(s: &str) -> Option<Kind> {
+        match s {
+            "none" => Some(Kind::Control(Control::None)),
+            "none+bump" => Some(Kind::Control(Control::Bump)),
+            "none+temperature" => Some(Kind::Control(Control::Temperature)),
+            _ => s.split('+').map(Effect::parse).collect::<Option<Vec<_>>>().map(Kind::Effects),
+        }
+    }
+}
+
+/// Every pair of the vocabulary, in its order.
+pub fn pairs() -> Vec<Kind> {
+    let all = Effect::ALL;
+    let mut out = Vec::new();
+    for (i, &a) in all.iter().enumerate() {
+        for &b in &all[i + 1..] {
+            out.push(Kind::Effects(vec![a, b]));
+        }
+    }
+    out
+}
+
+/// [`TRIPLES`] triples of the vocabulary (every one when there are fewer), drawn once from a fixed seed.
+pub fn triples() -> Vec<Kind> {
+    let all = Effect::ALL;
+    let mut every = Vec::new();
+    for i in 0..all.len() {
+        for j in i + 1..all.len() {
+            for k in j + 1..all.len() {
+                every.push(vec![all[i], all[j], all[k]]);
+            }
+        }
+    }
+    let mut rng = StdRng::seed_from_u64(31);
+    for i in (1..every.len()).rev() {
+        let j = rng.random_range(0..=i);
+        every.swap(i, j);
+    }
+    every.truncate(TRIPLES);
+    every.into_iter().map(Kind::Effects).collect()
+}
+
+/// The kinds of a `SWEEP_KINDS` list (see the parent module's doc).
+pub fn kinds_from(list: &str) -> Vec<Kind> {
+    let spread = |all: Vec<Kind>, k: &str| -> Vec<Kind> {
+        let k: usize = k.parse().expect("a count");
+        let n = all.len();
+        (0..k.min(n)).map(|i| all[i * n / k.min(n)].clone()).collect()
+    };
+    let mut out = Vec::new();
+    for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        match item.split_once(':') {
+            Some(("pairs", k)) => out.extend(spread(pairs(), k)),
+            Some(("triples", k)) => out.extend(spread(triples(), k)),
+            _ => match item {
+                "all" => out.extend(kinds_from("singles,pairs,triples,controls")),
+                "singles" => out.extend(Effect::ALL.iter().map(|&e| Kind::Effects(vec![e]))),
+                "pairs" => out.extend(pairs()),
+                "triples" => out.extend(triples()),
+                "controls" => out.extend([Control::None, Control::Bump, Control::Temperature].map(Kind::Control)),
+                s => out.push(Kind::parse(s).unwrap_or_else(|| panic!("not a kind: {s}"))),
+            },
+        }
+    }
+    out
+}
+
+/// One drawn case.
+#[derive(Clone, Debug)]
+pub struct Case {
+    /// The truth, as the independent generator's parameters.
+    pub truth: IndepGyro,
+    pub rate_hz: f64,
+    pub samples: usize,
+    /// A transient bump: start, length (samples), size (deg/s).
+    pub bump: Option<(usize, usize, f64)>,
+    pub what: String,
+}
+
+fn log_uniform(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
+    (lo.ln() + (hi / lo).ln() * rng.random::<f64>()).exp()
+}
+
+fn uniform(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.random::<f64>()
+}
+
+/// The closed-form base Allan deviation (N, B, K) at tau.
+fn adev(g: &IndepGyro, tau: f64) -> f64 {
+    let f = 2.0 * std::f64::consts::LN_2 / PI;
+    (g.n_deg_per_rt_s.powi(2) / tau + f * g.b_dps.powi(2) + g.k_dps_per_rt_s.powi(2) * tau / 3.0).sqrt()
+}
+
+/// The multiplier of an effect's local noise.
+fn size(rng: &mut StdRng) -> f64 {
+    log_uniform(rng, 2.0, 30.0)
+}
+
+/// The case of `kind` at `seed`: the record and base from the seed, each effect from its own stream.
+pub fn draw(kind: &Kind, seed: u64) -> Case {
+    let mut rng = StdRng::seed_from_u64(0x5eed_0000 ^ seed);
+    let rate_hz = log_uniform(&mut rng, 1.0, 200.0);
+    let lo = (1.7e5f64).max(5400.0 * rate_hz);
+    let hi = (1.1e6f64).min(172_800.0 * rate_hz);
+    let samples = (log_uniform(&mut rng, lo, hi.max(lo)) as usize) & !1;
+    let n = log_uniform(&mut rng, 0.002, 0.02);
+    let b = n * uniform(&mut rng, 0.2, 1.0);
+    let base = IndepGyro {
+        bias_dps: uniform(&mut rng, -0.5, 0.5),
+        n_deg_per_rt_s: n,
+        b_dps: b,
+        k_dps_per_rt_s: b * 1e-3,
+        ..Default::default()
+    };
+    let d = samples as f64 / rate_hz;
+    let tau0 = 1.0 / rate_hz;
+    let white = base.white_sd(rate_hz);
+    let mut g = base.clone();
+    let mut what = Vec::new();
+    let mut bump = None;
+    let effects = kind.effects();
+    for &e in &effects {
+        let mut r = StdRng::seed_from_u64(0xeffe_c700 ^ (seed << 8) ^ e as u64);
+        match e {
+            Effect::Temperature => {
+                let p = log_uniform(&mut r, (300.0f64).max(20.0 * tau0), d / 3.0);
+                let swing = uniform(&mut r, 1.0, 5.0);
+                let lag = log_uniform(&mut r, 3.0 * tau0, 0.5 * p);
+                let h = 1.0 / (1.0 + (2.0 * PI * lag / p).powi(2)).sqrt();
+                let k = size(&mut r) * adev(&base, p / 3.0) / (0.5 * swing * h)
+                    * if r.random::<bool>() { 1.0 } else { -1.0 };
+                g.bench = Some(bench(&mut r, p, swing));
+                g.coupling = Some(Coupling { dps_per_c: k, lag_s: lag, ref_c: 23.5 });
+                what.push(format!("temperature k {k:.2e} lag {lag:.3e} P {p:.3e} swing {swing:.1}"));
+            }
+            Effect::Sinusoid => {
+                let p = log_uniform(&mut r, 4.0 * tau0, d / 3.0);
+                let a = size(&mut r) * adev(&base, 0.37 * p);
+                g.sinusoids.push(Sine { amplitude_dps: a, period_s: p, phase_rad: uniform(&mut r, -PI, PI) });
+                what.push(format!("sinusoid A {a:.2e} P {p:.3e}"));
+            }
+            Effect::Bandwidth => {
+                let f = log_uniform(&mut r, 0.05, 0.4) * rate_hz;
+                g.bandwidth_hz = Some(f);
+                what.push(format!("bandwidth {f:.3e} Hz"));
+            }
+            Effect::GaussMarkov => {
+                let t = log_uniform(&mut r, 4.0 * tau0, d / 3.0);
+                let sigma = size(&mut r) * adev(&base, 2.0 * t) / 0.62;
+                g.gauss_markov = Some(Markov { sigma_dps: sigma, tau_s: t });
+                what.push(format!("gauss_markov sigma {sigma:.2e} T {t:.3e}"));
+            }
+            Effect::Quantization => {
+                let step = size(&mut r) / 3.0 * white;
+                g.k_dps_per_rt_s = g.k_dps_per_rt_s.max(step / d.sqrt());
+                g.lattice = Some(Lattice { step_dps: step, offset_dps: uniform(&mut r, 0.0, step) });
+                what.push(format!("quantization {:.2} sigma", step / white));
+            }
+            Effect::BiasSteps => {
+                let count = log_uniform(&mut r, 8.0, 80.0);
+                let floor = (0..60).map(|i| adev(&base, tau0 * 1.4f64.powi(i))).fold(f64::INFINITY, f64::min);
+                let sd = size(&mut r) * 5.0 / 3.0 * SQRT_2 * floor;
+                g.jumps = Some(Jumps { per_hour: count / (d / 3600.0), sigma_dps: sd });
+                what.push(format!("bias_steps {count:.0}/record sd {sd:.2e}"));
+            }
+            Effect::Outliers => {
+                let per_half = log_uniform(&mut r, 10.0, 300.0);
+                let s = size(&mut r) * 8.0 / 3.0;
+                g.contamination = Some(Contamination {
+                    per_sample: per_half / (samples / 2) as f64,
+                    size_sigma: [0.9 * s, 1.1 * s],
+                    longest_run: 1,
+                });
+                what.push(format!("outliers {per_half:.0}/half {s:.1} sigma"));
+            }
+            Effect::Resonance => {
+                let q = log_uniform(&mut r, 3.0, 30.0);
+                let top = g.bandwidth_hz.map_or(0.4 * rate_hz, |f| (0.7 * f).min(0.4 * rate_hz));
+                let f0 = log_uniform(&mut r, (256.0 * q / d).min(0.5 * top), top);
+                let ratio = size(&mut r);
+                let sigma = (ratio * base.n_deg_per_rt_s.powi(2) * PI * f0 / q).sqrt();
+                g.resonance = Some(Oscillator { sigma_dps: sigma, freq_hz: f0, q });
+                what.push(format!("resonance f0 {f0:.3e} Q {q:.1} peak x{ratio:.1}"));
+            }
+            Effect::Bistable => {
+                let (lo, hi) = ((30.0 * tau0).max(d / 3000.0), d / 40.0);
+                let (low, high) = (log_uniform(&mut r, lo, hi), log_uniform(&mut r, lo, hi));
+                let step = size(&mut r) * 8.0 / 3.0 * SQRT_2 * adev(&base, 0.1 * low.min(high));
+                g.telegraph = Some(Telegraph { step_dps: step, dwell_low_s: low, dwell_high_s: high });
+                what.push(format!("bistable step {step:.2e} dwells {low:.3e}/{high:.3e}"));
+            }
+            Effect::WarmUp => {
+                let tau = log_uniform(&mut r, d / 400.0, d / 3.0);
+                let sign = if r.random::<bool>() { 1.0 } else { -1.0 };
+                let s = sign * size(&mut r) * 10.0 * SQRT_2 * adev(&base, tau);
+                g.settling = Some(Settling { size_dps: s, tau_s: tau });
+                what.push(format!("warm_up {s:.2e} tau {tau:.3e}"));
+            }
+        }
+    }
+    if let Kind::Control(c) = kind {
+        let mut r = StdRng::seed_from_u64(0xc0de_0000 ^ seed);
+        match c {
+            Control::None => what.push("control".into()),
+            Control::Temperature => {
+                let p = log_uniform(&mut r, (300.0f64).max(20.0 * tau0), d / 3.0);
+                let swing = uniform(&mut r, 1.0, 5.0);
+                g.bench = Some(bench(&mut r, p, swing));
+                what.push(format!("temperature channel P {p:.3e}, not followed"));
+            }
+            Control::Bump => {
+                let len = ((log_uniform(&mut r, 1.0, 300.0) * rate_hz) as usize).clamp(3, samples / 20);
+                let start = (r.random::<f64>() * (samples - len) as f64) as usize;
+                let floor = 15.0 * adev(&base, len as f64 * tau0);
+                let s = (uniform(&mut r, 10.0, 60.0) * white).max(floor) * if r.random::<bool>() { 1.0 } else { -1.0 };
+                bump = Some((start, len, s));
+                what.push(format!("bump {s:.2e} for {len} at {start}"));
+            }
+        }
+    }
+    Case { truth: g, rate_hz, samples, bump, what: what.join(" & ") }
+}
+
+/// A daily-like bench temperature of cycle `p` s and swing `swing` degC.
+fn bench(r: &mut StdRng, p: f64, swing: f64) -> BenchTemperature {
+    BenchTemperature {
+        mean_c: 23.5 + uniform(r, -1.0, 1.0),
+        swing_c: swing,
+        period_s: p,
+        phase_rad: uniform(r, -PI, PI),
+        harmonic: uniform(r, 0.0, 0.4),
+        wander_sd_c: 0.05 * swing,
+        wander_tau_s: p / 4.0,
+    }
+}
+
+impl Case {
+    /// The model that made the record, for the oracle: shared::sim's `GyroSim` and the lattice's channel.
+    pub fn oracle(&self) -> (GyroSim, Option<Channel>) {
+        oracle::gyro_sim(&self.truth)
+    }
+
+    /// The record of generator `gen` (noise stream `seed`): the rate, deg/s, and the temperature where there is
+    /// a bench.
+    pub fn record(&self, gen: Gen, seed: u64) -> (Vec<f64>, Option<Vec<f64>>) {
+        let (mut x, t) = match gen {
+            Gen::Indep => {
+                let r = self.truth.generate(self.rate_hz, self.samples, 0x1d_0000 + seed);
+                (r.rate_dps, r.temp_c)
+            }
+            Gen::Sim => self.sim_record(seed),
+        };
+        if let Some((start, len, s)) = self.bump {
+            x[start..start + len].iter_mut().for_each(|v| *v += s);
+        }
+        (x, t)
+    }
+
+    fn sim_record(&self, seed: u64) -> (Vec<f64>, Option<Vec<f64>>) {
+        let (model, channel) = self.oracle();
+        let ch = channel.unwrap_or_else(|| coarse_channel(1e-6));
+        let mut gyro = VirtualGyro::new(&model, ch, self.rate_hz, 0x51_0000 + seed).unwrap();
+        let mut rng = SimRng::new(0x52_0000 + seed);
+        let profile = self.truth.bench.as_ref().map_or_else(TemperatureProfile::default, oracle::profile);
+        let mut thermal = Thermal::new(&profile, self.rate_hz, &mut rng);
+        let mut x = Vec::with_capacity(self.samples);
+        let mut t = Vec::with_capacity(self.samples);
+        for _ in 0..self.samples {
+            let tc = thermal.next(&mut rng);
+            let s = gyro.next(tc);
+            x.push(if channel.is_some() { ch.code_to_dps(s.code) } else { s.rate_dps });
+            t.push(tc);
+        }
+        (x, self.truth.bench.is_some().then_some(t))
+    }
+}
