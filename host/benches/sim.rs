@@ -26,7 +26,7 @@ fn full() -> GyroSim {
         sinusoids,
         temperature: Some(TempCoupling { dps_per_c: 0.01, ref_c: 25.0, lag_s: 600.0 }),
         bias_steps: Some(BiasSteps { per_hour: 2.0, sigma_dps: 0.01 }),
-        outliers: Some(Outliers { per_sample: 1e-5, size_dps: 0.0, size_sigma: 8.0 }),
+        outliers: Some(Outliers { per_sample: 1e-5, size_sigma: 8.0, ..Default::default() }),
         ..nbk()
     }
 }

@@ -438,7 +438,7 @@ fn sim_bias_steps_are_a_random_walk() {
 fn sim_outliers_are_white_with_variance_p_size2() {
     let (p_out, size) = (0.01, 1.0);
     let model = GyroSim {
-        outliers: Some(Outliers { per_sample: p_out, size_dps: size, size_sigma: 0.0 }),
+        outliers: Some(Outliers { per_sample: p_out, size_dps: size, ..Default::default() }),
         ..Default::default()
     };
     let n = 1 << 21;
@@ -455,13 +455,109 @@ fn sim_outliers_are_white_with_variance_p_size2() {
     // Size in sigma: with N the spike is size_sigma * N sqrt(rate_hz).
     let m2 = GyroSim {
         n_deg_per_rt_s: 0.01,
-        outliers: Some(Outliers { per_sample: 1.0, size_dps: 0.0, size_sigma: 8.0 }),
+        outliers: Some(Outliers { per_sample: 1.0, size_sigma: 8.0, ..Default::default() }),
         ..Default::default()
     };
     let with = rates(&m2, 10_000, 3);
     // Every sample carries a spike of 8 x 0.1 deg/s on noise of sd 0.1: mean |rate| = 0.8 within 5 sd (0.005).
     let mean_abs = with.iter().map(|v| v.abs()).sum::<f64>() / with.len() as f64;
     assert!((mean_abs - 0.8).abs() < 0.005, "{mean_abs}");
+}
+
+/// The standard normal upper tail (Numerical Recipes' `erfcc`, relative error under 1.2e-7).
+fn normal_sf(z: f64) -> f64 {
+    let x = z / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.5 * x.abs());
+    let poly = -x * x - 1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07
+                            + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    let erfc = t * poly.exp();
+    0.5 * if x >= 0.0 { erfc } else { 2.0 - erfc }
+}
+
+/// The mean of `f` over `y` and its standard error, the samples' correlation over runs of mean length `run_mean`
+/// allowed for by the factor `2 run_mean - 1` on the variance (an AR(1) of pole c has `(1 + c) / (1 - c)`).
+fn mean_and_se(y: &[f64], run_mean: f64, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    let n = y.len() as f64;
+    let (mut s1, mut s2) = (0.0, 0.0);
+    for &v in y {
+        let u = f(v);
+        s1 += u;
+        s2 += u * u;
+    }
+    let m = s1 / n;
+    (m, ((s2 / n - m * m) * (2.0 * run_mean - 1.0) / n).sqrt())
+}
+
+/// Contamination: spikes on a share f of the samples, magnitudes uniform on c +- w, in runs of mean L (one sign per
+/// run; a run of two or more goes on with probability c2). Alone, the process has share f of non-zero samples, `E y^2 = f (c^2 + w^2/3)`, `E y^4 = f (c^4 +
+/// 2 c^2 w^2 + w^4/5)` and autocovariance `f rho_k c^2` at lag k, `rho_k = (1 - 1/L) c2^(k-1)`; on unit white noise, the
+/// share beyond 5 sds is `(1 - f) 2 Q(5) + f P(|s + g| > 5)`. Each within 5 standard errors (2^21 samples).
+#[test]
+fn sim_contamination_matches_the_mixtures_closed_form() {
+    // Runs of mean 2.5, each spike after the second continuing with probability 0.4: rho_1 = 0.6, rho_2 = 0.24.
+    let (f, c, w, run_mean, run_continue) = (0.1, 6.0, 3.0, 2.5, 0.4);
+    let rho = |k: i32| (1.0 - 1.0 / run_mean) * run_continue.powi(k - 1);
+    let spikes = Outliers { per_sample: f, size_dps: c, spread_dps: w, run_mean, run_continue, ..Default::default() };
+    let model = GyroSim { outliers: Some(spikes), ..Default::default() };
+    let n = 1 << 21;
+    let y = rates(&model, n, 5);
+    let (mu2, mu4) = (c * c + w * w / 3.0, c.powi(4) + 2.0 * c * c * w * w + w.powi(4) / 5.0);
+    let check = |what: &str, (got, se): (f64, f64), want: f64| {
+        assert!((got - want).abs() < 5.0 * se, "{what}: {got} vs {want} (se {se})");
+    };
+    check("share", mean_and_se(&y, run_mean, |v| f64::from(u8::from(v != 0.0))), f);
+    assert!(y.iter().all(|v| *v == 0.0 || (c - w..=c + w).contains(&v.abs())));
+    check("E y^2", mean_and_se(&y, run_mean, |v| v * v), f * mu2);
+    check("E y^4", mean_and_se(&y, run_mean, |v| v.powi(4)), f * mu4);
+    for lag in [1usize, 2] {
+        let prods: Vec<f64> = y.windows(lag + 1).map(|p| p[0] * p[lag]).collect();
+        check("autocovariance", mean_and_se(&prods, run_mean, |v| v), f * rho(lag as i32) * c * c);
+    }
+    // The same process on unit white noise: the tail share beyond 5 sds, by the closed form of a Gaussian
+    // convolved with the uniform magnitude law (the mean over s of P(|s + g| > 5), by Simpson's rule).
+    let sigma_w = 1.0;
+    let noisy = GyroSim { n_deg_per_rt_s: sigma_w / FS.sqrt(), outliers: Some(spikes), ..Default::default() };
+    let y = rates(&noisy, n, 6);
+    let beyond = |s: f64| normal_sf(5.0 - s) + normal_sf(5.0 + s);
+    let k = 200;
+    let simpson: f64 = (0..=k)
+        .map(|i| {
+            let wt = if i == 0 || i == k {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            wt * beyond(c - w + 2.0 * w * i as f64 / k as f64)
+        })
+        .sum::<f64>()
+        / (3.0 * k as f64);
+    let tail = (1.0 - f) * 2.0 * normal_sf(5.0) + f * simpson;
+    check("share beyond 5 sd", mean_and_se(&y, run_mean, |v| f64::from(u8::from(v.abs() > 5.0))), tail);
+    let m2 = sigma_w * sigma_w + f * mu2;
+    let m4 = 3.0 + 6.0 * f * mu2 + f * mu4;
+    check("E y^2 with noise", mean_and_se(&y, run_mean, |v| v * v), m2);
+    check("E y^4 with noise", mean_and_se(&y, run_mean, |v| v.powi(4)), m4);
+    let kurt = m4 / (m2 * m2) - 3.0;
+    assert!(kurt > 5.0, "the mixture is heavy-tailed: excess kurtosis {kurt}");
+}
+
+/// A model without spread or runs draws exactly what isolated spikes of one size drew: the same spikes, sample for
+/// sample, whether the new fields are absent or zero.
+#[test]
+fn sim_isolated_spikes_are_unchanged_by_the_mixture_fields() {
+    let one = Outliers { per_sample: 1e-3, size_dps: 0.5, ..Default::default() };
+    let zero_runs = Outliers { run_mean: 1.0, ..one };
+    let a = rates(&GyroSim { outliers: Some(one), ..Default::default() }, 200_000, 9);
+    let b = rates(&GyroSim { outliers: Some(zero_runs), ..Default::default() }, 200_000, 9);
+    assert_eq!(a, b);
+    assert!(a.iter().all(|v| *v == 0.0 || v.abs() == 0.5));
 }
 
 #[test]
@@ -478,7 +574,7 @@ fn sim_is_deterministic_bit_for_bit() {
         sinusoids: [Sinusoid { amplitude_dps: 0.02, period_s: 0.5, phase_rad: 0.0 }].into_iter().collect(),
         temperature: Some(TempCoupling { dps_per_c: 0.01, ref_c: 25.0, lag_s: 10.0 }),
         bias_steps: Some(BiasSteps { per_hour: 100.0, sigma_dps: 0.01 }),
-        outliers: Some(Outliers { per_sample: 1e-3, size_dps: 0.5, size_sigma: 0.0 }),
+        outliers: Some(Outliers { per_sample: 1e-3, size_dps: 0.5, ..Default::default() }),
         resonance: Some(ResonanceSim { sigma_dps: 0.01, freq_hz: 7.0, q: 5.0 }),
         bistable: Some(BistableSim { step_dps: 0.01, dwell_low_s: 2.0, dwell_high_s: 1.0 }),
         warm_up: Some(WarmUpSim { size_dps: 0.05, tau_s: 30.0 }),

@@ -168,7 +168,7 @@ fn draw(process: Process, seed: u64) -> Case {
         Process::Outliers => {
             let p = log_uniform(&mut rng, 4e-5, 1e-3);
             let size = uniform(&mut rng, 8.0, 30.0);
-            model.outliers = Some(Outliers { per_sample: p, size_dps: 0.0, size_sigma: size });
+            model.outliers = Some(Outliers { per_sample: p, size_sigma: size, ..Default::default() });
             what = format!("p {p:.2e} size {size:.1} sigma");
         }
         Process::Bistable => {
@@ -197,7 +197,7 @@ fn draw(process: Process, seed: u64) -> Case {
             let t = log_uniform(&mut rng, 0.5, 600.0);
             model.gauss_markov = Some(GaussMarkovSim { sigma_dps: n_arw * rate_hz.sqrt(), tau_s: t });
             model.bandwidth_hz = Some(3.0);
-            model.outliers = Some(Outliers { per_sample: 2e-4, size_dps: 0.0, size_sigma: 15.0 });
+            model.outliers = Some(Outliers { per_sample: 2e-4, size_sigma: 15.0, ..Default::default() });
             model.bias_steps = Some(BiasSteps { per_hour: 2.0, sigma_dps: 10.0 * base_adev(&model, 100.0) });
             what = format!("temp k {k:.2e}, sine P {sp:.0}, GM T {t:.1}");
         }
@@ -317,7 +317,7 @@ fn injected(kind: Kind, seed: u64) -> (Vec<f64>, f64, Injected, String) {
     let b = n_arw * log_uniform(&mut rng, 0.2, 1.0);
     let mut model = GyroSim { n_deg_per_rt_s: n_arw, b_dps: b, k_dps_per_rt_s: b * 1e-3, ..Default::default() };
     if seed % 3 == 2 {
-        model.outliers = Some(Outliers { per_sample: 2e-4, size_dps: 0.0, size_sigma: 12.0 });
+        model.outliers = Some(Outliers { per_sample: 2e-4, size_sigma: 12.0, ..Default::default() });
     }
     let rate_hz: f64 = [1.0, 10.0, 100.0][(seed % 3) as usize];
     let n = 1 << 18;

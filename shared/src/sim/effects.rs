@@ -147,34 +147,83 @@ impl Steps {
     }
 }
 
-/// Outliers: on Bernoulli samples (probability `per_sample`), a spike of fixed size and random sign.
+/// Outliers ([`Outliers`]): spikes on a share `per_sample` of the samples, magnitudes uniform on `centre +-
+/// spread`, random sign, in runs of one sign (the law of their lengths is [`Outliers`]'s).
 ///
-/// As a process they are white with variance `p size^2`.
+/// Isolated spikes of one size (no spread, `run_mean <= 1`) are a Bernoulli process drawing one geometric gap and
+/// one sign per spike, and nothing else. A spread adds one uniform draw per spike; runs add one uniform draw per
+/// spike (does the run go on?). Between spikes a sample costs one decrement and compare.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Spikes {
+    /// Probability that a run starts at a clean sample.
     p: f64,
+    /// Centre of the magnitude law, deg/s.
     size: f64,
+    /// Half-width of the magnitude law, deg/s.
+    spread: f64,
+    /// Probability that a run's first spike is followed by a second.
+    cont_first: f64,
+    /// Probability that a later spike of a run is followed by another.
+    cont_next: f64,
+    /// The last spike was its run's first.
+    first: bool,
+    /// Samples up to and including the next run's start.
     left: u64,
+    /// The sign of the current run, 0 outside a run.
+    sign: f64,
     count: u64,
 }
 
 impl Spikes {
     /// Outliers as the model gives them; `white_sigma` is the per-sample sd of the white noise N.
     pub fn new(m: &Outliers, white_sigma: f64, rng: &mut SimRng) -> Self {
-        let p = m.per_sample.min(1.0);
-        Spikes { p, size: m.size_dps + m.size_sigma * white_sigma, left: rng.gap(p), count: 0 }
+        let f = m.per_sample.min(1.0);
+        let run_mean = m.run_mean.max(1.0);
+        let cont_next = m.run_continue.clamp(0.0, 1.0);
+        let cont_first = ((run_mean - 1.0) * (1.0 - cont_next)).min(1.0);
+        // The start probability that makes `f` the share of spiked samples (`f` itself without runs).
+        let p = if cont_first > 0.0 { f / (run_mean * (1.0 - f) + f) } else { f };
+        let size = m.size_dps + m.size_sigma * white_sigma;
+        let spread = m.spread_dps + m.spread_sigma * white_sigma;
+        Spikes { p, size, spread, cont_first, cont_next, first: false, left: rng.gap(p), sign: 0.0, count: 0 }
     }
 
     /// The spike on this sample (usually 0), in deg/s.
     #[inline]
     pub fn next(&mut self, rng: &mut SimRng) -> f64 {
-        self.left -= 1;
-        if self.left == 0 {
-            self.count += 1;
+        if self.sign != 0.0 {
+            // The sample after a spike of a run: the run goes on, or a gap to the next run starts here.
+            let cont = if self.first { self.cont_first } else { self.cont_next };
+            if rng.uniform() < cont {
+                self.first = false;
+                self.count += 1;
+                return self.sign * self.magnitude(rng);
+            }
+            self.sign = 0.0;
             self.left = rng.gap(self.p);
-            self.size * rng.sign()
+        }
+        self.left -= 1;
+        if self.left != 0 {
+            return 0.0;
+        }
+        self.count += 1;
+        if self.cont_first > 0.0 {
+            self.first = true;
+            self.sign = rng.sign();
+            self.sign * self.magnitude(rng)
         } else {
-            0.0
+            self.left = rng.gap(self.p);
+            rng.sign() * self.magnitude(rng)
+        }
+    }
+
+    /// One spike's magnitude: the centre, or a uniform draw on centre +- spread.
+    #[inline]
+    fn magnitude(&self, rng: &mut SimRng) -> f64 {
+        if self.spread == 0.0 {
+            self.size
+        } else {
+            self.size + self.spread * (2.0 * rng.uniform() - 1.0)
         }
     }
 
@@ -183,7 +232,7 @@ impl Spikes {
         self.count
     }
 
-    /// The spike magnitude, in deg/s.
+    /// The centre of the spike magnitudes, in deg/s.
     pub fn size_dps(&self) -> f64 {
         self.size
     }
@@ -354,7 +403,8 @@ mod tests {
     #[test]
     fn event_counts_follow_the_rate() {
         let mut rng = SimRng::new(9);
-        let mut spikes = Spikes::new(&Outliers { per_sample: 1e-3, size_dps: 5.0, size_sigma: 0.0 }, 1.0, &mut rng);
+        let mut spikes =
+            Spikes::new(&Outliers { per_sample: 1e-3, size_dps: 5.0, ..Default::default() }, 1.0, &mut rng);
         let n = 1_000_000;
         let mut sum_abs = 0.0;
         for _ in 0..n {

@@ -136,6 +136,10 @@ impl GyroSim {
         if let Some(o) = &self.outliers {
             check(o.per_sample.is_finite() && (0.0..=1.0).contains(&o.per_sample), "outliers.per_sample")?;
             check(o.size_dps.is_finite() && o.size_sigma.is_finite(), "outliers.size_dps")?;
+            nonneg(o.spread_dps, "outliers.spread_dps")?;
+            nonneg(o.spread_sigma, "outliers.spread_sigma")?;
+            nonneg(o.run_mean, "outliers.run_mean")?;
+            check(o.run_continue.is_finite() && (0.0..1.0).contains(&o.run_continue), "outliers.run_continue")?;
         }
         if let Some(r) = &self.resonance {
             nonneg(r.sigma_dps, "resonance.sigma_dps")?;

@@ -25,6 +25,7 @@
 //! resonance = { sigma_dps = 0.02, freq_hz = 20.0, q = 10.0 }
 //! bistable = { step_dps = 0.01, dwell_low_s = 30.0, dwell_high_s = 10.0 }
 //! warm_up = { size_dps = 0.05, tau_s = 600.0 }
+//! outliers = { per_sample = 0.05, size_sigma = 9.5, spread_sigma = 3.5, run_mean = 1.3 }
 //! [[channels.gyro.sinusoids]]
 //! amplitude_dps = 0.05
 //! period_s = 0.02
@@ -170,18 +171,43 @@ pub struct WarmUpSim {
     pub tau_s: f64,
 }
 
-/// Outliers: spikes of size `size_dps + size_sigma * N sqrt(rate_hz)` with a random sign.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// Outliers: spikes on a share `per_sample` of the samples, added after the sensor's filter (epsilon-contaminated
+/// noise when the share is large).
+///
+/// Each spike's magnitude is uniform on `centre +- spread`, `centre = size_dps + size_sigma sigma_w` and
+/// `spread = spread_dps + spread_sigma sigma_w` (`sigma_w = N sqrt(rate_hz)`, the white noise's per-sample sd), so
+/// the magnitude's moments are `E s^2 = centre^2 + spread^2 / 3` and `E s^4 = centre^4 + 2 centre^2 spread^2 +
+/// spread^4 / 5`. Spikes come in runs of one sign, each spike its own magnitude: a run's first spike is followed
+/// by a second with probability `c1`, and every later one by another with probability `c2 = run_continue`;
+/// `c1 = (run_mean - 1)(1 - c2)` makes `run_mean` the mean run length. So `run_mean = 1.5` alone gives runs of one
+/// or two samples, half each, and `c2 = 1 - 1 / run_mean` geometric lengths. A run starts at a clean sample with
+/// probability `q = per_sample / (run_mean (1 - per_sample) + per_sample)`, which makes `per_sample` the share of
+/// spiked samples; the run after a run may start at once (with its own sign). The autocovariance is
+/// `per_sample E s^2` at lag 0 and `per_sample centre^2 rho_k` at lag k, `rho_k = (1 - 1 / run_mean) c2^(k-1)`.
+/// With `run_mean <= 1` and no spread, spikes are a Bernoulli process of one size and a random sign.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Outliers {
-    /// Probability that a sample carries a spike.
+    /// Share of samples that carry a spike (in `[0, 1]`).
     pub per_sample: f64,
-    /// Size in deg/s.
+    /// Centre of the magnitude law, deg/s.
     #[serde(default)]
     pub size_dps: f64,
-    /// Size in units of the white noise's per-sample sd.
+    /// Centre of the magnitude law, in units of the white noise's per-sample sd (added to `size_dps`).
     #[serde(default)]
     pub size_sigma: f64,
+    /// Half-width of the uniform magnitude law, deg/s (0: one size).
+    #[serde(default)]
+    pub spread_dps: f64,
+    /// Half-width of the magnitude law, in units of the white noise's per-sample sd (added to `spread_dps`).
+    #[serde(default)]
+    pub spread_sigma: f64,
+    /// Mean run length, samples (1, or 0 when absent: isolated spikes).
+    #[serde(default)]
+    pub run_mean: f64,
+    /// Probability that a run of two or more samples goes on to another (0: runs of at most two).
+    #[serde(default)]
+    pub run_continue: f64,
 }
 
 /// The bench temperature: a sinusoidal cycle between `min_c` and `max_c` plus an optional slow wander.

@@ -1,80 +1,312 @@
-//! The outliers candidate: isolated spikes beyond a robust threshold above a running median.
+//! The outliers candidate: spikes on a share of the samples, from rare isolated ones to epsilon-contaminated noise
+//! (up to a fifth of the samples), one by one or in short runs.
+//!
+//! # Method
+//! - **Residual.** Each sample less the median of its eight neighbours (four each side, the sample itself left
+//!   out): drifts, steps and sinusoids slower than a few samples leave next to nothing, and a spike is not shrunk
+//!   by its own value. Eight neighbours keep the median close where spikes come in runs of up to three or are
+//!   dense (at a 20% contamination, four of eight neighbours are spikes in under 6% of windows). Two passes: the
+//!   second (where the magnitudes' centre stands [`SECOND_PASS_SIGMAS`] out) leaves the spikes the first flagged
+//!   out of the windows, so a spike's partner in its run does not pull
+//!   the median (in runs of two at 6-13 sds it read the magnitudes 2% low, which the base N, fitted on what the
+//!   spikes leave of the Allan variance, took up as 8%). Samples whose window touches a gap are left out.
+//! - **Mixture.** The residuals' magnitudes are fitted by maximum likelihood as a Gaussian core plus spikes whose
+//!   magnitude is uniform on `centre +- spread` ([`mixture`]): the core's scale is read where the core dominates,
+//!   not inflated by the contamination as a MAD would be, and spikes too small to stand above any threshold are
+//!   counted in the share by their shape. The share, the centre and the spread are the model's `per_sample`,
+//!   `size_dps` and `spread_dps`: a spike adds its magnitude to the residual, so the law is read in deg/s.
+//! - **Evidence.** A process is kept when twice the log-likelihood gained over the Gaussian alone exceeds
+//!   [`MIN_LR`], the centre stands at least [`MIN_CENTRE_SIGMAS`] core sds out (a light or slightly heavy core is
+//!   not a spike process), at least [`MIN_SPIKES`] residuals beyond [`TAIL_SIGMAS`] core sds are more than the
+//!   core explains, and the flagged spikes are not most of them within [`CLUSTER_SPAN`] of the record (what a burst
+//!   leaves is an event, not a steady process).
+//! - **Runs.** A residual is flagged where the spike component is the likelier (and beyond [`FLAG_SIGMAS`]).
+//!   Flagged pairs k samples apart with one sign come from a run or by chance; chance gives as many of opposite
+//!   signs. The same-sign excess over `n eps D^2` (D the chance that a spike is flagged, from the fitted law) is
+//!   `rho_k`, the probability that the sample k after a spike is of its run: the mean run length is
+//!   `1 / (1 - rho_1)`, and `rho_2 / rho_1` the probability that a run of two goes on (the two parameters of
+//!   [`Outliers`]' run law, which holds runs of one or two as well as geometric ones).
+//! - **Base terms.** The spikes' own Allan variance (autocovariance `eps E s^2` at lag 0, `eps centre^2 rho_k` at
+//!   lag k: runs share a sign) is taken off the OADEV and the base terms are re-fitted on what is left, each
+//!   point's degrees of freedom scaled by the share left squared (its sampling error is the whole variance's). The flagged spikes, replaced by their neighbours' median, are the realisation
+//!   the chain's later steps learn without.
 
-use super::params::{to_value, OutliersParams};
 use octavar_shared::sim::{GyroSim, Outliers};
 use std::sync::Arc;
 
 use super::common::*;
+use super::curve::{ar1_avar, base_columns, joint_fit, with_base_terms};
+use super::params::{to_value, OutliersParams};
 use super::{Effect, EffectFit, TrainingData};
 
-/// Sigmas beyond which an isolated sample is an outlier.
-pub(super) const OUTLIER_SIGMAS: f64 = 6.0;
+mod mixture;
+#[cfg(test)]
+mod tests;
+
+/// Neighbours each side of the median a residual is taken from.
+const HALF_WINDOW: usize = 4;
+
+/// Twice the log-likelihood a mixture must gain over the Gaussian core alone.
+const MIN_LR: f64 = 50.0;
+
+/// The magnitude law's centre must stand this many core sds out: a core a little lighter or heavier than a
+/// Gaussian fits as a "contamination" buried in it.
+const MIN_CENTRE_SIGMAS: f64 = 2.5;
+
+/// The tail where spikes must outnumber what the core explains, core sds.
+const TAIL_SIGMAS: f64 = 5.0;
 
 /// Fewest spikes that make a rate: two or three events are not a process.
 const MIN_SPIKES: usize = 5;
+
+/// The residuals are taken again without the flagged spikes in the windows when the magnitudes' centre stands
+/// this many core sds out.
+const SECOND_PASS_SIGMAS: f64 = 5.0;
+
+/// A residual is flagged as a spike only beyond this many core sds (and where the spike is the likelier).
+const FLAG_SIGMAS: f64 = 3.5;
 
 /// Spikes of a steady process are spread over the record: when more than half of them fall within this fraction
 /// of it, they are a cluster (what a burst leaves), not a rate. For five spikes at uniform times, three or more
 /// within a fiftieth of the record happen about once in a hundred records.
 const CLUSTER_SPAN: f64 = 0.02;
 
-/// The median of four: the mean of the middle two.
-pub(super) fn median4(mut v: [f64; 4]) -> f64 {
+/// The median of a few values (the mean of the middle two of an even count).
+fn median_small(v: &mut [f64]) -> f64 {
     v.sort_unstable_by(f64::total_cmp);
-    0.5 * (v[1] + v[2])
+    let k = v.len() / 2;
+    if v.len() % 2 == 0 {
+        0.5 * (v[k - 1] + v[k])
+    } else {
+        v[k]
+    }
 }
 
-/// Isolated spikes.
-///
-/// Method: the residual of each sample from the median of its four neighbours (two each side; a spike does not
-/// move a median and is not shrunk by its own sample in it; steps, drifts and sinusoids slower than a few
-/// samples leave no residual), its robust scale 1.4826 MAD (the mean absolute residual times 1.2533 when the MAD is 0 on coarse quantisation); a
-/// sample is a spike when its residual exceeds [`OUTLIER_SIGMAS`] scales while its neighbours' do not. A
-/// Gaussian record of 1e6 samples leaves about 0.002 such samples. Parameters: the fraction of samples and the
-/// median spike size. A process needs a rate: at least [`MIN_SPIKES`] spikes, not most of them within
-/// [`CLUSTER_SPAN`] of the record (a burst's remnant is an event, not a steady process). The base terms are re-fitted with the spikes replaced by their neighbours' median (the
-/// base N contained their white variance `p size^2`).
+/// Each sample less the median of its [`HALF_WINDOW`] neighbours each side, leaving out the neighbours marked in
+/// `skip` (spikes flagged by a first pass) while at least half of them remain; NaN at the ends and where the
+/// window touches a sample in `gap` (true: missing or masked).
+fn residuals(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Vec<f64> {
+    let n = x.len();
+    let h = HALF_WINDOW;
+    let mut r = vec![f64::NAN; n];
+    let mut prefix = vec![0usize; n + 1];
+    for i in 0..n {
+        prefix[i + 1] = prefix[i] + usize::from(gap[i]);
+    }
+    let mut w = [0.0; 2 * HALF_WINDOW];
+    for i in h..n.saturating_sub(h) {
+        if prefix[i + h + 1] - prefix[i - h] > 0 {
+            continue;
+        }
+        let neighbours = (i - h..i).chain(i + 1..=i + h);
+        let mut k = 0;
+        if let Some(skip) = skip {
+            for j in neighbours.clone().filter(|&j| !skip[j]) {
+                w[k] = x[j];
+                k += 1;
+            }
+        }
+        if k < h {
+            k = 0;
+            for j in neighbours {
+                w[k] = x[j];
+                k += 1;
+            }
+        }
+        r[i] = x[i] - median_small(&mut w[..k]);
+    }
+    r
+}
+
+/// What the estimator reads off a record: the fitted mixture, the spikes it flags, the run law.
+#[derive(Clone, Debug)]
+pub(super) struct Contamination {
+    /// The fitted core and magnitude law, in deg/s.
+    pub mix: mixture::Mixture,
+    /// Flagged samples and their residuals.
+    pub flagged: Vec<(usize, f64)>,
+    /// Probability that the sample after a spike is of its run (`rho_1`).
+    pub rho1: f64,
+    /// Probability that a run of two or more goes on (`rho_2 / rho_1`).
+    pub cont_next: f64,
+    /// Residuals beyond [`TAIL_SIGMAS`] core sds, and how many the core explains.
+    pub tail: (usize, f64),
+}
+
+impl Contamination {
+    /// Whether the evidence makes a spike process ([`MIN_LR`], [`MIN_CENTRE_SIGMAS`], [`MIN_SPIKES`] beyond
+    /// [`TAIL_SIGMAS`], not a cluster).
+    pub fn is_process(&self, n: usize) -> bool {
+        let m = &self.mix;
+        let excess = self.tail.0 as f64 - self.tail.1;
+        let hits: Vec<usize> = self.flagged.iter().map(|f| f.0).collect();
+        m.lr >= MIN_LR
+            && m.centre >= MIN_CENTRE_SIGMAS * m.sigma
+            && excess >= MIN_SPIKES as f64 + 3.0 * self.tail.1.sqrt()
+            && hits.len() >= MIN_SPIKES
+            && !clustered(&hits, n)
+    }
+
+    /// The mean run length, samples.
+    pub fn run_mean(&self) -> f64 {
+        1.0 / (1.0 - self.rho1)
+    }
+}
+
+/// Read the contamination of `x` (deg/s; `gap` marks missing or masked samples); `None` without a residual scale.
+pub(super) fn read(x: &[f64], gap: &[bool]) -> Option<Contamination> {
+    let first = read_with(x, gap, None)?;
+    // Spikes that stand clear of the core are flagged nearly all and nothing else; small dense ones are flagged
+    // in part and with the core's own extremes, and leaving those out would bend the core: one pass.
+    if first.mix.centre < SECOND_PASS_SIGMAS * first.mix.sigma {
+        return Some(first);
+    }
+    let mut skip = vec![false; x.len()];
+    for &(i, _) in &first.flagged {
+        skip[i] = true;
+    }
+    read_with(x, gap, Some(&skip))
+}
+
+/// One pass of [`read`]: the residuals (their windows without the samples in `skip`), the mixture, the flags.
+fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Option<Contamination> {
+    let r = residuals(x, gap, skip);
+    let mut valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+    if valid.len() < 64 {
+        return None;
+    }
+    let k = valid.len() / 2;
+    let med = *valid.select_nth_unstable_by(k, f64::total_cmp).1;
+    let abs: Vec<f64> = valid.iter().map(|v| (v - med).abs()).collect();
+    let mix = mixture::fit(&abs)?;
+    let n_valid = abs.len();
+    // Flag where the spike is the likelier, from FLAG_SIGMAS out.
+    let mut flag = FLAG_SIGMAS * mix.sigma;
+    while flag < 100.0 * mix.sigma && mix.spike_odds(flag) < 1.0 {
+        flag += 0.05 * mix.sigma;
+    }
+    let flagged: Vec<(usize, f64)> =
+        r.iter().enumerate().filter(|(_, v)| (**v - med).abs() > flag).map(|(i, v)| (i, v - med)).collect();
+    // Runs: flagged pairs k apart of one sign beyond those of opposite signs, against n eps D^2.
+    let d = mix.spike_sf(flag);
+    let pairs = n_valid as f64 * mix.eps * d * d;
+    let rho = |k: usize| {
+        let (mut same, mut opposite) = (0.0f64, 0.0f64);
+        for (j, &(i, v)) in flagged.iter().enumerate() {
+            for &(i2, v2) in flagged[j + 1..].iter().take_while(|f| f.0 <= i + k) {
+                if i2 == i + k {
+                    if v * v2 > 0.0 {
+                        same += 1.0;
+                    } else {
+                        opposite += 1.0;
+                    }
+                }
+            }
+        }
+        let significant = same - opposite > 3.0 * (same + opposite).sqrt() && pairs > 0.0;
+        if significant {
+            ((same - opposite) / pairs).clamp(0.0, 0.9)
+        } else {
+            0.0
+        }
+    };
+    let rho1 = rho(1);
+    let cont_next = if rho1 > 0.0 { (rho(2) / rho1).clamp(0.0, 0.9) } else { 0.0 };
+    let beyond = abs.iter().filter(|&&v| v > TAIL_SIGMAS * mix.sigma).count();
+    let expected = n_valid as f64 * (1.0 - mix.eps) * 2.0 * normal_sf(TAIL_SIGMAS);
+    Some(Contamination { mix, flagged, rho1, cont_next, tail: (beyond, expected) })
+}
+
+/// Spikes on a share of the samples ([module docs](self)).
 pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n = x.len();
-    let mut r = vec![0.0; n];
-    for i in 2..n - 2 {
-        r[i] = x[i] - median4([x[i - 2], x[i - 1], x[i + 1], x[i + 2]]);
+    let mut gap = vec![false; n];
+    for g in d.gaps {
+        for v in &mut gap[g.start.min(n)..g.end.min(n)] {
+            *v = true;
+        }
     }
-    let abs: Vec<f64> = r[2..n - 2].iter().map(|v| v.abs()).collect();
-    let mut scale = 1.4826 * median(&abs);
-    if !(scale > 0.0) {
-        scale = 1.2533 * mean(&abs);
-    }
-    if !(scale > 0.0) {
+    let c = read(x, &gap)?;
+    if !c.is_process(n) {
         return None;
     }
-    let thr = OUTLIER_SIGMAS * scale;
-    let big = |i: usize| r[i].abs() > thr;
-    let hits: Vec<usize> = (3..n - 3).filter(|&i| big(i) && !big(i - 1) && !big(i + 1)).collect();
-    if hits.len() < MIN_SPIKES || clustered(&hits, n) {
-        return None;
-    }
-    let sizes: Vec<f64> = hits.iter().map(|&i| r[i].abs()).collect();
-    let size = median(&sizes);
-    let p = hits.len() as f64 / (n - 6) as f64;
-    let rate_hz = d.rate_hz;
-    // The base terms re-fitted with the spikes replaced by their neighbours' median (they added white variance).
+    let m = c.mix;
+    let run_mean = c.run_mean();
+    let spikes = Outliers {
+        per_sample: m.eps,
+        size_dps: m.centre,
+        spread_dps: m.spread,
+        run_mean: if c.rho1 > 0.0 { run_mean } else { 0.0 },
+        run_continue: c.cont_next,
+        ..Default::default()
+    };
+    let refit = refit_without(d, &spikes);
     let mut cleaned = x.to_vec();
-    for &i in &hits {
-        cleaned[i] = x[i] - r[i];
+    for &(i, r) in &c.flagged {
+        cleaned[i] = x[i] - r;
     }
-    let refit = refit_base(d.base, d.gaps, &cleaned, rate_hz).map_or_else(|| d.base.clone(), |r| r.0);
-    let gyro = GyroSim { outliers: Some(Outliers { per_sample: p, size_dps: size, size_sigma: 0.0 }), ..refit };
     Some(EffectFit {
         effect: Effect::Outliers,
-        params: to_value(&OutliersParams { per_sample: p, size_dps: size, count: hits.len(), robust_sigma_dps: scale }),
-        n_params: 2,
-        gyro,
+        params: to_value(&OutliersParams {
+            per_sample: m.eps,
+            size_dps: m.centre,
+            spread_dps: m.spread,
+            run_mean,
+            run_continue: c.cont_next,
+            count: c.flagged.len(),
+            robust_sigma_dps: m.sigma,
+        }),
+        n_params: 3 + usize::from(c.rho1 > 0.0) + usize::from(c.cont_next > 0.0),
+        gyro: GyroSim { outliers: Some(spikes), ..refit },
         channel: None,
         spread: None,
         cleaned: Some(Arc::new(cleaned)),
     })
+}
+
+/// The Allan variance of the spike process of `o` at `m` samples, from its autocovariance: `R0 = eps E s^2` and
+/// `R_k = R1 c2^(k-1)`, `R1 = eps centre^2 (1 - 1 / run_mean)` (a run's spikes share a sign). With `c2 > 0` that is
+/// white `R0 - R1 / c2` plus an AR(1) of pole c2 and variance `R1 / c2`; with `c2 = 0`, `(R0 + 2 R1) / m - 3 R1 / m^2`.
+fn spike_avar(o: &Outliers, m: f64) -> f64 {
+    let (c, w) = (o.size_dps, o.spread_dps);
+    let r0 = o.per_sample * (c * c + w * w / 3.0);
+    let r1 = o.per_sample * c * c * (1.0 - 1.0 / o.run_mean.max(1.0));
+    let c2 = o.run_continue;
+    if c2 > 1e-9 {
+        (r0 - r1 / c2) / m + r1 / c2 * ar1_avar(c2, m)
+    } else {
+        (r0 + 2.0 * r1) / m - 3.0 * r1 / (m * m)
+    }
+}
+
+/// The base terms re-fitted on the OADEV less the spikes' Allan variance (no ramp the base fit did not have);
+/// each point's EDF is scaled by the share left squared, since its sampling error is the whole variance's.
+fn refit_without(d: &TrainingData, o: &Outliers) -> GyroSim {
+    let rate_hz = d.rate_hz;
+    let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz)
+        .into_iter()
+        .filter_map(|mut p| {
+            let own = spike_avar(o, p.tau_s * rate_hz);
+            let left = (p.avar - own) / p.avar;
+            (left > 0.02).then(|| {
+                p.avar -= own;
+                p.edf *= left * left;
+                p
+            })
+        })
+        .collect();
+    if pts.len() < 3 {
+        return d.base.clone();
+    }
+    let mut cols = base_columns(&pts, rate_hz, d.base.bandwidth_hz, d.base.q_deg > 0.0);
+    if d.base.r_dps_per_s == 0.0 {
+        cols[3].iter_mut().for_each(|v| *v = 0.0);
+    }
+    match joint_fit(&pts, &cols) {
+        Some(j) => with_base_terms(d.base, &j.theta),
+        None => d.base.clone(),
+    }
 }
 
 /// Whether more than half of the spikes at sample indices `hits` (sorted) lie within [`CLUSTER_SPAN`] of a record
@@ -83,19 +315,4 @@ fn clustered(hits: &[usize], n: usize) -> bool {
     let span = (CLUSTER_SPAN * n as f64) as usize;
     let need = hits.len() / 2 + 1;
     hits.windows(need).any(|w| w[need - 1] - w[0] <= span)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn spikes_most_of_them_in_one_place_are_a_cluster() {
-        let n = 100_000;
-        // Five spread over the record: a rate. Three of five within 1% of it: a cluster.
-        assert!(!clustered(&[1_000, 21_000, 41_000, 61_000, 81_000], n));
-        assert!(clustered(&[1_000, 50_000, 50_400, 50_900, 81_000], n));
-        // Half of them (two of four) is not more than half.
-        assert!(!clustered(&[1_000, 50_000, 50_400, 81_000], n));
-    }
 }

@@ -55,11 +55,15 @@ pub struct GaussMarkovParams {
     pub delta_chi2: f64,
 }
 
-/// Outliers: isolated spikes.
+/// Outliers: spikes on a share of the samples, magnitudes uniform on `size_dps +- spread_dps`, in runs of mean
+/// length `run_mean` (a run of two goes on with probability `run_continue`); `robust_sigma_dps` is the residual's Gaussian core sd, `count` the spikes flagged.
 #[derive(Debug, Serialize)]
 pub struct OutliersParams {
     pub per_sample: f64,
     pub size_dps: f64,
+    pub spread_dps: f64,
+    pub run_mean: f64,
+    pub run_continue: f64,
     pub count: usize,
     pub robust_sigma_dps: f64,
 }
@@ -166,8 +170,19 @@ mod tests {
             threshold_dps: 0.05,
         };
         assert_eq!(keys(&to_value(&steps)), ["at_s", "count", "per_hour", "sigma_dps", "sizes_dps", "threshold_dps"]);
-        let o = to_value(&OutliersParams { per_sample: 1e-4, size_dps: 1.0, count: 3, robust_sigma_dps: 0.1 });
-        assert_eq!(keys(&o), ["count", "per_sample", "robust_sigma_dps", "size_dps"]);
+        let o = OutliersParams {
+            per_sample: 1e-4,
+            size_dps: 1.0,
+            spread_dps: 0.2,
+            run_mean: 1.0,
+            run_continue: 0.0,
+            count: 3,
+            robust_sigma_dps: 0.1,
+        };
+        assert_eq!(
+            keys(&to_value(&o)),
+            ["count", "per_sample", "robust_sigma_dps", "run_continue", "run_mean", "size_dps", "spread_dps"]
+        );
         let r = ResonanceParams {
             sigma_dps: 1.0,
             freq_hz: 1.0,

@@ -427,7 +427,10 @@ fn bias_step_scan_holds_its_threshold_on_noise() {
 #[test]
 fn outliers_recovered() {
     let rate_hz: f64 = 100.0;
-    let m = GyroSim { outliers: Some(Outliers { per_sample: 1e-4, size_dps: 0.0, size_sigma: 10.0 }), ..base_model() };
+    let m = GyroSim {
+        outliers: Some(Outliers { per_sample: 1e-4, size_sigma: 10.0, ..Default::default() }),
+        ..base_model()
+    };
     let (x, _) = simulate(&m, rate_hz, 1_000_000, 10, None);
     let e = run(Effect::Outliers, &x, None, rate_hz).unwrap();
     let o = e.gyro.outliers.unwrap();
