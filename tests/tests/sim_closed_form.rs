@@ -500,7 +500,7 @@ fn mean_and_se(y: &[f64], run_mean: f64, f: impl Fn(f64) -> f64) -> (f64, f64) {
 #[test]
 fn sim_contamination_matches_the_mixtures_closed_form() {
     // Runs of mean 2.5, each spike after the second continuing with probability 0.4: rho_1 = 0.6, rho_2 = 0.24.
-    let (f, c, w, run_mean, run_continue) = (0.1, 6.0, 3.0, 2.5, 0.4);
+    let (f, c, w, run_mean, run_continue): (f64, f64, f64, f64, f64) = (0.1, 6.0, 3.0, 2.5, 0.4);
     let rho = |k: i32| (1.0 - 1.0 / run_mean) * run_continue.powi(k - 1);
     let spikes = Outliers { per_sample: f, size_dps: c, spread_dps: w, run_mean, run_continue, ..Default::default() };
     let model = GyroSim { outliers: Some(spikes), ..Default::default() };

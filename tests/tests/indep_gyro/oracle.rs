@@ -14,12 +14,24 @@ use octavar_shared::sim::{
 use super::{BenchTemperature, Contamination, IndepGyro};
 use crate::util::coarse_channel;
 
-/// shared::sim's outliers for a contamination: the same share of samples carrying a spike, of the same mean
-/// square size (so the same added variance); runs and the spread of sizes are lost.
+/// shared::sim's outliers for a contamination: the same share of samples carrying a spike, the same uniform law
+/// of sizes, and runs of the same chance to reach two and three samples (shared::sim's lengths have a geometric
+/// tail where this generator stops at three, a share of 1 run in 21 of four samples or more).
 pub fn outliers(c: &Contamination) -> Outliers {
     let [lo, hi] = c.size_sigma;
-    let mean_square = (lo * lo + lo * hi + hi * hi) / 3.0;
-    Outliers { per_sample: c.per_sample, size_dps: 0.0, size_sigma: mean_square.sqrt() }
+    // Runs of 1, 2, 3 samples weigh 4, 2, 1 up to the longest.
+    let weights: Vec<f64> = [4.0, 2.0, 1.0].into_iter().take(c.longest_run.clamp(1, 3)).collect();
+    let total: f64 = weights.iter().sum();
+    let c1 = weights[1..].iter().sum::<f64>() / total;
+    let c2 = if weights.len() == 3 { weights[2] / (weights[1] + weights[2]) } else { 0.0 };
+    Outliers {
+        per_sample: c.per_sample,
+        size_sigma: 0.5 * (lo + hi),
+        spread_sigma: 0.5 * (hi - lo),
+        run_mean: 1.0 + c1 / (1.0 - c2),
+        run_continue: c2,
+        ..Default::default()
+    }
 }
 
 /// shared::sim's profile for a bench temperature: the same mid, swing, period, phase and wander; no harmonic.
