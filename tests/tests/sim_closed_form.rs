@@ -617,5 +617,6 @@ fn sim_state_is_constant_memory() {
     let bench = std::mem::size_of::<Bench>();
     println!("size_of VirtualGyro = {gyro} B, Bench (8 channels) = {bench} B");
     assert!(gyro <= 1152, "VirtualGyro is {gyro} B");
-    assert!(bench <= 10 * 1024, "Bench is {bench} B");
+    // About 1.3 KiB a channel: each carries its model (the outliers' mixture of sizes and runs included).
+    assert!(bench <= 11 * 1024, "Bench is {bench} B");
 }

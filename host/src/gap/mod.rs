@@ -21,7 +21,9 @@
 //!    the base gap is not significant.
 //! 7. **The chain** ([`chain`]): while a significant gap remains, the remaining candidates are ranked again on the
 //!    model that already has the effects found, and the best is added when it removes a quarter of the gap's
-//!    excess over what a right model leaves ([`rank::explains`]).
+//!    excess over what a right model leaves ([`rank::explains`]), or the best pair when no single one does. Where
+//!    the views name nothing, an effect whose own estimator's test passes its calibrated threshold is added
+//!    ([`evidence`]): a warm-up over the first minutes, a small coupling beside a larger effect.
 //! 8. **Holdout** ([`holdout`] for the predictive check): every parameter frozen from training, the gap on the
 //!    holdout before and after each step and for the whole chain.
 //! 9. **What is left** ([`describe`]): a significant gap that no candidate explains is described by its view,
@@ -31,7 +33,8 @@
 //!
 //! Imports run one way: `fill` imports nothing; `input`, `error`, `spectral` and `base` import nothing of the diagnosis but each other;
 //! `views` the spectral tools; `compare` the views; `ensemble` and `judge` those; `rank` the comparison and the
-//! judge; `chain`, `describe` and `holdout` the ranking; `report` all of these; `diagnose` everything.
+//! judge; `evidence` the ranking and the effects; `chain` the evidence and the ranking; `describe` and `holdout`
+//! the ranking; `report` all of these; `diagnose` everything.
 //!
 //! # Examples
 //! ```
