@@ -379,6 +379,8 @@ fn guard() {
     assert!(fails.is_empty(), "{fails:?}");
 }
 
+/// The cheap cases' seed: a record of 0.29e6 samples at 8.7 Hz (34 h), a short one of the sweep's range.
+const CHEAP_SEED: u64 = 2;
 /// Single-effect cases of seed 0 (of 10) each generator must pass in the guard.
 const GUARD_SINGLES: usize = 8;
 /// Controls of seed 0 (of 3) each generator must pass in the guard.
@@ -387,7 +389,7 @@ const GUARD_CONTROLS: usize = 3;
 /// One single-effect case that passes on shared::sim's record, in every `cargo test`.
 #[test]
 fn a_case_from_shared_sim() {
-    let row = run_case(Gen::Sim, &Kind::Effects(vec![Effect::GaussMarkov]), 1);
+    let row = run_case(Gen::Sim, &Kind::Effects(vec![Effect::GaussMarkov]), CHEAP_SEED);
     log_row(&row);
     assert!(row.pass, "{row:?}");
 }
@@ -395,7 +397,7 @@ fn a_case_from_shared_sim() {
 /// One single-effect case that passes on the independent generator's record, in every `cargo test`.
 #[test]
 fn a_case_from_the_independent_generator() {
-    let row = run_case(Gen::Indep, &Kind::Effects(vec![Effect::GaussMarkov]), 1);
+    let row = run_case(Gen::Indep, &Kind::Effects(vec![Effect::GaussMarkov]), CHEAP_SEED);
     log_row(&row);
     assert!(row.pass, "{row:?}");
 }

@@ -324,3 +324,20 @@ pub(super) fn with_base_terms(base: &GyroSim, theta: &[f64]) -> GyroSim {
 /// Minimum log-domain chi-square improvement for an effect fitted on the OADEV curve to count (the model-error
 /// floor of 3% already keeps the first octaves from dominating).
 pub(super) const CURVE_DELTA_CHI2: f64 = 30.0;
+
+/// `base` with its IEEE terms re-fitted jointly on the OADEV points `pts` (a component's own Allan variance
+/// already taken out of them), with no ramp the base fit did not have (an all-zero column is never used); `base`
+/// as it is when fewer than three points are left or the fit fails.
+pub(super) fn refit_base_terms(base: &GyroSim, pts: &[FitPoint], rate_hz: f64) -> GyroSim {
+    if pts.len() < 3 {
+        return base.clone();
+    }
+    let mut cols = base_columns(pts, rate_hz, base.bandwidth_hz, base.q_deg > 0.0);
+    if base.r_dps_per_s == 0.0 {
+        cols[3].iter_mut().for_each(|v| *v = 0.0);
+    }
+    match joint_fit(pts, &cols) {
+        Some(j) => with_base_terms(base, &j.theta),
+        None => base.clone(),
+    }
+}

@@ -35,7 +35,7 @@ use octavar_shared::sim::{GyroSim, Outliers};
 use std::sync::Arc;
 
 use super::common::*;
-use super::curve::{ar1_avar, base_columns, joint_fit, with_base_terms};
+use super::curve::{ar1_avar, refit_base_terms};
 use super::params::{to_value, OutliersParams};
 use super::{Effect, EffectFit, TrainingData};
 
@@ -296,17 +296,7 @@ fn refit_without(d: &TrainingData, o: &Outliers) -> GyroSim {
             })
         })
         .collect();
-    if pts.len() < 3 {
-        return d.base.clone();
-    }
-    let mut cols = base_columns(&pts, rate_hz, d.base.bandwidth_hz, d.base.q_deg > 0.0);
-    if d.base.r_dps_per_s == 0.0 {
-        cols[3].iter_mut().for_each(|v| *v = 0.0);
-    }
-    match joint_fit(&pts, &cols) {
-        Some(j) => with_base_terms(d.base, &j.theta),
-        None => d.base.clone(),
-    }
+    refit_base_terms(d.base, &pts, rate_hz)
 }
 
 /// Whether more than half of the spikes at sample indices `hits` (sorted) lie within [`CLUSTER_SPAN`] of a record

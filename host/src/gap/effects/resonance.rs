@@ -468,16 +468,5 @@ fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim 
             })
         })
         .collect();
-    if pts.len() < 3 {
-        return d.base.clone();
-    }
-    let mut cols = base_columns(&pts, rate_hz, d.base.bandwidth_hz, d.base.q_deg > 0.0);
-    // No ramp the base fit did not have (as `refit_base`): an all-zero column is never used.
-    if d.base.r_dps_per_s == 0.0 {
-        cols[3].iter_mut().for_each(|v| *v = 0.0);
-    }
-    match joint_fit(&pts, &cols) {
-        Some(j) => with_base_terms(d.base, &j.theta),
-        None => d.base.clone(),
-    }
+    refit_base_terms(d.base, &pts, rate_hz)
 }
