@@ -75,7 +75,7 @@ const CLUSTER_SPAN: f64 = 0.02;
 fn median_small(v: &mut [f64]) -> f64 {
     v.sort_unstable_by(f64::total_cmp);
     let k = v.len() / 2;
-    if v.len() % 2 == 0 {
+    if v.len().is_multiple_of(2) {
         0.5 * (v[k - 1] + v[k])
     } else {
         v[k]

@@ -220,7 +220,7 @@ fn a_contaminated_record_is_diagnosed_outliers() {
     };
     let (before, after) = (dist(&r.base_eval.training), dist(&r.final_eval().training));
     let (h_before, h_after) = (dist(&r.base_eval.holdout), dist(&r.final_eval().holdout));
-    let total = r.holdout_total.clone().unwrap();
+    let total = r.holdout_total.unwrap();
     eprintln!(
         "distribution training {before:.2} -> {after:.2}, holdout {h_before:.2} -> {h_after:.2}; holdout total {:.2} -> {:.2}",
         total.gap_before, total.gap_after
