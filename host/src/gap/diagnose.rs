@@ -109,7 +109,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, report_progress: &ProgressF
             let chain_views = match steps.last() {
                 Some(last) => {
                     let effects: Vec<Effect> = steps.iter().map(|s| s.effect).collect();
-                    let rounds: Vec<bool> = steps.iter().map(|s| s.backfitted).collect();
+                    let rounds: Vec<_> = steps.iter().map(|s| s.rounds()).collect();
                     let explained = ensemble::temperature_response(&model.gyro, &rec);
                     let resp_hold = explained.as_deref().map(|r| &r[n_train..]);
                     let relearn = |t: &[f64]| learner.with_chain(&effects, &rounds, t);

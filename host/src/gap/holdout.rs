@@ -48,7 +48,12 @@ impl Learner<'_> {
 
     /// The model with the chain `effects` learnt from `train` as the diagnosis learns it ([`chain::learn`]; an
     /// effect whose estimator finds no trace is left out), and its channel.
-    pub fn with_chain(&self, effects: &[Effect], rounds: &[bool], train: &[f64]) -> (GyroSim, Option<Channel>) {
+    pub fn with_chain(
+        &self,
+        effects: &[Effect],
+        rounds: &[chain::Rounds],
+        train: &[f64],
+    ) -> (GyroSim, Option<Channel>) {
         let (f, base) = self.base(train);
         let start = Model { gyro: base, spreads: Vec::new(), channel: self.channel };
         let m = chain::learn(effects, rounds, &start, &f, train, self.temp_c, self.rate_hz);

@@ -37,7 +37,8 @@
 //!
 //! Running it (`SWEEP_SEEDS=a..b`, `SWEEP_KINDS` a comma list of kinds such as `temperature`,
 //! `bandwidth+resonance`, `none+bump`, or of groups `singles`, `pairs`, `pairs:K` (K pairs evenly spread),
-//! `triples`, `triples:K`, `controls`, `all`; `SWEEP_GEN=sim|indep|both`; `SWEEP_OUT=file`):
+//! `triples`, `triples:K`, `controls`, `all`; `SWEEP_GEN=sim|indep|both`; `SWEEP_OUT=file`; `SWEEP_DUMP=folder` writes each case's record there as CSV, for
+//! `octavar gap` by hand):
 //!
 //! ```sh
 //! SWEEP_SEEDS=0..2 SWEEP_KINDS=singles,pairs:10 cargo test -p octavar-tests --release gap_sweep::sweep -- --ignored --nocapture
@@ -106,6 +107,9 @@ pub fn run_case(gen: Gen, kind: &Kind, seed: u64) -> Row {
     let t0 = Instant::now();
     let case = cases::draw(kind, seed);
     let (x, t) = case.record(gen, seed);
+    if let Some(dir) = std::env::var_os("SWEEP_DUMP") {
+        dump(&PathBuf::from(dir), gen, kind, seed, case.rate_hz, &x, t.as_deref());
+    }
     let input = GapInput::split(x, t, case.rate_hz, 0.5).unwrap();
     let r = diagnose(&input, &GapOptions::default(), &|_, _, _| {}).unwrap();
     let named: Vec<Effect> = r.effects();
@@ -137,6 +141,22 @@ pub fn run_case(gen: Gen, kind: &Kind, seed: u64) -> Row {
         samples: case.samples,
         what: case.what.clone(),
         secs: t0.elapsed().as_secs_f64(),
+    }
+}
+
+/// The record of a case as CSV (`rate_dps` and, where it has one, `temp_c`) in `dir`, named by generator, kind,
+/// seed and rate, so that `octavar gap` can be run on it by hand.
+fn dump(dir: &std::path::Path, gen: Gen, kind: &Kind, seed: u64, rate_hz: f64, x: &[f64], t: Option<&[f64]>) {
+    std::fs::create_dir_all(dir).expect("SWEEP_DUMP is a writable folder");
+    let path = dir.join(format!("{}-{}-{seed}-{rate_hz:.4}Hz.csv", gen.name(), kind.name()));
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&path).expect("the dump file opens"));
+    let header = if t.is_some() { "rate_dps,temp_c" } else { "rate_dps" };
+    writeln!(w, "{header}").unwrap();
+    for (i, v) in x.iter().enumerate() {
+        match t {
+            Some(t) => writeln!(w, "{v},{}", t[i]).unwrap(),
+            None => writeln!(w, "{v}").unwrap(),
+        }
     }
 }
 

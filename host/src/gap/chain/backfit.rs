@@ -6,7 +6,8 @@ use std::ops::Range;
 use octavar_shared::sim::GyroSim;
 
 use super::data::StepData;
-use super::model::Model;
+use super::joint;
+use super::model::{Model, Rounds};
 use crate::fit::NoiseFit;
 use crate::gap::effects::{self, Effect, EffectFit};
 use crate::gap::fill::{fill_gaps, gap_runs};
@@ -54,7 +55,9 @@ pub fn backfit(
             }
             let Some(rest) = without(&gyro, fit.effect) else { continue };
             let data = StepData::new(&rest, series, gaps, temp_c, rate_hz, base_fit, false);
-            if let Some(f) = effects::estimate(fit.effect, &data.training(&rest, temp_c, rate_hz)) {
+            if let Some(f) =
+                effects::estimate(fit.effect, &data.training(&rest, model.channel.as_ref(), temp_c, rate_hz))
+            {
                 gyro = f.gyro.clone();
                 refits[i] = Some(f);
             }
@@ -67,11 +70,12 @@ pub fn backfit(
 
 /// The chain `effects` learnt from the training samples `training` (gaps as NaN) as the diagnosis learns it, step by
 /// step from the base model `base` (fitted as `base_fit`), each step from the samples less what the steps before
-/// recovered ([`StepData::take_out`]), with a backfitting round ([`backfit`]) after step `k` where `rounds[k]`, as
-/// the diagnosis did; an effect whose estimator finds no trace is skipped.
+/// recovered ([`StepData::take_out`]), with a backfitting round ([`backfit`]) and a joint re-estimation
+/// ([`joint::reestimate`]) after step `k` where `rounds[k]` says the diagnosis kept them; an effect whose
+/// estimator finds no trace is skipped.
 pub fn learn(
     effects: &[Effect],
-    rounds: &[bool],
+    rounds: &[Rounds],
     base: &Model,
     base_fit: &NoiseFit,
     training: &[f64],
@@ -84,12 +88,14 @@ pub fn learn(
     let mut fits = Vec::new();
     for (k, &effect) in effects.iter().enumerate() {
         let data = StepData::new(&model.gyro, &series, &gaps, temp_c, rate_hz, base_fit, k == 0);
-        if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, temp_c, rate_hz)) {
+        if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, model.channel.as_ref(), temp_c, rate_hz))
+        {
             data.take_out(&mut series, &f);
             model = model.with(&f);
             fits.push(f);
         }
-        if rounds.get(k).copied().unwrap_or(false) {
+        let round = rounds.get(k).copied().unwrap_or_default();
+        if round.backfit {
             let all: Vec<&EffectFit> = fits.iter().collect();
             let (m, refits) = backfit(&model, &all, &series, &gaps, temp_c, rate_hz, base_fit);
             for (f, r) in fits.iter_mut().zip(refits) {
@@ -98,6 +104,11 @@ pub fn learn(
                 }
             }
             model = m;
+        }
+        if round.joint {
+            if let Some(m) = joint::reestimate(&model, &series, &gaps, temp_c, rate_hz) {
+                model = m;
+            }
         }
     }
     model

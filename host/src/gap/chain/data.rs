@@ -3,6 +3,7 @@
 
 use std::ops::Range;
 
+use octavar_shared::sensor::Channel;
 use octavar_shared::sim::effects::{Sinusoids, WarmUp};
 use octavar_shared::sim::noise::LowPass;
 use octavar_shared::sim::temperature::ThermalLag;
@@ -104,9 +105,16 @@ impl StepData {
         })
     }
 
-    /// The estimators' view of it, on `model`.
-    pub fn training<'a>(&'a self, model: &'a GyroSim, temp_c: Option<&'a [f64]>, rate_hz: f64) -> TrainingData<'a> {
+    /// The estimators' view of it, on `model` with its ADC `channel` (`None`: the analog rate).
+    pub fn training<'a>(
+        &'a self,
+        model: &'a GyroSim,
+        channel: Option<&Channel>,
+        temp_c: Option<&'a [f64]>,
+        rate_hz: f64,
+    ) -> TrainingData<'a> {
         TrainingData {
+            lattice_dps: channel.map(Channel::dps_per_code),
             rate_dps: &self.rate_dps,
             temp_c,
             rate_hz,

@@ -29,15 +29,21 @@
 //! a later step's candidate explains too little on the chain as found, and once over the whole chain, keeping it
 //! where the fit improves, and [`learn`] repeats it where the diagnosis did.
 //!
-//! `model` holds the types, `data` what a step learns from, `backfit` the re-estimation and `search` the steps.
+//! After every step the base terms and every effect so far are also re-estimated together ([`joint`]): the
+//! deterministic effects by least squares in the time domain, the stochastic ones with the base terms on the
+//! Allan curve, GMWM-style. The round is kept where the views find the model no worse.
+//!
+//! `model` holds the types, `data` what a step learns from, `backfit` the re-estimation of one effect at a time,
+//! `joint` the joint one and `search` the steps.
 
 mod backfit;
 mod data;
+pub mod joint;
 mod model;
 mod search;
 
 pub use backfit::{backfit, learn, without};
 pub use data::{deterministic_part, StepData};
-pub use model::{Model, NamedBy, Step, MAX_STEPS};
+pub use model::{Model, NamedBy, Rounds, Step, MAX_STEPS};
 pub use search::ProgressFn;
 pub(crate) use search::{search, Found, Progress};

@@ -68,6 +68,25 @@ pub struct Step {
     pub refit: Option<EffectFit>,
     /// Whether a backfitting round followed this step (the re-learning on other data repeats it).
     pub backfitted: bool,
+    /// Whether a joint re-estimation of the base terms and every effect so far followed this step and was kept
+    /// ([`super::joint`]; the re-learning on other data repeats it).
+    pub joint: bool,
+}
+
+/// The rounds that followed a step, which a chain learnt again on other data repeats ([`super::learn`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Rounds {
+    /// A backfitting round ([`super::backfit`]).
+    pub backfit: bool,
+    /// A joint re-estimation ([`super::joint::reestimate`]).
+    pub joint: bool,
+}
+
+impl Step {
+    /// The rounds that followed this step.
+    pub fn rounds(&self) -> Rounds {
+        Rounds { backfit: self.backfitted, joint: self.joint }
+    }
 }
 
 impl Step {

@@ -7,6 +7,7 @@ use rayon::prelude::*;
 
 use super::backfit::backfit;
 use super::data::StepData;
+use super::joint;
 use super::model::{Model, NamedBy, Step, MAX_STEPS};
 use crate::fit::NoiseFit;
 use crate::gap::effects::{self, Effect, EffectFit};
@@ -141,6 +142,7 @@ pub(crate) fn search<'p>(
             }
             if significant && s.view_step(&data, &mut candidates, &location, first)? {
                 last_tried.clear();
+                s.joint_round()?;
                 continue;
             }
             if !first {
@@ -150,6 +152,7 @@ pub(crate) fn search<'p>(
         // The estimators' route.
         if s.evidence_step(&remaining, &data, candidates, &location, first.then_some(&mut first_candidates))? {
             last_tried.clear();
+            s.joint_round()?;
             continue;
         }
         break;
@@ -186,7 +189,7 @@ impl Search<'_, '_> {
         if !self.steps.is_empty() {
             self.progress.expect("chain", remaining.len());
         }
-        let training = data.training(&self.model.gyro, self.temp, self.rate_hz);
+        let training = data.training(&self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
         let fits: Vec<(Effect, Option<EffectFit>)> =
             remaining.par_iter().map(|&e| (e, effects::estimate(e, &training))).collect();
         let mut candidates = Vec::with_capacity(fits.len());
@@ -295,7 +298,7 @@ impl Search<'_, '_> {
             let known_a = self.known_with(data, a);
             let data_a =
                 StepData::new(&with_a.gyro, &series_a, &self.gaps, self.temp, self.rate_hz, self.base_fit, false);
-            let training_a = data_a.training(&with_a.gyro, self.temp, self.rate_hz);
+            let training_a = data_a.training(&with_a.gyro, with_a.channel.as_ref(), self.temp, self.rate_hz);
             for &j in &pool[k + 1..] {
                 let Some(b) = effects::estimate(candidates[j].effect, &training_a) else { continue };
                 let m = with_a.with(&b);
@@ -334,7 +337,7 @@ impl Search<'_, '_> {
         location: &Location,
         first_candidates: Option<&mut Vec<CandidateResult>>,
     ) -> Result<bool, GapError> {
-        let training = data.training(&self.model.gyro, self.temp, self.rate_hz);
+        let training = data.training(&self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
         let Some(fit) = evidence::strongest(remaining, &candidates, &training) else { return Ok(false) };
         let Some(ev) = evidence::of(&fit) else { return Ok(false) };
         let m = self.model.with(&fit);
@@ -397,8 +400,32 @@ impl Search<'_, '_> {
             candidates,
             refit: None,
             backfitted: false,
+            joint: false,
         });
         self.eval = after;
+    }
+
+    /// A joint re-estimation of the model after a step ([`joint::reestimate`]): the base terms and every effect so
+    /// far fitted together on the training samples less the recovered realisations, kept when the views find the
+    /// model no worse; each step's parameters are then read from it.
+    fn joint_round(&mut self) -> Result<(), GapError> {
+        let Some(m) = joint::reestimate(&self.model, &self.series, &self.gaps, self.temp, self.rate_hz) else {
+            return Ok(());
+        };
+        self.progress.expect("joint", 1);
+        let realised = self.realised.clone();
+        let after = self.evaluate(&m, realised.as_deref(), "joint")?;
+        if rank::total_of(&after.training) <= rank::total_of(&self.eval.training) {
+            for s in self.steps.iter_mut() {
+                s.refit = Some(s.final_fit().reestimated(&m.gyro));
+            }
+            if let Some(last) = self.steps.last_mut() {
+                last.joint = true;
+            }
+            self.model = m;
+            self.eval = after;
+        }
+        Ok(())
     }
 
     /// A backfitting round over a chain of two or more whose last step had none: kept when the final model's

@@ -26,7 +26,7 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     }
     let with_q = d.base.q_deg > 0.0;
     let score = |f: Option<f64>| {
-        let pts = less_known(&raw, d.base, f, rate_hz);
+        let pts = less_known(&raw, d.base, f, rate_hz, d.lattice_dps);
         joint_fit(&pts, &base_columns(&pts, rate_hz, f, with_q))
     };
     let plain = score(None)?;

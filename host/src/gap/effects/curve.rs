@@ -179,11 +179,28 @@ pub(super) fn known_avar(model: &GyroSim, f3db_hz: Option<f64>, tau: f64, rate_h
 }
 
 /// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`], through the bandwidth
-/// `f3db_hz`), each point kept at no less than a tenth of its own value (the rest is what the fit has to explain).
-pub(super) fn less_known(pts: &[FitPoint], model: &GyroSim, f3db_hz: Option<f64>, rate_hz: f64) -> Vec<FitPoint> {
+/// `f3db_hz`) and of the quantisation noise of an ADC lattice of step `lattice_dps` ([`lattice_avar`]), each point
+/// kept at no less than a tenth of its own value (the rest is what the fit has to explain).
+pub(super) fn less_known(
+    pts: &[FitPoint],
+    model: &GyroSim,
+    f3db_hz: Option<f64>,
+    rate_hz: f64,
+    lattice_dps: Option<f64>,
+) -> Vec<FitPoint> {
     pts.iter()
-        .map(|p| FitPoint { avar: (p.avar - known_avar(model, f3db_hz, p.tau_s, rate_hz)).max(0.1 * p.avar), ..*p })
+        .map(|p| {
+            let known = known_avar(model, f3db_hz, p.tau_s, rate_hz) + lattice_avar(lattice_dps, p.tau_s, rate_hz);
+            FitPoint { avar: (p.avar - known).max(0.1 * p.avar), ..*p }
+        })
         .collect()
+}
+
+/// The Allan variance at `tau` of the quantisation noise of an ADC lattice of step `lattice_dps` (`None`: none):
+/// white, `step^2 / 12` per sample (the noise spans several steps; below one step it is not white, and the
+/// quantisation estimator handles it), so `step^2 / 12 / m` at `m = tau rate_hz` samples.
+pub(super) fn lattice_avar(lattice_dps: Option<f64>, tau: f64, rate_hz: f64) -> f64 {
+    lattice_dps.map_or(0.0, |q| q * q / 12.0 / (tau * rate_hz).max(1.0))
 }
 
 /// Allan variance of white rate noise of unit N (per-sample variance rate_hz) through the sampled first-order
@@ -211,6 +228,12 @@ pub(super) struct Joint {
 pub(super) const MODEL_ERROR2: f64 = 0.03 * 0.03;
 
 pub(super) fn joint_fit(pts: &[FitPoint], cols: &[Vec<f64>]) -> Option<Joint> {
+    joint_fit_keeping(pts, cols, 0)
+}
+
+/// [`joint_fit`] over the subsets of columns that hold every column of the bit mask `keep` (a joint
+/// re-estimation keeps the effects the chain named, however small the curve finds them).
+pub(super) fn joint_fit_keeping(pts: &[FitPoint], cols: &[Vec<f64>], keep: u32) -> Option<Joint> {
     let p = cols.len();
     let np = pts.len();
     if np < 2 || p == 0 {
@@ -221,7 +244,7 @@ pub(super) fn joint_fit(pts: &[FitPoint], cols: &[Vec<f64>]) -> Option<Joint> {
     let mut best: Option<Vec<f64>> = None;
     for _ in 0..5 {
         let mut round: Option<(f64, Vec<f64>)> = None;
-        for mask in 1u32..(1 << p) {
+        for mask in (1u32..(1 << p)).filter(|m| m & keep == keep) {
             let act: Vec<usize> = (0..p).filter(|j| mask & (1 << j) != 0).collect();
             if act.len() > np {
                 continue;

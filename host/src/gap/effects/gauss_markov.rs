@@ -22,7 +22,7 @@ pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
     let tau0 = 1.0 / rate_hz;
     let bw = d.base.bandwidth_hz;
     // A resonance or a bistable bias the model already has is not this process (a later step of the chain).
-    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, rate_hz), d.base, bw, rate_hz);
+    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, rate_hz), d.base, bw, rate_hz, d.lattice_dps);
     if pts.len() < 6 {
         return None;
     }

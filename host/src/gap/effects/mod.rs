@@ -42,6 +42,7 @@ mod bistable;
 mod common;
 mod curve;
 mod gauss_markov;
+pub mod joint_curve;
 mod outliers;
 pub mod params;
 mod quantization;
@@ -139,6 +140,10 @@ pub struct TrainingData<'a> {
     /// ([`crate::gap::fill::gap_runs`]). The base terms are re-fitted with them as gaps, and an estimator that
     /// takes a component out fills them again from what it leaves ([`crate::gap::fill::refill`]).
     pub gaps: &'a [Range<usize>],
+    /// The step of the ADC lattice the model's channel rounds the rate to, deg/s (`None`: an analog rate). Its
+    /// quantisation noise, white with `step^2 / 12` per sample and added after the sensor's filter, is in the
+    /// samples but is not the sensor's: the estimators that fit the Allan curve take it off first.
+    pub lattice_dps: Option<f64>,
 }
 
 /// An effect fitted on the training data.
@@ -163,6 +168,18 @@ pub struct EffectFit {
     /// bias that jumps between two levels. `None` where there is nothing to take out: a deterministic effect,
     /// which the chain subtracts through the model, or a process with no one realisation to recover.
     pub cleaned: Option<Arc<Vec<f64>>>,
+}
+
+impl EffectFit {
+    /// This fit with the parameters a joint re-estimation gave its effect in `gyro` (the chain's model, which holds
+    /// every effect): the model replaced, and the parameters the re-estimation moves (sizes, time scales) read
+    /// from it; the estimator's own statistics (standard errors, tests) stay as it found them.
+    pub fn reestimated(&self, gyro: &GyroSim) -> EffectFit {
+        let mut f = self.clone();
+        params::patch_from_model(self.effect, &mut f.params, gyro);
+        f.gyro = gyro.clone();
+        f
+    }
 }
 
 /// The sampling spread of an effect's fitted parameters. An ensemble of the fitted values alone has next to no

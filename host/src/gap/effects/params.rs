@@ -1,13 +1,74 @@
 //! The parameters each effect reports, as types: the `effect_params` objects of the gap report's JSON and the
 //! parameter lines of its text. Every value carries its unit in its name; `_se` marks a standard error.
 
+use octavar_shared::sim::GyroSim;
 use serde::Serialize;
 use serde_json::Value;
+
+use super::Effect;
 
 /// The JSON value of an effect's parameters (the form [`super::EffectFit::params`] holds).
 pub(super) fn to_value(params: &impl Serialize) -> Value {
     // Structs of numbers, counts, flags and lists of them always serialise (a NaN becomes null).
     serde_json::to_value(params).unwrap_or(Value::Null)
+}
+
+/// Write into `params` (an effect's JSON parameters) the values of `effect` that `gyro` carries: the sizes and
+/// time scales a joint re-estimation of the chain's model moves.
+pub(super) fn patch_from_model(effect: Effect, params: &mut Value, gyro: &GyroSim) {
+    let Some(p) = params.as_object_mut() else { return };
+    let mut set = |k: &str, v: f64| {
+        if p.contains_key(k) {
+            p.insert(k.into(), serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number));
+        }
+    };
+    match effect {
+        Effect::Bandwidth => {
+            if let Some(f) = gyro.bandwidth_hz {
+                set("bandwidth_hz", f);
+            }
+            set("n_deg_per_rt_s", gyro.n_deg_per_rt_s);
+        }
+        Effect::GaussMarkov => {
+            if let Some(m) = gyro.gauss_markov {
+                set("sigma_dps", m.sigma_dps);
+                set("tau_s", m.tau_s);
+            }
+        }
+        Effect::Resonance => {
+            if let Some(r) = gyro.resonance {
+                set("sigma_dps", r.sigma_dps);
+                set("freq_hz", r.freq_hz);
+                set("q", r.q);
+                set("width_hz", r.freq_hz / r.q);
+            }
+        }
+        Effect::Temperature => {
+            if let Some(c) = gyro.temperature {
+                set("dps_per_c", c.dps_per_c);
+            }
+        }
+        Effect::WarmUp => {
+            if let Some(w) = gyro.warm_up {
+                set("size_dps", w.size_dps);
+            }
+        }
+        Effect::Sinusoid => {
+            if let Some(first) = gyro.sinusoids.first() {
+                set("amplitude_dps", first.amplitude_dps);
+                set("phase_rad", first.phase_rad);
+            }
+            if let Some(list) = p.get_mut("sinusoids").and_then(Value::as_array_mut) {
+                for (v, s) in list.iter_mut().zip(&gyro.sinusoids) {
+                    if let Some(o) = v.as_object_mut() {
+                        o.insert("amplitude_dps".into(), serde_json::json!(s.amplitude_dps));
+                        o.insert("phase_rad".into(), serde_json::json!(s.phase_rad));
+                    }
+                }
+            }
+        }
+        Effect::Quantization | Effect::BiasSteps | Effect::Outliers | Effect::Bistable => {}
+    }
 }
 
 /// A first-order bandwidth of the sensor.
@@ -106,6 +167,9 @@ pub struct SinusoidsParams {
     pub amplitude_dps: f64,
     pub period_s: f64,
     pub phase_rad: f64,
+    /// The strongest peak of the periodogram over its background, less the look-elsewhere level `ln(bins)`
+    /// (a peak counts beyond 7).
+    pub peak_excess: f64,
     pub sinusoids: Vec<SinusoidParams>,
 }
 
@@ -149,8 +213,14 @@ mod tests {
             amplitude_se_dps: 0.1,
             period_se_s: 0.1,
         };
-        let s = to_value(&SinusoidsParams { amplitude_dps: 1.0, period_s: 1.0, phase_rad: 0.0, sinusoids: vec![one] });
-        assert_eq!(keys(&s), ["amplitude_dps", "period_s", "phase_rad", "sinusoids"]);
+        let s = to_value(&SinusoidsParams {
+            amplitude_dps: 1.0,
+            period_s: 1.0,
+            phase_rad: 0.0,
+            peak_excess: 9.0,
+            sinusoids: vec![one],
+        });
+        assert_eq!(keys(&s), ["amplitude_dps", "peak_excess", "period_s", "phase_rad", "sinusoids"]);
         assert_eq!(
             keys(&s["sinusoids"][0]),
             ["amplitude_dps", "amplitude_se_dps", "period_s", "period_se_s", "phase_rad"]

@@ -390,14 +390,17 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             *b = v.exp();
         }
     }
-    let thr = (k_hi - k_lo) as f64;
-    let thr = thr.ln() + 7.0;
+    // The look-elsewhere level: the largest of `bins` exponential ordinates is about ln(bins).
+    let look_elsewhere = ((k_hi - k_lo) as f64).ln();
+    let thr = look_elsewhere + 7.0;
     let mut peaks: Vec<(usize, f64)> = (k_lo..k_hi)
         .filter(|&k| pw[k] >= pw[k - 1] && pw[k] >= pw[k + 1] && bg[k] > 0.0)
         .map(|k| (k, pw[k] / (bg[k] / std::f64::consts::LN_2)))
         .filter(|&(_, z)| z > thr)
         .collect();
     peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
+    // The strongest peak's excess over the look-elsewhere level: the estimator's own test statistic.
+    let peak_excess = peaks.first().map_or(f64::NAN, |p| p.1 - look_elsewhere);
     let mut chosen: Vec<usize> = Vec::new();
     let sep = (8.0 * pad).ceil() as usize;
     for (k, _) in peaks {
@@ -506,6 +509,7 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             amplitude_dps: s0.amplitude_dps,
             period_s: s0.period_s,
             phase_rad: s0.phase_rad,
+            peak_excess,
             sinusoids: all,
         }),
         n_params: 3 * list.len(),

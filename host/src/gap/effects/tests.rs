@@ -43,7 +43,7 @@ fn base_of(x: &[f64], rate_hz: f64) -> (GyroSim, NoiseFit) {
 
 fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, rate_hz: f64) -> Option<EffectFit> {
     let (g, f) = base_of(x, rate_hz);
-    let d = TrainingData { rate_dps: x, temp_c: t, rate_hz, base: &g, base_fit: &f, gaps: &[] };
+    let d = TrainingData { rate_dps: x, temp_c: t, rate_hz, base: &g, base_fit: &f, gaps: &[], lattice_dps: None };
     let t0 = std::time::Instant::now();
     let out = estimate(effect, &d);
     eprintln!("{effect}: {:?} in {:?}", out.as_ref().map(|e| &e.params), t0.elapsed());
@@ -157,7 +157,15 @@ fn temperature_standard_error_is_the_scatter() {
             let mut g = VirtualGyro::new(&m, Channel::bench(ADXRS300), rate_hz, 100 + seed).unwrap();
             let x: Vec<f64> = t.iter().map(|&tc| g.next_rate(tc)).collect();
             let (b, f) = base_of(&x, rate_hz);
-            let d = TrainingData { rate_dps: &x, temp_c: Some(&t), rate_hz, base: &b, base_fit: &f, gaps: &[] };
+            let d = TrainingData {
+                rate_dps: &x,
+                temp_c: Some(&t),
+                rate_hz,
+                base: &b,
+                base_fit: &f,
+                gaps: &[],
+                lattice_dps: None,
+            };
             let e = estimate(Effect::Temperature, &d).expect("a 10-sigma coupling is found");
             let k = e.params["dps_per_c"].as_f64().unwrap();
             (k, k / e.params["t_stat"].as_f64().unwrap())
@@ -342,7 +350,15 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
         let (x, _) = simulate(&m, rate_hz, 1 << 19, seed, None);
         let (g, f) = base_of(&x, rate_hz);
         let with_bw = GyroSim { bandwidth_hz: Some(f3), ..g.clone() };
-        let d = TrainingData { rate_dps: &x, temp_c: None, rate_hz, base: &with_bw, base_fit: &f, gaps: &[] };
+        let d = TrainingData {
+            rate_dps: &x,
+            temp_c: None,
+            rate_hz,
+            base: &with_bw,
+            base_fit: &f,
+            gaps: &[],
+            lattice_dps: None,
+        };
         let e = estimate(Effect::Resonance, &d).expect("the resonance under the filter is found");
         for (key, se, truth) in [("sigma_dps", "sigma_se_dps", sigma), ("freq_hz", "freq_se_hz", f0), ("q", "q_se", q)]
         {

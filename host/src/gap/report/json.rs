@@ -51,8 +51,10 @@ impl GapReport {
         let effects = self
             .chain
             .iter()
-            .map(|s| StepDoc {
+            .enumerate()
+            .map(|(i, s)| StepDoc {
                 effect: s.effect,
+                jointly_reestimated: self.chain[i..].iter().any(|later| later.joint),
                 params: &s.final_fit().params,
                 found_params: s.refit.as_ref().map(|_| &s.fit.params),
                 backfitted: s.refit.is_some(),
@@ -267,8 +269,12 @@ struct StepDoc<'a> {
     params: &'a Value,
     /// The parameters as the step first found them, where a backfitting round changed them.
     found_params: Option<&'a Value>,
-    /// Whether a backfitting round estimated the effect again on the final model less itself.
+    /// Whether a round estimated the effect again after its step (a backfitting round on the final model less
+    /// itself, or a joint re-estimation): `params` then differ from `found_params`.
     backfitted: bool,
+    /// Whether a joint re-estimation of the base terms and the chain's effects, kept by the diagnosis, followed
+    /// this effect's step.
+    jointly_reestimated: bool,
     /// What named the effect: `{"route": "view"}`, or `{"route": "estimator", "statistic", "value",
     /// "threshold"}` where its estimator's own test named it and no view's gap did.
     evidence: NamedBy,

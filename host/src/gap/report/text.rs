@@ -192,6 +192,13 @@ impl GapReport {
                     refitted.join(", ")
                 );
             }
+            if let Some(last) = self.chain.iter().rposition(|s| s.joint) {
+                let _ = writeln!(
+                    s,
+                    "jointly re-estimated: the base terms with {} (deterministic parts by least squares, the rest on the Allan curve)",
+                    chain_names(&self.chain[..=last])
+                );
+            }
             if let (true, Some(t)) = (self.chain.len() > 1, self.holdout_total) {
                 let _ = writeln!(
                     s,
