@@ -13,6 +13,9 @@ use std::sync::Arc;
 
 use super::bias_steps::mosum_scan;
 use super::common::*;
+use super::curve::{
+    base_columns, filtered_gm_avar, joint_fit, joint_fit_keeping, less_known, with_base_terms, CURVE_DELTA_CHI2,
+};
 use super::{Effect, EffectFit, TrainingData};
 
 /// Fewest jumps detected at the chosen window: with missed jumps and a false one or two, a few cycles are needed
@@ -72,7 +75,10 @@ type Jump = (usize, f64, bool);
 /// The jumps with the ones the scan missed between two of the same sign put back: the scan keeps one jump of
 /// any two closer than two windows, so a short excursion shows one of its two jumps. Between consecutive jumps of
 /// one sign the missing opposite one is where the mean difference over windows bounded by the two (at most the
-/// scan's) is most opposite; its size is the opposite of the first's.
+/// scan's) is most opposite; its size is the opposite of the first's. Before the first jump and after the last the
+/// record's end stands in for the missing neighbour: a short excursion there shows only its inner jump, and the
+/// stretch to the end would take the wrong state. The missing jump is put back where the opposite mean
+/// difference passes the scan's threshold.
 fn repaired(x: &[f64], f: &Flips) -> Vec<Jump> {
     let mut pre = Vec::with_capacity(x.len() + 1);
     let mut acc = 0.0;
@@ -84,6 +90,23 @@ fn repaired(x: &[f64], f: &Flips) -> Vec<Jump> {
     let avg = |a: usize, b: usize| (pre[b] - pre[a]) / (b - a) as f64;
     let l = f.window;
     let mut out = Vec::with_capacity(f.jumps.len() * 2);
+    // The most opposite change of level within `lo..hi` against a jump of `size`, where it passes the threshold,
+    // with half a window or more on each side of it.
+    let opposite_within = |lo: usize, hi: usize, size: f64| -> Option<usize> {
+        (lo + l / 2..hi.saturating_sub(l / 2))
+            .map(|t| {
+                let d = avg(t, (t + l).min(hi)) - avg(t.saturating_sub(l).max(lo), t);
+                (t, -d * size.signum())
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .filter(|&(_, d)| d > f.threshold)
+            .map(|(t, _)| t)
+    };
+    if let Some(&first) = f.jumps.first() {
+        if let Some(t) = opposite_within(0, first.0, first.1) {
+            out.push((t, -first.1, false));
+        }
+    }
     for (i, &j) in f.jumps.iter().enumerate() {
         out.push((j.0, j.1, true));
         let Some(&next) = f.jumps.get(i + 1) else { continue };
@@ -97,6 +120,11 @@ fn repaired(x: &[f64], f: &Flips) -> Vec<Jump> {
             if let Some((t, _)) = best {
                 out.push((t, -j.1, false));
             }
+        }
+    }
+    if let Some(&last) = f.jumps.last() {
+        if let Some(t) = opposite_within(last.0, x.len(), last.1) {
+            out.push((t, -last.1, false));
         }
     }
     out
@@ -119,6 +147,75 @@ fn refined_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
             mean(&x[b0..b1]) - mean(&x[a0..a1])
         })
         .collect()
+}
+
+/// The dwells read again from the Allan curve, where it tells them better than the count of jumps. A telegraph of
+/// step `s` spending a share `p` of the time high is, in its Allan variance, a Gauss-Markov process of variance
+/// `s^2 p (1 - p)` and correlation time `T = dwell_low dwell_high / (dwell_low + dwell_high)`; the counted dwells
+/// miss the excursions shorter than the scan's window, and the correction for them is approximate where the
+/// shorter dwell is a few windows. So with the step held (the jumps measure it well), that variance and `T` are
+/// fitted with the base terms on the OADEV of the record (T within a factor of 4 of the counted one), and the
+/// dwells `T / p` and `T / (1 - p)` replace the counted ones where they lower the curve's chi-square by
+/// [`CURVE_DELTA_CHI2`]; `p` takes the root on the counted dwells' side of one half, or where that root is within
+/// a quarter of one half, the share of time the record spends high (`occupancy`).
+///
+/// Returns the dwells (low, high) and the base terms' squares fitted beside that telegraph on the same curve: a
+/// jump missed or put at the wrong sample leaves a level error in the record less the levels, which an IEEE fit of
+/// that record reads as a random walk, while the curve less the telegraph's exact Allan variance has none. `None`
+/// when the curve has too few points or no fit.
+fn telegraph_on_curve(
+    d: &TrainingData,
+    step: f64,
+    dwell_low: f64,
+    dwell_high: f64,
+    occupancy: f64,
+) -> Option<(f64, f64, Vec<f64>)> {
+    let rate_hz = d.rate_hz;
+    let bw = d.base.bandwidth_hz;
+    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, rate_hz), d.base, bw, rate_hz, d.lattice_dps);
+    if pts.len() < 6 {
+        return None;
+    }
+    let with_q = d.base.q_deg > 0.0;
+    let base_cols = base_columns(&pts, rate_hz, bw, with_q);
+    let column = |t: f64| -> Vec<f64> { pts.iter().map(|p| filtered_gm_avar(t, bw, p.tau_s, rate_hz)).collect() };
+    // The counted dwells' telegraph, its variance held, with the base terms free.
+    let t0 = dwell_low * dwell_high / (dwell_low + dwell_high);
+    let p0 = dwell_high / (dwell_low + dwell_high);
+    let var0 = step * step * p0 * (1.0 - p0);
+    let col0 = column(t0);
+    let counted: Vec<_> = pts
+        .iter()
+        .zip(&col0)
+        .map(|(p, c)| crate::fit::FitPoint { avar: (p.avar - var0 * c).max(0.1 * p.avar), ..*p })
+        .collect();
+    let at_counted = joint_fit(&counted, &base_cols)?;
+    let keep = 1u32 << base_cols.len();
+    let fit_at = |t: f64| {
+        let mut cols = base_cols.clone();
+        cols.push(column(t));
+        joint_fit_keeping(&pts, &cols, keep)
+    };
+    let (t, chi) = log_search(t0 / 4.0, t0 * 4.0, 24, |t| fit_at(t).map_or(f64::INFINITY, |j| j.chi2));
+    let counted_result = (dwell_low, dwell_high, at_counted.theta.clone());
+    if !(chi + CURVE_DELTA_CHI2 < at_counted.chi2) {
+        return Some(counted_result);
+    }
+    let Some(j) = fit_at(t) else { return Some(counted_result) };
+    let var = j.theta[base_cols.len()];
+    let disc = 1.0 - 4.0 * var / (step * step);
+    if !(var > 0.0 && disc > 0.0) {
+        return Some(counted_result);
+    }
+    // p from the variance is ill-conditioned near one half (dp/dvar = 1 / (s^2 |1 - 2p|)): there the share of
+    // time spent high, which missed short excursions hardly move, is the better estimate.
+    let root = 0.5 * (1.0 - disc.sqrt());
+    let p_high = match disc.sqrt() > 0.5 {
+        true if p0 < 0.5 => root,
+        true => 1.0 - root,
+        false => occupancy,
+    };
+    Some((t / p_high, t / (1.0 - p_high), j.theta))
 }
 
 /// A bias flipping between two levels (random telegraph noise).
@@ -208,6 +305,8 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     }
     // The record less the two zero-mean levels, for the base terms' re-fit.
     let p_high = time_high / (time_high + time_low);
+    let on_curve = telegraph_on_curve(d, step, dwell_low, dwell_high, p_high);
+    let (dwell_low, dwell_high) = on_curve.as_ref().map_or((dwell_low, dwell_high), |c| (c.0, c.1));
     let (high, low) = (step * (1.0 - p_high), -step * p_high);
     let mut cleaned = x.to_vec();
     for &(a, b, is_high) in &edges {
@@ -216,7 +315,10 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
             *c -= v;
         }
     }
-    let refit = refit_base(d.base, d.gaps, &cleaned, rate_hz).map_or_else(|| d.base.clone(), |r| r.0);
+    let refit = match &on_curve {
+        Some((_, _, theta)) => with_base_terms(d.base, theta),
+        None => refit_base(d.base, d.gaps, &cleaned, rate_hz).map_or_else(|| d.base.clone(), |r| r.0),
+    };
     let gyro = GyroSim {
         bistable: Some(BistableSim { step_dps: step, dwell_low_s: dwell_low, dwell_high_s: dwell_high }),
         ..refit
