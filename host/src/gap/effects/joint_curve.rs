@@ -69,7 +69,7 @@ impl TimeScales {
         v
     }
 
-    fn from_vec(&self, v: &[f64]) -> Self {
+    fn with_values(&self, v: &[f64]) -> Self {
         let mut it = v.iter().copied();
         let bandwidth = self.bandwidth.map(|_| it.next().unwrap_or(f64::NAN));
         let gauss_markov = self.gauss_markov.map(|_| it.next().unwrap_or(f64::NAN));
@@ -165,7 +165,7 @@ fn on_points(model: &GyroSim, pts: &[FitPoint], rate_hz: f64, record_s: f64) -> 
             let trial = |v: f64| {
                 let mut y = x.clone();
                 y[k] = v;
-                chi2_at(&start.from_vec(&y))
+                chi2_at(&start.with_values(&y))
             };
             let (v, c) = golden(lo, hi, GOLDEN_STEPS, trial);
             if c <= trial(x[k]) {
@@ -173,7 +173,7 @@ fn on_points(model: &GyroSim, pts: &[FitPoint], rate_hz: f64, record_s: f64) -> 
             }
         }
     }
-    let ts = start.from_vec(&x);
+    let ts = start.with_values(&x);
     let (cols, keep) = ts.columns(pts, rate_hz, with_q, with_r);
     let j = joint_fit_keeping(pts, &cols, keep)?;
     let mut gyro = with_base_terms(model, &j.theta);
