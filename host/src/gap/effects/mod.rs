@@ -16,11 +16,12 @@
 //! | bias_steps | MOSUM scan of windowed mean differences at the bias-instability tau, robust (MAD) threshold; truncated-normal size fit | `per_hour`, `sigma_dps` |
 //! | outliers | residual from the median of 8 neighbours; its magnitudes fitted by maximum likelihood as a Gaussian core plus spikes of a uniform magnitude law; runs from the same-sign excess of adjacent spikes | `per_sample`, `size_dps`, `spread_dps`, `run_mean` |
 //! | resonance | Welch spectrum (Hann, a 32nd of the record a segment) against a median background; the AR(2) spectrum of shared::sim's resonance plus a background quadratic in ln f, fitted in ln P by Levenberg-Marquardt; kept when it lowers the chi-square by 100, peaks at half the background or more and is at least 4 bins wide (a line is a sinusoid); base terms re-fitted on the OADEV less its exact Allan variance | `sigma_dps`, `freq_hz`, `q` |
-//! | bistable | the bias-steps MOSUM scan at windows on an octave grid; jumps in time order must alternate in sign beyond chance (binomial tail, 1e-4 over the windows) and have one size (robust spread under 35%); dwell means from the states between jumps, corrected for unseen short excursions | `step_dps`, `dwell_low_s`, `dwell_high_s` |
+//! | bistable | the bias-steps MOSUM scan at windows on an octave grid; jumps in time order must alternate in sign beyond chance (binomial tail, 1e-4 over the windows) and have one size (robust spread under 35%); dwell means from the states between jumps, corrected for unseen short excursions, then read again with the base terms from the Allan curve beside the telegraph's exact Allan variance, the step held | `step_dps`, `dwell_low_s`, `dwell_high_s` |
 //! | warm_up | generalised least squares of block means (octave block lengths, 256 blocks from the start) on the block-averaged `exp(-t / tau)`, covariance from the base terms' semivariogram, a trend beside it where the base has a ramp; tau on a grid of 8-16 blocks; kept beyond 5 standard errors | `size_dps`, `tau_s` |
 //!
-//! One module per estimator; `common` holds the small helpers they share and `curve` the Allan-curve forms and
-//! joint fit of the bandwidth and Gauss-Markov estimators (and the resonance's exact Allan variance).
+//! One module per estimator; `common` holds the small helpers they share, `curve` the Allan-curve forms and
+//! joint fit of the bandwidth and Gauss-Markov estimators (and the resonance's exact Allan variance), and
+//! `joint_curve` the chain's joint re-estimation of the base terms with every stochastic effect on that curve.
 //!
 //! All of them run in well under a second on a million samples (one FFT or a few, a few O(N) passes, small fits
 //! on the octave OADEV curve or a window of the spectrum, a 255-point Cholesky factor per block length).
