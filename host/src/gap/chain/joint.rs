@@ -1,4 +1,4 @@
-//! Joint re-estimation of a chain's model: after a step, the base terms and every effect already in the chain
+//! Joint re-estimation of a chain's model: once the chain is found, the base terms and every effect in it
 //! estimated again together on the training samples, so that an effect the base fit or an earlier step absorbed
 //! (a sinusoid read as bias instability, a filter corner read under a resonance) comes back out, and the answer
 //! does not hang on the order the effects were found in.

@@ -29,9 +29,12 @@
 //! a later step's candidate explains too little on the chain as found, and once over the whole chain, keeping it
 //! where the fit improves, and [`learn`] repeats it where the diagnosis did.
 //!
-//! After every step the base terms and every effect so far are also re-estimated together ([`joint`]): the
-//! deterministic effects by least squares in the time domain, the stochastic ones with the base terms on the
-//! Allan curve, GMWM-style. The round is kept where the views find the model no worse.
+//! Once the steps are found, the base terms and every effect of the chain are re-estimated together ([`joint`]):
+//! the deterministic effects by least squares in the time domain, the stochastic ones with the base terms on the
+//! Allan curve, GMWM-style. The round is kept where the views find the model no worse and it does not turn a
+//! significant gap into none. It runs after the search, not between steps: between steps, the freedom of the
+//! effects found so far covers part of the gap the next one leaves (a resonance widened over a filter's
+//! roll-off), and that effect then goes unnamed.
 //!
 //! `model` holds the types, `data` what a step learns from, `backfit` the re-estimation of one effect at a time,
 //! `joint` the joint one and `search` the steps.

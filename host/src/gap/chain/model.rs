@@ -69,7 +69,7 @@ pub struct Step {
     /// Whether a backfitting round followed this step (the re-learning on other data repeats it).
     pub backfitted: bool,
     /// Whether a joint re-estimation of the base terms and every effect so far followed this step and was kept
-    /// ([`super::joint`]; the re-learning on other data repeats it).
+    /// ([`super::joint`]: after the chain's last step; the re-learning on other data repeats it).
     pub joint: bool,
 }
 
