@@ -186,13 +186,9 @@ mod tests {
         truth.sinusoids.push(Sinusoid { amplitude_dps: 0.05, period_s: 900.0, phase_rad: 1.0 }).unwrap();
         let temp: Vec<f64> = (0..n).map(|i| 25.0 + 2.0 * (i as f64 / (rate_hz * 1100.0)).sin()).collect();
         let det = deterministic_part(&truth, rate_hz, Some(&temp), n).unwrap();
-        // White noise from a fixed linear congruential sequence (sum of 12 uniforms: near-Gaussian, sd 0.1).
-        let mut state = 12345u64;
-        let mut uniform = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let series: Vec<f64> = det.iter().map(|d| d + 0.1 * ((0..12).map(|_| uniform()).sum::<f64>() - 6.0)).collect();
+        // Unit white noise scaled to sd 0.1.
+        let noise = crate::test_signals::white(n, 12345);
+        let series: Vec<f64> = det.iter().zip(&noise).map(|(d, w)| d + 0.1 * w).collect();
         let mut start = truth.clone();
         start.temperature.as_mut().unwrap().dps_per_c = 0.005;
         start.sinusoids[0].amplitude_dps = 0.01;
