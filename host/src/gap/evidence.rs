@@ -71,7 +71,7 @@ pub fn threshold(effect: Effect) -> Option<f64> {
 /// The evidence of a fit's own test, for the effects that have one.
 pub fn of(fit: &EffectFit) -> Option<Evidence> {
     let (key, threshold) = test(fit.effect)?;
-    let value = fit.params.get(key)?.as_f64().filter(|v| v.is_finite())?;
+    let value = fit.params.test_statistic()?;
     let statistic = if key == "t_stat" { "t" } else { key };
     Some(Evidence { statistic, value, threshold })
 }

@@ -94,4 +94,10 @@ impl Step {
     pub fn final_fit(&self) -> &EffectFit {
         self.refit.as_ref().unwrap_or(&self.fit)
     }
+
+    /// Whether a later round (backfitting, joint re-estimation) moved the effect's parameters from the ones its
+    /// step found.
+    pub fn moved(&self) -> bool {
+        self.refit.as_ref().is_some_and(|r| r.params != self.fit.params)
+    }
 }

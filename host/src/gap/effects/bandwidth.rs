@@ -1,6 +1,6 @@
 //! The bandwidth candidate: a first-order low-pass on the output, fitted on the short-tau Allan curve.
 
-use super::params::{to_value, BandwidthParams};
+use super::params::BandwidthParams;
 
 use super::common::*;
 use super::curve::*;
@@ -43,11 +43,8 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     gyro.bandwidth_hz = Some(f);
     Some(EffectFit {
         effect: Effect::Bandwidth,
-        params: to_value(&BandwidthParams {
-            bandwidth_hz: f,
-            n_deg_per_rt_s: gyro.n_deg_per_rt_s,
-            delta_chi2: plain.chi2 - chi,
-        }),
+        params: BandwidthParams { bandwidth_hz: f, n_deg_per_rt_s: gyro.n_deg_per_rt_s, delta_chi2: plain.chi2 - chi }
+            .into(),
         n_params: 1,
         gyro,
         channel: None,

@@ -1,6 +1,6 @@
 //! The bias-steps candidate: random steps of the bias, found by a windowed scan of mean differences.
 
-use super::params::{to_value, BiasStepsParams};
+use super::params::BiasStepsParams;
 use octavar_shared::sim::{BiasSteps, GyroSim};
 use std::sync::Arc;
 
@@ -140,14 +140,15 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / rate_hz).collect();
     Some(EffectFit {
         effect: Effect::BiasSteps,
-        params: to_value(&BiasStepsParams {
+        params: BiasStepsParams {
             per_hour,
             sigma_dps: sigma,
             count: steps.len(),
             at_s: at,
             sizes_dps: sizes,
             threshold_dps: thr,
-        }),
+        }
+        .into(),
         n_params: 2,
         gyro,
         channel: None,

@@ -7,7 +7,7 @@
 //! (the bias returns to the level it left), where random bias steps (a random walk of Gaussian jumps) go up or down
 //! at random and by any amount.
 
-use super::params::{to_value, BistableParams};
+use super::params::BistableParams;
 use octavar_shared::sim::{BistableSim, GyroSim};
 use std::sync::Arc;
 
@@ -325,7 +325,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     };
     Some(EffectFit {
         effect: Effect::Bistable,
-        params: to_value(&BistableParams {
+        params: BistableParams {
             step_dps: step,
             dwell_low_s: dwell_low,
             dwell_high_s: dwell_high,
@@ -338,7 +338,8 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
             shortest_seen_s: c,
             p_value: best.p_value,
             size_spread: spread,
-        }),
+        }
+        .into(),
         n_params: 3,
         gyro,
         channel: None,

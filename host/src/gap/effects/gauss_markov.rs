@@ -1,7 +1,7 @@
 //! The Gauss-Markov candidate: an exponentially correlated rate noise, fitted jointly with the base terms on
 //! the Allan curve.
 
-use super::params::{to_value, GaussMarkovParams};
+use super::params::GaussMarkovParams;
 use octavar_shared::sim::GaussMarkovSim;
 
 use super::common::*;
@@ -59,7 +59,7 @@ pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
     gyro.gauss_markov = Some(GaussMarkovSim { sigma_dps: s2.sqrt(), tau_s: t });
     Some(EffectFit {
         effect: Effect::GaussMarkov,
-        params: to_value(&GaussMarkovParams { sigma_dps: s2.sqrt(), tau_s: t, delta_chi2: plain.chi2 - chi }),
+        params: GaussMarkovParams { sigma_dps: s2.sqrt(), tau_s: t, delta_chi2: plain.chi2 - chi }.into(),
         n_params: 2,
         gyro,
         channel: None,

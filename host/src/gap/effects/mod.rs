@@ -33,7 +33,6 @@ use octavar_shared::sensor::Channel;
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::GyroSim;
 use serde::Serialize;
-use serde_json::Value;
 
 use crate::fit::NoiseFit;
 
@@ -46,6 +45,7 @@ mod gauss_markov;
 pub mod joint_curve;
 mod outliers;
 pub mod params;
+pub use params::EffectParams;
 mod quantization;
 mod resonance;
 mod sinusoid;
@@ -152,8 +152,8 @@ pub struct TrainingData<'a> {
 pub struct EffectFit {
     /// Which effect.
     pub effect: Effect,
-    /// Its parameters, named with their units (`{"amplitude_dps": .., "period_s": ..}`).
-    pub params: Value,
+    /// Its parameters, each named with its unit.
+    pub params: EffectParams,
     /// Number of free parameters the effect adds (for the ranking's penalty).
     pub n_params: usize,
     /// The base model with the effect added (base terms it overlaps re-fitted).
@@ -176,10 +176,7 @@ impl EffectFit {
     /// every effect): the model replaced, and the parameters the re-estimation moves (sizes, time scales) read
     /// from it; the estimator's own statistics (standard errors, tests) stay as it found them.
     pub fn reestimated(&self, gyro: &GyroSim) -> EffectFit {
-        let mut f = self.clone();
-        params::patch_from_model(self.effect, &mut f.params, gyro);
-        f.gyro = gyro.clone();
-        f
+        EffectFit { params: self.params.reestimated(gyro), gyro: gyro.clone(), ..self.clone() }
     }
 }
 

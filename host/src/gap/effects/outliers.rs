@@ -36,7 +36,7 @@ use std::sync::Arc;
 
 use super::common::*;
 use super::curve::{ar1_avar, refit_base_terms};
-use super::params::{to_value, OutliersParams};
+use super::params::OutliersParams;
 use super::{Effect, EffectFit, TrainingData};
 
 mod mixture;
@@ -248,7 +248,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     }
     Some(EffectFit {
         effect: Effect::Outliers,
-        params: to_value(&OutliersParams {
+        params: OutliersParams {
             per_sample: m.eps,
             size_dps: m.centre,
             spread_dps: m.spread,
@@ -256,7 +256,8 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
             run_continue: c.cont_next,
             count: c.flagged.len(),
             robust_sigma_dps: m.sigma,
-        }),
+        }
+        .into(),
         n_params: 3 + usize::from(c.rho1 > 0.0) + usize::from(c.cont_next > 0.0),
         gyro: GyroSim { outliers: Some(spikes), ..refit },
         channel: None,

@@ -1,78 +1,137 @@
 //! The parameters each effect reports, as types: the `effect_params` objects of the gap report's JSON and the
 //! parameter lines of its text. Every value carries its unit in its name; `_se` marks a standard error.
 
+use super::Effect;
 use octavar_shared::sim::GyroSim;
 use serde::Serialize;
-use serde_json::Value;
 
-use super::Effect;
-
-/// The JSON value of an effect's parameters (the form [`super::EffectFit::params`] holds).
-pub(super) fn to_value(params: &impl Serialize) -> Value {
-    // Structs of numbers, counts, flags and lists of them always serialise (a NaN becomes null).
-    serde_json::to_value(params).unwrap_or(Value::Null)
+/// An effect's fitted parameters, typed: one variant per effect. It serialises as the variant's own object (the
+/// report's `effect_params`), without a tag, since the report names the effect beside it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum EffectParams {
+    Temperature(TemperatureParams),
+    Sinusoid(SinusoidsParams),
+    Bandwidth(BandwidthParams),
+    GaussMarkov(GaussMarkovParams),
+    Quantization(QuantizationParams),
+    BiasSteps(BiasStepsParams),
+    Outliers(OutliersParams),
+    Resonance(ResonanceParams),
+    Bistable(BistableParams),
+    WarmUp(WarmUpParams),
 }
 
-/// Write into `params` (an effect's JSON parameters) the values of `effect` that `gyro` carries: the sizes and
-/// time scales a joint re-estimation of the chain's model moves.
-pub(super) fn patch_from_model(effect: Effect, params: &mut Value, gyro: &GyroSim) {
-    let Some(p) = params.as_object_mut() else { return };
-    let mut set = |k: &str, v: f64| {
-        if p.contains_key(k) {
-            p.insert(k.into(), serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number));
+impl EffectParams {
+    /// The effect these parameters belong to.
+    pub fn effect(&self) -> Effect {
+        match self {
+            EffectParams::Temperature(_) => Effect::Temperature,
+            EffectParams::Sinusoid(_) => Effect::Sinusoid,
+            EffectParams::Bandwidth(_) => Effect::Bandwidth,
+            EffectParams::GaussMarkov(_) => Effect::GaussMarkov,
+            EffectParams::Quantization(_) => Effect::Quantization,
+            EffectParams::BiasSteps(_) => Effect::BiasSteps,
+            EffectParams::Outliers(_) => Effect::Outliers,
+            EffectParams::Resonance(_) => Effect::Resonance,
+            EffectParams::Bistable(_) => Effect::Bistable,
+            EffectParams::WarmUp(_) => Effect::WarmUp,
         }
-    };
-    match effect {
-        Effect::Bandwidth => {
-            if let Some(f) = gyro.bandwidth_hz {
-                set("bandwidth_hz", f);
-            }
-            set("n_deg_per_rt_s", gyro.n_deg_per_rt_s);
+    }
+
+    /// The estimator's test statistic where it has one that can name the effect alone: the t of a temperature
+    /// coupling's or a warm-up's size, the fall of the chi-square with a resonance's bump or a bandwidth's corner
+    /// (see [`crate::gap::evidence`]).
+    pub fn test_statistic(&self) -> Option<f64> {
+        match self {
+            EffectParams::Temperature(p) => Some(p.t_stat),
+            EffectParams::WarmUp(p) => Some(p.t_stat),
+            EffectParams::Resonance(p) => Some(p.delta_chi2),
+            EffectParams::Bandwidth(p) => Some(p.delta_chi2),
+            _ => None,
         }
-        Effect::GaussMarkov => {
-            if let Some(m) = gyro.gauss_markov {
-                set("sigma_dps", m.sigma_dps);
-                set("tau_s", m.tau_s);
+        .filter(|v| v.is_finite())
+    }
+
+    /// These parameters with the values `gyro` carries for them: the sizes and time scales a joint re-estimation
+    /// of the chain's model moves. The estimator's own statistics (standard errors, tests) stay as it found them.
+    pub fn reestimated(&self, gyro: &GyroSim) -> EffectParams {
+        let mut p = self.clone();
+        match &mut p {
+            EffectParams::Bandwidth(b) => {
+                if let Some(f) = gyro.bandwidth_hz {
+                    b.bandwidth_hz = f;
+                }
+                b.n_deg_per_rt_s = gyro.n_deg_per_rt_s;
             }
-        }
-        Effect::Resonance => {
-            if let Some(r) = gyro.resonance {
-                set("sigma_dps", r.sigma_dps);
-                set("freq_hz", r.freq_hz);
-                set("q", r.q);
-                set("width_hz", r.freq_hz / r.q);
-            }
-        }
-        Effect::Temperature => {
-            if let Some(c) = gyro.temperature {
-                set("dps_per_c", c.dps_per_c);
-            }
-        }
-        Effect::WarmUp => {
-            if let Some(w) = gyro.warm_up {
-                set("size_dps", w.size_dps);
-            }
-        }
-        Effect::Sinusoid => {
-            if let Some(first) = gyro.sinusoids.first() {
-                set("amplitude_dps", first.amplitude_dps);
-                set("phase_rad", first.phase_rad);
-            }
-            if let Some(list) = p.get_mut("sinusoids").and_then(Value::as_array_mut) {
-                for (v, s) in list.iter_mut().zip(&gyro.sinusoids) {
-                    if let Some(o) = v.as_object_mut() {
-                        o.insert("amplitude_dps".into(), serde_json::json!(s.amplitude_dps));
-                        o.insert("phase_rad".into(), serde_json::json!(s.phase_rad));
-                    }
+            EffectParams::GaussMarkov(g) => {
+                if let Some(m) = gyro.gauss_markov {
+                    g.sigma_dps = m.sigma_dps;
+                    g.tau_s = m.tau_s;
                 }
             }
+            EffectParams::Resonance(r) => {
+                if let Some(m) = gyro.resonance {
+                    r.sigma_dps = m.sigma_dps;
+                    r.freq_hz = m.freq_hz;
+                    r.q = m.q;
+                    r.width_hz = m.freq_hz / m.q;
+                }
+            }
+            EffectParams::Temperature(t) => {
+                if let Some(c) = gyro.temperature {
+                    t.dps_per_c = c.dps_per_c;
+                }
+            }
+            EffectParams::WarmUp(w) => {
+                if let Some(m) = gyro.warm_up {
+                    w.size_dps = m.size_dps;
+                }
+            }
+            EffectParams::Sinusoid(s) => {
+                if let Some(first) = gyro.sinusoids.first() {
+                    s.amplitude_dps = first.amplitude_dps;
+                    s.phase_rad = first.phase_rad;
+                }
+                for (one, m) in s.sinusoids.iter_mut().zip(&gyro.sinusoids) {
+                    one.amplitude_dps = m.amplitude_dps;
+                    one.phase_rad = m.phase_rad;
+                }
+            }
+            EffectParams::Quantization(_)
+            | EffectParams::BiasSteps(_)
+            | EffectParams::Outliers(_)
+            | EffectParams::Bistable(_) => {}
         }
-        Effect::Quantization | Effect::BiasSteps | Effect::Outliers | Effect::Bistable => {}
+        p
     }
 }
 
+macro_rules! params_of {
+    ($($ty:ident => $variant:ident),* $(,)?) => {
+        $(impl From<$ty> for EffectParams {
+            fn from(p: $ty) -> EffectParams {
+                EffectParams::$variant(p)
+            }
+        })*
+    };
+}
+
+params_of! {
+    TemperatureParams => Temperature,
+    SinusoidsParams => Sinusoid,
+    BandwidthParams => Bandwidth,
+    GaussMarkovParams => GaussMarkov,
+    QuantizationParams => Quantization,
+    BiasStepsParams => BiasSteps,
+    OutliersParams => Outliers,
+    ResonanceParams => Resonance,
+    BistableParams => Bistable,
+    WarmUpParams => WarmUp,
+}
+
 /// A first-order bandwidth of the sensor.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BandwidthParams {
     pub bandwidth_hz: f64,
     pub n_deg_per_rt_s: f64,
@@ -80,7 +139,7 @@ pub struct BandwidthParams {
 }
 
 /// Bias steps: a random walk of jumps.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BiasStepsParams {
     pub per_hour: f64,
     pub sigma_dps: f64,
@@ -91,7 +150,7 @@ pub struct BiasStepsParams {
 }
 
 /// A bistable bias (random telegraph).
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BistableParams {
     pub step_dps: f64,
     pub dwell_low_s: f64,
@@ -109,7 +168,7 @@ pub struct BistableParams {
 }
 
 /// A first-order Gauss-Markov process.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct GaussMarkovParams {
     pub sigma_dps: f64,
     pub tau_s: f64,
@@ -118,7 +177,7 @@ pub struct GaussMarkovParams {
 
 /// Outliers: spikes on a share of the samples, magnitudes uniform on `size_dps +- spread_dps`, in runs of mean
 /// length `run_mean` (a run of two goes on with probability `run_continue`); `robust_sigma_dps` is the residual's Gaussian core sd, `count` the spikes flagged.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OutliersParams {
     pub per_sample: f64,
     pub size_dps: f64,
@@ -130,7 +189,7 @@ pub struct OutliersParams {
 }
 
 /// A quantisation lattice in the rate.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct QuantizationParams {
     pub step_dps: f64,
     pub lattice_point_dps: f64,
@@ -138,7 +197,7 @@ pub struct QuantizationParams {
 }
 
 /// A resonance: a second-order Gauss-Markov bump in the spectrum.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ResonanceParams {
     pub sigma_dps: f64,
     pub freq_hz: f64,
@@ -152,7 +211,7 @@ pub struct ResonanceParams {
 }
 
 /// One sinusoid.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SinusoidParams {
     pub amplitude_dps: f64,
     pub period_s: f64,
@@ -162,7 +221,7 @@ pub struct SinusoidParams {
 }
 
 /// Sinusoids: the strongest one's amplitude, period and phase, then every one.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SinusoidsParams {
     pub amplitude_dps: f64,
     pub period_s: f64,
@@ -174,7 +233,7 @@ pub struct SinusoidsParams {
 }
 
 /// A coupling to temperature through a first-order lag.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TemperatureParams {
     pub dps_per_c: f64,
     pub lag_s: f64,
@@ -184,7 +243,7 @@ pub struct TemperatureParams {
 }
 
 /// A warm-up: an exponential settling from the first sample.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct WarmUpParams {
     pub size_dps: f64,
     pub tau_s: f64,
@@ -195,6 +254,11 @@ pub struct WarmUpParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use serde_json::Value;
+
+    fn to_value(params: impl Into<EffectParams>) -> Value {
+        serde_json::to_value(params.into()).unwrap()
+    }
 
     fn keys(v: &Value) -> Vec<&str> {
         v.as_object().map(|o| o.keys().map(String::as_str).collect()).unwrap_or_default()
@@ -204,7 +268,7 @@ mod tests {
     /// with the names docs/gap.md's vocabulary table gives.
     #[test]
     fn every_effects_keys_are_pinned() {
-        let t = to_value(&TemperatureParams { dps_per_c: 1.0, lag_s: 1.0, ref_c: 1.0, t_stat: 1.0, dps_per_c_se: 1.0 });
+        let t = to_value(TemperatureParams { dps_per_c: 1.0, lag_s: 1.0, ref_c: 1.0, t_stat: 1.0, dps_per_c_se: 1.0 });
         assert_eq!(keys(&t), ["dps_per_c", "dps_per_c_se", "lag_s", "ref_c", "t_stat"]);
         let one = SinusoidParams {
             amplitude_dps: 1.0,
@@ -213,7 +277,7 @@ mod tests {
             amplitude_se_dps: 0.1,
             period_se_s: 0.1,
         };
-        let s = to_value(&SinusoidsParams {
+        let s = to_value(SinusoidsParams {
             amplitude_dps: 1.0,
             period_s: 1.0,
             phase_rad: 0.0,
@@ -225,11 +289,11 @@ mod tests {
             keys(&s["sinusoids"][0]),
             ["amplitude_dps", "amplitude_se_dps", "period_s", "period_se_s", "phase_rad"]
         );
-        let b = to_value(&BandwidthParams { bandwidth_hz: 1.0, n_deg_per_rt_s: 1.0, delta_chi2: 1.0 });
+        let b = to_value(BandwidthParams { bandwidth_hz: 1.0, n_deg_per_rt_s: 1.0, delta_chi2: 1.0 });
         assert_eq!(keys(&b), ["bandwidth_hz", "delta_chi2", "n_deg_per_rt_s"]);
-        let g = to_value(&GaussMarkovParams { sigma_dps: 1.0, tau_s: 1.0, delta_chi2: 1.0 });
+        let g = to_value(GaussMarkovParams { sigma_dps: 1.0, tau_s: 1.0, delta_chi2: 1.0 });
         assert_eq!(keys(&g), ["delta_chi2", "sigma_dps", "tau_s"]);
-        let q = to_value(&QuantizationParams { step_dps: 1.0, lattice_point_dps: 0.0, n_deg_per_rt_s: 1.0 });
+        let q = to_value(QuantizationParams { step_dps: 1.0, lattice_point_dps: 0.0, n_deg_per_rt_s: 1.0 });
         assert_eq!(keys(&q), ["lattice_point_dps", "n_deg_per_rt_s", "step_dps"]);
         let steps = BiasStepsParams {
             per_hour: 1.0,
@@ -239,7 +303,7 @@ mod tests {
             sizes_dps: vec![0.1, -0.1],
             threshold_dps: 0.05,
         };
-        assert_eq!(keys(&to_value(&steps)), ["at_s", "count", "per_hour", "sigma_dps", "sizes_dps", "threshold_dps"]);
+        assert_eq!(keys(&to_value(steps)), ["at_s", "count", "per_hour", "sigma_dps", "sizes_dps", "threshold_dps"]);
         let o = OutliersParams {
             per_sample: 1e-4,
             size_dps: 1.0,
@@ -250,7 +314,7 @@ mod tests {
             robust_sigma_dps: 0.1,
         };
         assert_eq!(
-            keys(&to_value(&o)),
+            keys(&to_value(o)),
             ["count", "per_sample", "robust_sigma_dps", "run_continue", "run_mean", "size_dps", "spread_dps"]
         );
         let r = ResonanceParams {
@@ -264,7 +328,7 @@ mod tests {
             q_se: 1.0,
             delta_chi2: 1.0,
         };
-        let r = to_value(&r);
+        let r = to_value(r);
         assert_eq!(
             keys(&r),
             ["delta_chi2", "freq_hz", "freq_se_hz", "peak_ratio", "q", "q_se", "sigma_dps", "sigma_se_dps", "width_hz"]
@@ -283,7 +347,7 @@ mod tests {
             p_value: 0.01,
             size_spread: 0.1,
         };
-        let bi = to_value(&bi);
+        let bi = to_value(bi);
         assert_eq!(
             keys(&bi),
             [
@@ -301,10 +365,37 @@ mod tests {
                 "window_s"
             ]
         );
-        let w = to_value(&WarmUpParams { size_dps: 1.0, tau_s: 1.0, size_se_dps: 0.1, t_stat: 10.0 });
+        let w = to_value(WarmUpParams { size_dps: 1.0, tau_s: 1.0, size_se_dps: 0.1, t_stat: 10.0 });
         assert_eq!(keys(&w), ["size_dps", "size_se_dps", "t_stat", "tau_s"]);
         // A NaN is written as null, never an error.
-        let nan = to_value(&WarmUpParams { size_dps: f64::NAN, tau_s: 1.0, size_se_dps: 0.1, t_stat: 10.0 });
+        let nan = to_value(WarmUpParams { size_dps: f64::NAN, tau_s: 1.0, size_se_dps: 0.1, t_stat: 10.0 });
         assert!(nan["size_dps"].is_null());
+    }
+
+    /// A joint re-estimation moves the sizes and time scales the model carries and nothing else: the estimator's
+    /// standard error and test stay, and an effect the model does not carry keeps its values.
+    #[test]
+    fn reestimated_parameters_come_from_the_model() {
+        use octavar_shared::sim::{GaussMarkovSim, WarmUpSim};
+        let gm = EffectParams::from(GaussMarkovParams { sigma_dps: 1.0, tau_s: 10.0, delta_chi2: 50.0 });
+        let w = EffectParams::from(WarmUpParams { size_dps: 0.5, tau_s: 60.0, size_se_dps: 0.1, t_stat: 5.0 });
+        let gyro = GyroSim {
+            gauss_markov: Some(GaussMarkovSim { sigma_dps: 2.0, tau_s: 30.0 }),
+            warm_up: Some(WarmUpSim { size_dps: 0.4, tau_s: 90.0 }),
+            ..Default::default()
+        };
+        assert_eq!(
+            gm.reestimated(&gyro),
+            EffectParams::from(GaussMarkovParams { sigma_dps: 2.0, tau_s: 30.0, delta_chi2: 50.0 })
+        );
+        // The warm-up's time scale is held in the joint fit: only its size moves.
+        assert_eq!(
+            w.reestimated(&gyro),
+            EffectParams::from(WarmUpParams { size_dps: 0.4, tau_s: 60.0, size_se_dps: 0.1, t_stat: 5.0 })
+        );
+        assert_eq!(gm.reestimated(&GyroSim::default()), gm);
+        assert_eq!(w.effect(), Effect::WarmUp);
+        assert_eq!(w.test_statistic(), Some(5.0));
+        assert_eq!(gm.test_statistic(), None);
     }
 }

@@ -1,7 +1,7 @@
 //! The quantization candidate: the lattice the sample values sit on (an ADC step), and the channel that
 //! reproduces it.
 
-use super::params::{to_value, QuantizationParams};
+use super::params::QuantizationParams;
 use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::GyroSim;
 
@@ -119,11 +119,7 @@ pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
     let gyro = GyroSim { n_deg_per_rt_s: sigma / rate_hz.sqrt(), bias_dps: mu, ..d.base.clone() };
     Some(EffectFit {
         effect: Effect::Quantization,
-        params: to_value(&QuantizationParams {
-            step_dps: q,
-            lattice_point_dps: m0,
-            n_deg_per_rt_s: gyro.n_deg_per_rt_s,
-        }),
+        params: QuantizationParams { step_dps: q, lattice_point_dps: m0, n_deg_per_rt_s: gyro.n_deg_per_rt_s }.into(),
         n_params: 1,
         gyro,
         channel: Some(lattice_channel(q, m0)),

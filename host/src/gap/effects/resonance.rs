@@ -8,7 +8,7 @@
 //! angle noise; the spectrum shows its centre, width and power directly. A sinusoid is a line, as narrow as the
 //! spectral window: that is the `sinusoid` candidate, and a bump no wider than a few bins is left to it.
 
-use super::params::{to_value, ResonanceParams};
+use super::params::ResonanceParams;
 use octavar_shared::sim::noise::Resonance;
 use octavar_shared::sim::ResonanceSim;
 use rustfft::num_complex::Complex;
@@ -433,7 +433,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
     };
     Some(EffectFit {
         effect: Effect::Resonance,
-        params: to_value(&ResonanceParams {
+        params: ResonanceParams {
             sigma_dps: sigma,
             freq_hz: bump.freq_hz,
             q: bump.q,
@@ -443,7 +443,8 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
             freq_se_hz: bump.freq_hz * bump.se_ln[1],
             q_se: bump.q * bump.se_ln[2],
             delta_chi2: bump.delta_chi2,
-        }),
+        }
+        .into(),
         n_params: 3,
         gyro,
         channel: None,

@@ -1,6 +1,6 @@
 //! The sinusoid candidate: up to four sinusoids on the rate, from the periodogram and a joint least squares.
 
-use super::params::{to_value, SinusoidParams, SinusoidsParams};
+use super::params::{SinusoidParams, SinusoidsParams};
 use octavar_shared::sim::{Sinusoid, MAX_SINUSOIDS};
 use rayon::prelude::*;
 
@@ -505,13 +505,14 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         .collect();
     Some(EffectFit {
         effect: Effect::Sinusoid,
-        params: to_value(&SinusoidsParams {
+        params: SinusoidsParams {
             amplitude_dps: s0.amplitude_dps,
             period_s: s0.period_s,
             phase_rad: s0.phase_rad,
             peak_excess,
             sinusoids: all,
-        }),
+        }
+        .into(),
         n_params: 3 * list.len(),
         gyro,
         channel: None,

@@ -1,6 +1,6 @@
 //! The temperature candidate: a bias coupled to the recorded temperature through a first-order thermal lag.
 
-use super::params::{to_value, TemperatureParams};
+use super::params::TemperatureParams;
 use octavar_shared::sim::{GyroSim, TempCoupling};
 
 use super::common::*;
@@ -156,7 +156,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let gyro = GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c, lag_s: lag }), ..refit };
     Some(EffectFit {
         effect: Effect::Temperature,
-        params: to_value(&TemperatureParams { dps_per_c: k, lag_s: lag, ref_c, t_stat: k / se, dps_per_c_se: se }),
+        params: TemperatureParams { dps_per_c: k, lag_s: lag, ref_c, t_stat: k / se, dps_per_c_se: se }.into(),
         n_params: 2,
         gyro,
         channel: None,

@@ -167,8 +167,8 @@ fn temperature_standard_error_is_the_scatter() {
                 lattice_dps: None,
             };
             let e = estimate(Effect::Temperature, &d).expect("a 10-sigma coupling is found");
-            let k = e.params["dps_per_c"].as_f64().unwrap();
-            (k, k / e.params["t_stat"].as_f64().unwrap())
+            let k = param(&e, "dps_per_c");
+            (k, k / param(&e, "t_stat"))
         })
         .collect();
     let n = draws.len() as f64;
@@ -362,13 +362,13 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
         let e = estimate(Effect::Resonance, &d).expect("the resonance under the filter is found");
         for (key, se, truth) in [("sigma_dps", "sigma_se_dps", sigma), ("freq_hz", "freq_se_hz", f0), ("q", "q_se", q)]
         {
-            assert!(within_se(&e, key, se, truth, 4.0), "seed {seed}: {key} in {}", e.params);
+            assert!(within_se(&e, key, se, truth, 4.0), "seed {seed}: {key} in {:?}", e.params);
         }
         let with_res = GyroSim { resonance: Some(res), ..g };
         let d = TrainingData { base: &with_res, ..d };
         let e = estimate(Effect::Bandwidth, &d).expect("the filter over the resonance is found");
-        eprintln!("BW {}", e.params);
-        assert!(rel(e.gyro.bandwidth_hz.unwrap(), f3) < 0.05, "seed {seed}: {}", e.params);
+        eprintln!("BW {:?}", e.params);
+        assert!(rel(e.gyro.bandwidth_hz.unwrap(), f3) < 0.05, "seed {seed}: {:?}", e.params);
     }
 }
 
@@ -399,7 +399,7 @@ fn quantization_recovered() {
     let mut g = VirtualGyro::new(&m, ch, rate_hz, 8).unwrap();
     let x: Vec<f64> = (0..1_000_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
     let e = run(Effect::Quantization, &x, None, rate_hz).unwrap();
-    assert!(rel(e.params["step_dps"].as_f64().unwrap(), q) < 1e-6, "{:?}", e.params);
+    assert!(rel(param(&e, "step_dps"), q) < 1e-6, "{:?}", e.params);
     // The channel puts codes on the data's lattice.
     let c = e.channel.unwrap();
     for &v in x.iter().take(100) {
@@ -491,9 +491,10 @@ fn a_couplings_members_draw_its_in_band_coefficient() {
     }
 }
 
-/// A parameter of an estimate and its standard error, from the params object.
+/// A parameter of an estimate or its standard error, by its key in the report's JSON.
 fn param(e: &EffectFit, key: &str) -> f64 {
-    e.params[key].as_f64().unwrap_or_else(|| panic!("no {key} in {}", e.params))
+    let json = serde_json::to_value(&e.params).unwrap();
+    json[key].as_f64().unwrap_or_else(|| panic!("no {key} in {json}"))
 }
 
 /// |estimate - truth| within `k` of its reported standard errors.
@@ -521,7 +522,7 @@ fn resonance_recovered() {
             {
                 assert!(
                     within_se(&e, key, se, truth, 4.0),
-                    "seed {seed}, truth {sigma} {f0} {q}: {key} in {}",
+                    "seed {seed}, truth {sigma} {f0} {q}: {key} in {:?}",
                     e.params
                 );
             }
@@ -552,7 +553,7 @@ fn resonance_is_not_found_in_noise_lines_or_broad_shapes() {
         .enumerate()
         .filter_map(|(i, (what, m))| {
             let (x, _) = simulate(m, rate_hz, 500_000, 40 + i as u64, None);
-            run(Effect::Resonance, &x, None, rate_hz).map(|e| format!("{what}: {}", e.params))
+            run(Effect::Resonance, &x, None, rate_hz).map(|e| format!("{what}: {:?}", e.params))
         })
         .collect();
     assert!(found.is_empty(), "false resonances: {found:?}");
@@ -582,7 +583,7 @@ fn bistable_recovered() {
             ] {
                 assert!(
                     within_se(&e, key, se, truth, 4.0),
-                    "seed {seed}, truth {step} {lo} {hi}: {key} in {}",
+                    "seed {seed}, truth {step} {lo} {hi}: {key} in {:?}",
                     e.params
                 );
             }
@@ -604,7 +605,7 @@ fn bistable_is_not_found_in_noise_steps_or_gauss_markov() {
         .par_iter()
         .filter_map(|&(what, m, seed)| {
             let (x, _) = simulate(m, rate_hz, 500_000, seed, None);
-            run(Effect::Bistable, &x, None, rate_hz).map(|e| format!("{what} seed {seed}: {}", e.params))
+            run(Effect::Bistable, &x, None, rate_hz).map(|e| format!("{what} seed {seed}: {:?}", e.params))
         })
         .collect();
     assert!(found.is_empty(), "false bistable biases: {found:?}");
@@ -622,8 +623,8 @@ fn warm_up_recovered() {
             let (x, _) = simulate(&m, rate_hz, 262_144, seed, None);
             let e = run(Effect::WarmUp, &x, None, rate_hz).expect("a warm-up is found");
             let w = e.gyro.warm_up.unwrap();
-            assert!(within_se(&e, "size_dps", "size_se_dps", size, 4.0), "seed {seed}: {}", e.params);
-            assert!((w.tau_s / tau).ln().abs() < 1.5f64.ln(), "seed {seed}: {}", e.params);
+            assert!(within_se(&e, "size_dps", "size_se_dps", size, 4.0), "seed {seed}: {:?}", e.params);
+            assert!((w.tau_s / tau).ln().abs() < 1.5f64.ln(), "seed {seed}: {:?}", e.params);
         }
     }
 }
@@ -640,7 +641,7 @@ fn warm_up_is_not_found_in_noise_random_walk_or_ramp() {
         .par_iter()
         .filter_map(|&(what, m, seed)| {
             let (x, _) = simulate(m, rate_hz, 262_144, seed, None);
-            run(Effect::WarmUp, &x, None, rate_hz).map(|e| format!("{what} seed {seed}: {}", e.params))
+            run(Effect::WarmUp, &x, None, rate_hz).map(|e| format!("{what} seed {seed}: {:?}", e.params))
         })
         .collect();
     assert!(found.is_empty(), "false warm-ups: {found:?}");

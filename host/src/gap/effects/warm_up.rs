@@ -7,7 +7,7 @@
 //! where it stands out against that. Where the base model has a ramp, a linear trend is fitted beside it, so the
 //! ramp is not taken for a warm-up.
 
-use super::params::{to_value, WarmUpParams};
+use super::params::WarmUpParams;
 use octavar_shared::sim::{GyroSim, WarmUpSim};
 
 use super::common::*;
@@ -229,7 +229,7 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     let gyro = GyroSim { warm_up: Some(WarmUpSim { size_dps: size, tau_s }), ..refit };
     Some(EffectFit {
         effect: Effect::WarmUp,
-        params: to_value(&WarmUpParams { size_dps: size, tau_s, size_se_dps: se, t_stat: size / se }),
+        params: WarmUpParams { size_dps: size, tau_s, size_se_dps: se, t_stat: size / se }.into(),
         n_params: 2,
         gyro,
         channel: None,

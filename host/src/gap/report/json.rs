@@ -14,7 +14,7 @@ use crate::gap::chain::NamedBy;
 use crate::gap::compare::ViewGap;
 use crate::gap::describe::GapShape;
 use crate::gap::disturbances::Masked;
-use crate::gap::effects::Effect;
+use crate::gap::effects::{Effect, EffectParams};
 use crate::gap::judge::Evaluated;
 use crate::gap::rank::{self, PartGap, Sign};
 use crate::gap::views::ViewKind;
@@ -56,8 +56,8 @@ impl GapReport {
                 effect: s.effect,
                 jointly_reestimated: self.chain[i..].iter().any(|later| later.joint),
                 params: &s.final_fit().params,
-                found_params: s.refit.as_ref().map(|_| &s.fit.params),
-                backfitted: s.refit.is_some(),
+                found_params: s.moved().then_some(&s.fit.params),
+                backfitted: s.moved(),
                 evidence: s.named_by,
                 view: s.location.view,
                 band_s: s.location.band_s,
@@ -183,7 +183,7 @@ pub struct Document<'a> {
     candidates: Vec<CandidateDoc<'a>>,
     model: &'a GyroSim,
     model_channel: Option<Channel>,
-    effect_params: Option<&'a Value>,
+    effect_params: Option<&'a EffectParams>,
     effects: Vec<StepDoc<'a>>,
     holdout_total: Option<PartGap>,
     transients: &'a [Masked],
@@ -241,7 +241,7 @@ struct PredictiveDoc {
 #[derive(Debug, Serialize)]
 struct CandidateDoc<'a> {
     effect: Effect,
-    params: Option<&'a Value>,
+    params: Option<&'a EffectParams>,
     n_params: Option<usize>,
     gap_after: Option<f64>,
     shrink: Option<f64>,
@@ -266,11 +266,11 @@ struct CandidateHoldout {
 struct StepDoc<'a> {
     effect: Effect,
     /// The parameters the final model carries (backfitted where `backfitted`).
-    params: &'a Value,
-    /// The parameters as the step first found them, where a backfitting round changed them.
-    found_params: Option<&'a Value>,
-    /// Whether a round estimated the effect again after its step (a backfitting round on the final model less
-    /// itself, or a joint re-estimation): `params` then differ from `found_params`.
+    params: &'a EffectParams,
+    /// The parameters as the step first found them, where a later round changed them.
+    found_params: Option<&'a EffectParams>,
+    /// Whether a round after its step (a backfitting round on the final model less itself, or a joint
+    /// re-estimation) moved the effect's parameters: `params` then differ from `found_params`.
     backfitted: bool,
     /// Whether a joint re-estimation of the base terms and the chain's effects, kept by the diagnosis, followed
     /// this effect's step.

@@ -10,7 +10,7 @@ use super::{GapReport, Verdict};
 use crate::gap::chain::{NamedBy, Step};
 use crate::gap::compare::ViewGap;
 use crate::gap::disturbances;
-use crate::gap::effects::Effect;
+use crate::gap::effects::{Effect, EffectParams};
 use crate::gap::rank::{self, CandidateResult, Location, PartGap};
 use crate::gap::views::ViewKind;
 
@@ -183,12 +183,11 @@ impl GapReport {
                         .map_or(String::new(), |h| format!(", {:.2} -> {:.2} held out", h.gap_before, h.gap_after))
                 );
             }
-            let refitted: Vec<&str> =
-                self.chain.iter().filter(|s| s.refit.is_some()).map(|s| s.effect.name()).collect();
+            let refitted: Vec<&str> = self.chain.iter().filter(|s| s.moved()).map(|s| s.effect.name()).collect();
             if !refitted.is_empty() {
                 let _ = writeln!(
                     s,
-                    "backfitted: {} estimated again with every other effect of the chain in place (the model carries those values)",
+                    "backfitted: {} estimated again with every other effect of the chain in place (the model carries the values of the last round)",
                     refitted.join(", ")
                 );
             }
@@ -301,11 +300,11 @@ fn candidate_lines(s: &mut String, candidates: &[CandidateResult], chosen: Optio
     }
 }
 
-/// `{"a": 1.0, "b": 2.0}` as `a=1.000e0 b=2.000e0`.
-fn compact(v: &Value) -> String {
-    match v {
+/// An effect's parameters as `a=1.000e0 b=2.000e0`, in the order of their JSON object.
+fn compact(params: &EffectParams) -> String {
+    match serde_json::to_value(params).unwrap_or(Value::Null) {
         Value::Object(m) => m
-            .iter()
+            .into_iter()
             .map(|(k, v)| match v {
                 Value::Number(n) => format!("{k}={:.4e}", n.as_f64().unwrap_or(f64::NAN)),
                 other => format!("{k}={}", other),
