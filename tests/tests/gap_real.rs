@@ -12,7 +12,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use octavar::gap::disturbances::Part;
+use octavar::gap::transients::Part;
 use octavar::gap::{diagnose, Effect, GapInput, GapOptions, GapReport};
 use octavar::io::csv::{read_csv, CsvOptions, RowFilter};
 use octavar::io::recording::RateUnit;

@@ -9,7 +9,7 @@ use super::error::GapError;
 use super::input::{GapInput, GapOptions, HoldoutCheck, MIN_PART};
 use super::judge::Judge;
 use super::report::{self, GapReport};
-use super::{compare, disturbances, holdout};
+use super::{compare, holdout, transients};
 
 /// Diagnose the gap between a record and the simulation of its fitted model (see the module doc of
 /// [`crate::gap`]).
@@ -24,13 +24,13 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, report_progress: &ProgressF
     input.check_temperature()?;
     input.check_values()?;
     // Transient disturbances become gaps in both parts before anything else sees the record.
-    let transients = if opts.keep_transients { Vec::new() } else { disturbances::find(input) };
+    let transients = if opts.keep_transients { Vec::new() } else { transients::parts::find(input) };
     let masked_input;
     let original = input;
     let input = if transients.is_empty() {
         input
     } else {
-        masked_input = disturbances::masked(input, &transients);
+        masked_input = transients::parts::masked(input, &transients);
         &masked_input
     };
     let n_train = input.n_train;

@@ -2,8 +2,7 @@
 //! effects cause it, and how far the gap shrinks on data the fit never saw.
 //!
 //! 1. **Split** ([`input`]): training is the first part of the record, the holdout the rest
-//!    ([`GapInput::split`]), or a second record ([`GapInput::joined`]). **Transients** ([`disturbances`], on the
-//!    scan of [`transients`]): bumps and bursts found in each part are masked as gaps before anything else
+//!    ([`GapInput::split`]), or a second record ([`GapInput::joined`]). **Transients** ([`transients`], [`transients::parts`]): bumps and bursts found in each part are masked as gaps before anything else
 //!    ([`GapOptions::keep_transients`] leaves them in). The estimators see the gaps filled ([`fill`]).
 //! 2. **Base model** ([`base`]): the IEEE 952 fit ([`crate::fit::fit`], default options) on the training OADEV at
 //!    octave tau; its fitted terms and the training mean as the bias, on the record's ADC when it is known
@@ -56,7 +55,6 @@ pub mod chain;
 pub mod compare;
 pub mod describe;
 mod diagnose;
-pub mod disturbances;
 pub mod effects;
 pub mod ensemble;
 pub mod error;

@@ -41,7 +41,7 @@
 //! ```
 
 use crate::gap::compare::{PointZ, ViewGap};
-use crate::gap::disturbances::Part;
+use crate::gap::transients::Part;
 use crate::gap::{GapInput, GapReport, ViewKind};
 
 /// Columns of the time panel's envelope: more than a figure has pixels across.

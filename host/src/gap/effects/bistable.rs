@@ -347,3 +347,33 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
         cleaned: Some(Arc::new(cleaned)),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A short excursion cut by each end of the record shows only its inner jump to the scan: the outer one is put
+    /// back at its place, with the opposite sign, and the jumps the scan saw are kept as they were.
+    #[test]
+    fn excursions_cut_by_the_records_ends_are_put_back() {
+        let n = 10_000;
+        let noise = crate::test_signals::white(n, 3);
+        let level = |i: usize| if (200..260).contains(&i) || (5_000..9_940).contains(&i) { 1.0 } else { 0.0 };
+        let x: Vec<f64> = (0..n).map(|i| level(i) + 0.01 * noise[i]).collect();
+        let seen =
+            Flips { window: 100, jumps: vec![(260, -1.0), (5_000, 1.0)], alternating: 1, p_value: 0.5, threshold: 0.3 };
+        let jumps = repaired(&x, &seen);
+        assert_eq!(jumps.len(), 4, "{jumps:?}");
+        let (t0, s0, seen0) = jumps[0];
+        assert!(t0.abs_diff(200) <= 2 && s0 == 1.0 && !seen0, "{jumps:?}");
+        assert_eq!(&jumps[1..3], &[(260, -1.0, true), (5_000, 1.0, true)]);
+        let (t3, s3, seen3) = jumps[3];
+        assert!(t3.abs_diff(9_940) <= 2 && s3 == -1.0 && !seen3, "{jumps:?}");
+        // Without an excursion at the ends nothing is added there.
+        let plain: Vec<f64> =
+            (0..n).map(|i| if (260..5_000).contains(&i) { -1.0 } else { 0.0 } + 0.01 * noise[i]).collect();
+        let seen =
+            Flips { window: 100, jumps: vec![(260, -1.0), (5_000, 1.0)], alternating: 1, p_value: 0.5, threshold: 0.3 };
+        assert_eq!(repaired(&plain, &seen), [(260, -1.0, true), (5_000, 1.0, true)]);
+    }
+}

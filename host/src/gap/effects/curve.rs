@@ -364,3 +364,33 @@ pub(super) fn refit_base_terms(base: &GyroSim, pts: &[FitPoint], rate_hz: f64) -
         None => base.clone(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gap::effects::common::oadev_points;
+
+    /// The quantisation noise of a lattice over noise several steps wide is white of `step^2 / 12` per sample:
+    /// the Allan variance of the rounding error itself follows [`lattice_avar`] at every octave, and
+    /// [`less_known`] takes it off the rounded record's curve, leaving the analog record's.
+    #[test]
+    fn an_adc_lattice_comes_off_the_allan_curve() {
+        let rate_hz = 100.0;
+        let step = 0.01;
+        let analog: Vec<f64> = crate::test_signals::white(1 << 20, 11).iter().map(|v| 4.0 * step * v).collect();
+        let rounded: Vec<f64> = analog.iter().map(|v| (v / step).round() * step).collect();
+        let error: Vec<f64> = rounded.iter().zip(&analog).map(|(r, a)| r - a).collect();
+        for p in oadev_points(&error, rate_hz).iter().filter(|p| p.edf > 1000.0) {
+            let want = lattice_avar(Some(step), p.tau_s, rate_hz);
+            assert!((p.avar / want - 1.0).abs() < 6.0 / p.edf.sqrt(), "tau {}: {} for {want}", p.tau_s, p.avar);
+        }
+        let plain = oadev_points(&analog, rate_hz);
+        let with_lattice = oadev_points(&rounded, rate_hz);
+        let cleaned = less_known(&with_lattice, &GyroSim::default(), None, rate_hz, Some(step));
+        // At the shortest tau the lattice's noise is a 1/192 share of the rounded curve: taken off, the analog
+        // curve is met to a tenth of that.
+        let ratio = |a: &FitPoint, b: &FitPoint| a.avar / b.avar - 1.0;
+        assert!(ratio(&with_lattice[0], &plain[0]) > 0.004, "the lattice shows at tau0");
+        assert!(ratio(&cleaned[0], &plain[0]).abs() < 0.0005, "{} vs {}", cleaned[0].avar, plain[0].avar);
+    }
+}

@@ -13,10 +13,10 @@ use crate::fit::NoiseFit;
 use crate::gap::chain::NamedBy;
 use crate::gap::compare::ViewGap;
 use crate::gap::describe::GapShape;
-use crate::gap::disturbances::Masked;
 use crate::gap::effects::{Effect, EffectParams};
 use crate::gap::judge::Evaluated;
 use crate::gap::rank::{self, PartGap, Sign};
+use crate::gap::transients::Masked;
 use crate::gap::views::ViewKind;
 
 impl GapReport {

@@ -36,10 +36,10 @@ pub use json::Document;
 use super::chain::{Model, Step};
 use super::compare::ViewGap;
 use super::describe::{shape_of, GapShape};
-use super::disturbances::{self, Masked};
 use super::effects::Effect;
 use super::judge::Evaluated;
 use super::rank::{self, CandidateResult, Location, PartGap};
+use super::transients::{self, Masked};
 use crate::fit::NoiseFit;
 use crate::stats::DevPoint;
 
@@ -243,7 +243,7 @@ impl GapReport {
 
     /// `input` as this diagnosis saw it: with its transients masked as gaps.
     pub fn masked_input(&self, input: &super::input::GapInput) -> super::input::GapInput {
-        disturbances::masked(input, &self.transients)
+        transients::parts::masked(input, &self.transients)
     }
 
     /// The chain's first effect's name, or `none`.

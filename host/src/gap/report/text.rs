@@ -9,9 +9,9 @@ use serde_json::Value;
 use super::{GapReport, Verdict};
 use crate::gap::chain::{NamedBy, Step};
 use crate::gap::compare::ViewGap;
-use crate::gap::disturbances;
 use crate::gap::effects::{Effect, EffectParams};
 use crate::gap::rank::{self, CandidateResult, Location, PartGap};
+use crate::gap::transients;
 use crate::gap::views::ViewKind;
 
 /// Below this shrink of a right model ([`rank::shrink_if_right`]) the text report says the held-out check is
@@ -28,7 +28,7 @@ impl GapReport {
         } else {
             "no holdout".to_string()
         };
-        let [mt, mh] = disturbances::seconds(&self.transients);
+        let [mt, mh] = transients::parts::seconds(&self.transients);
         let masked = if self.transients.is_empty() {
             "no transient masked".to_string()
         } else {

@@ -1,7 +1,8 @@
 //! Transient disturbances in a gyro record (a bump of the bench, a tug on a cable, a burst of spikes), found so
 //! that the gap diagnosis can mask them as NaN gaps before it measures anything: one disturbance of a few dozen
 //! samples is enough to wreck the distribution view of a day-long record. [`scan`] finds them in one part of a
-//! record (training and holdout are scanned apart); [`mask`] sets their samples to NaN.
+//! record (training and holdout are scanned apart); [`mask`] sets their samples to NaN; [`parts`] does both on a
+//! diagnosis's two parts.
 //!
 //! What is *not* a disturbance matters as much. Every noise process and effect the diagnosis models must come out
 //! clean: white noise, flicker, random walk, a ramp, temperature coupling, sinusoids, bandwidth, Gauss-Markov
@@ -103,6 +104,7 @@
 
 mod bursts;
 mod excursion;
+pub mod parts;
 mod stats;
 #[cfg(test)]
 mod tests;
@@ -113,6 +115,7 @@ use serde::Serialize;
 
 use bursts::find_bursts;
 use excursion::{merge_and_pad, Core, Ctx};
+pub use parts::{Masked, Part};
 use stats::{kappa, normal_sf, prev_pow2, quantum, residuals, robust_scale, Prefix};
 
 /// The longest disturbance accepted as an event, s: a longer excursion is a change of level, not a transient.

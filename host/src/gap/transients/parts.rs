@@ -1,16 +1,17 @@
-//! The transient disturbances of a record's two parts, found before anything else is done and masked as gaps.
+//! The transient disturbances of a gap diagnosis's two parts (training and holdout), found before anything else
+//! is done and masked as gaps.
 //!
 //! A bump of the bench, a tug on a cable, a burst of spikes lasting seconds to minutes is an event, not a noise
 //! process: left in, one 70 s disturbance makes the distribution view's gap thousands and every candidate is then
-//! judged on that one number. Each part is scanned on its own ([`super::transients::scan`]), the events become
+//! judged on that one number. Each part is scanned on its own ([`super::scan`]), the events become
 //! NaN gaps in a copy of the record, and the statistics, the fit, every view and every ensemble member (which
 //! copies the record's gaps) then see the rest. Isolated single-sample spikes at a steady rate are left in: they
 //! are the `outliers` process, which the diagnosis models.
 
 use serde::Serialize;
 
-use super::input::GapInput;
-use super::transients::{mask, scan, Transient};
+use super::{mask, scan, Transient};
+use crate::gap::input::GapInput;
 
 /// Which part of the record.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
