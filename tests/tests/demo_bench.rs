@@ -36,8 +36,8 @@ fn demo_recovers_table1_and_finds_the_temperature() {
     }
     for (run, r) in runs.iter().zip(&results) {
         let report = demo::diagnose_channel(run, &r.paper, &|_, _, _| {}).unwrap();
-        let loc = report.location.as_ref().unwrap();
-        let h = report.holdout.unwrap();
+        let loc = report.base.location.as_ref().unwrap();
+        let h = report.holdout.first.unwrap();
         println!(
             "{}: {} in {:?} {:?}, held out {:.2} -> {:.2} ({:.0}%)",
             r.paper.label,
@@ -48,7 +48,7 @@ fn demo_recovers_table1_and_finds_the_temperature() {
             h.gap_after,
             100.0 * h.shrink
         );
-        assert_eq!(report.effect, Some(Effect::Temperature), "{}", report.text());
+        assert_eq!(report.effect(), Some(Effect::Temperature), "{}", report.text());
         assert_eq!(loc.view, ViewKind::Temperature);
         assert!(loc.band_s[1] >= 100.0, "{loc:?}");
         assert!(h.shrink > 0.5, "{}", report.text());

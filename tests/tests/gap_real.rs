@@ -66,14 +66,14 @@ fn cats(dir: &Path, axis: &str) -> GapReport {
 fn cats_run_2_trains_its_disturbance_is_masked_and_the_coupling_holds_on_run_1() {
     let Some(dir) = data_dir() else { return };
     let r = cats_runs(&dir, "y", 2, 1);
-    assert_eq!(r.effect, Some(Effect::Temperature), "{}", r.text());
-    let t: Vec<_> = r.transients.iter().filter(|t| t.part == Part::Training).collect();
-    assert_eq!(t.len(), 1, "{:?}", r.transients);
+    assert_eq!(r.effect(), Some(Effect::Temperature), "{}", r.text());
+    let t: Vec<_> = r.input.transients.iter().filter(|t| t.part == Part::Training).collect();
+    assert_eq!(t.len(), 1, "{:?}", r.input.transients);
     assert!((t[0].start_s - 45373.0).abs() < 60.0 && (30.0..150.0).contains(&t[0].duration_s), "{:?}", t[0]);
     // Steps up to 200 mrad/s: 11.5 deg/s; the peak is taken from the local baseline.
     assert!(t[0].peak_dps > 3.0, "{:?}", t[0]);
     assert!(r.text().lines().next().unwrap().contains("1 transient masked"), "{}", r.text());
-    let h = r.holdout.unwrap();
+    let h = r.holdout.first.unwrap();
     println!(
         "CATS gyro_y, run 2 trains: held-out gap {:.2} -> {:.2}, shrink {:.3}",
         h.gap_before, h.gap_after, h.shrink
@@ -91,9 +91,9 @@ fn cats_run_2_trains_its_disturbance_is_masked_and_the_coupling_holds_on_run_1()
 fn cats_gyro_y_is_temperature_and_the_fix_holds_on_run_2() {
     let Some(dir) = data_dir() else { return };
     let r = cats(&dir, "y");
-    assert_eq!(r.effect, Some(Effect::Temperature), "{}", r.text());
-    assert!(r.significant);
-    let loc = r.location.as_ref().unwrap();
+    assert_eq!(r.effect(), Some(Effect::Temperature), "{}", r.text());
+    assert!(r.base.significant);
+    let loc = r.base.location.as_ref().unwrap();
     // The temperature correlation (or the long-tau Allan deviation) is where the gap lies, above 10 s.
     assert!(loc.band_s[1] > 10.0, "{loc:?}");
     let c = r.chosen().unwrap().fit.as_ref().unwrap().gyro.temperature.unwrap();
@@ -101,7 +101,7 @@ fn cats_gyro_y_is_temperature_and_the_fix_holds_on_run_2() {
     let k_mrad = c.dps_per_c / (0.18 / std::f64::consts::PI);
     assert!((0.3..0.6).contains(&k_mrad), "coupling {k_mrad} mrad/s/degC");
     assert!(r.training.shrink > 0.7, "{:?}", r.training);
-    let h = r.holdout.unwrap();
+    let h = r.holdout.first.unwrap();
     println!("CATS gyro_y held-out: gap {:.2} -> {:.2}, shrink {:.3}", h.gap_before, h.gap_after, h.shrink);
     assert!(h.shrink > 0.7, "{h:?}");
     // The JSON has the documented keys.
@@ -140,7 +140,7 @@ fn cats_gyro_x_and_z_are_reported() {
     let Some(dir) = data_dir() else { return };
     let x = cats(&dir, "x");
     // gyro_x hardly follows the temperature.
-    assert_ne!(x.effect, Some(Effect::Temperature), "{}", x.text());
+    assert_ne!(x.effect(), Some(Effect::Temperature), "{}", x.text());
     let z = cats(&dir, "z");
     println!(
         "CATS gyro_x: {} (gap {:.2}); gyro_z: {} (gap {:.2}, holdout {:?})",
@@ -172,14 +172,14 @@ fn adis16405_session_is_diagnosed() {
         let secs = t0.elapsed().as_secs_f64();
         println!("== ADIS16405 gyro_{axis} ({secs:.1} s)\n{}", r.text());
         if axis == "z" {
-            assert_eq!(r.effect, Some(Effect::Resonance), "{}", r.text());
-            let f = r.chain[0].fit.gyro.resonance.expect("a resonance in the model");
+            assert_eq!(r.effect(), Some(Effect::Resonance), "{}", r.text());
+            let f = r.chain.steps[0].fit.gyro.resonance.expect("a resonance in the model");
             assert!((18.0..23.0).contains(&f.freq_hz), "{f:?}");
             // Wider than a line: a quality factor of tens, not thousands.
             assert!(f.q < 100.0, "{f:?}");
         } else {
-            assert_eq!(r.effect, Some(Effect::Bandwidth), "{}", r.text());
-            let h = r.holdout_total.unwrap();
+            assert_eq!(r.effect(), Some(Effect::Bandwidth), "{}", r.text());
+            let h = r.holdout.total.unwrap();
             assert!(h.gap_after < 2.5, "{h:?}");
         }
     }

@@ -151,9 +151,9 @@ impl Args {
             plot::gap_plot(&figure, &plot::PlotOptions::gap_figure(title), &self.out.join(format!("gap_{slug}.png")))?;
             let path = self.out.join(format!("gap_{slug}.txt"));
             std::fs::write(&path, report.text()).with_context(|| format!("writing {}", path.display()))?;
-            let loc = report.location.as_ref();
+            let loc = report.base.location.as_ref();
             let band = loc.map_or("-".to_string(), |l| format!("{:.3e}..{:.3e}", l.band_s[0], l.band_s[1]));
-            let h = report.holdout.unwrap_or(octavar::gap::PartGap::new(f64::NAN, f64::NAN));
+            let h = report.holdout.first.unwrap_or(octavar::gap::PartGap::new(f64::NAN, f64::NAN));
             writeln!(
                 out,
                 "{:<10} {:>13} {:>12} {:>22} {:>11.2} -> {:>9.2} {:>9.1}%",

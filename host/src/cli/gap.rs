@@ -140,7 +140,8 @@ impl Args {
         }
         if let Some(path) = &self.model_out {
             let range = input.rate_dps.iter().filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()));
-            let channel = report.model.channel.unwrap_or_else(|| octavar::analyze::fine_channel(4.0 * range.max(1e-3)));
+            let channel =
+                report.chain.model.channel.unwrap_or_else(|| octavar::analyze::fine_channel(4.0 * range.max(1e-3)));
             let mut channels = heapless::Vec::new();
             let _ = channels.push(ChannelSim {
                 sensor: SensorKind::Generic,

@@ -16,8 +16,62 @@ use octavar_shared::sim::GyroSim;
 
 use super::base::{base_model, fit_base};
 use super::chain::{self, Model};
+use super::compare::{self, ViewGap};
 use super::effects::Effect;
+use super::ensemble;
+use super::error::GapError;
+use super::judge::Judge;
 use crate::fit::{FitOptions, NoiseFit};
+
+/// The holdout's views against the predictive ensembles: the base model's and the chain's (`None` without a
+/// chain).
+pub(crate) type PredictiveViews = (Vec<ViewGap>, Option<Vec<ViewGap>>);
+
+/// The holdout's views against the predictive ensembles: the base model's (its plain ensemble's views
+/// `base_holdout` where the base was not learnt from the record) and the chain's (`None` without a chain).
+/// `None` without a holdout.
+///
+/// # Errors
+/// A model the simulator rejects.
+pub(crate) fn predictive_views(
+    judge: &Judge,
+    learner: &Learner,
+    base: &GyroSim,
+    base_holdout: &[ViewGap],
+    found: &chain::Found,
+    n_train: usize,
+) -> Result<Option<PredictiveViews>, GapError> {
+    let (Some(hp), Some(real_hold)) = (judge.hold_plan(), judge.real_holdout()) else {
+        return Ok(None);
+    };
+    let rec = judge.record();
+    let seeds = judge.seeds();
+    let channel = learner.channel;
+    // A base model not learnt from the record predicts what its plain ensemble does.
+    let base_views = match learner.fixed_base {
+        Some(_) => base_holdout.to_vec(),
+        None => {
+            let relearn = |t: &[f64]| (learner.base(t).1, channel);
+            let m = ensemble::predict_holdout(base, channel.as_ref(), &rec, hp, seeds, None, &relearn)
+                .map_err(|err| GapError::Sim { model: "base".into(), err })?;
+            compare::compare(hp, real_hold, &m)
+        }
+    };
+    let Some(last) = found.steps.last() else {
+        return Ok(Some((base_views, None)));
+    };
+    let effects: Vec<Effect> = found.steps.iter().map(|s| s.effect).collect();
+    let rounds: Vec<_> = found.steps.iter().map(|s| s.rounds()).collect();
+    let model = &found.model;
+    let explained = ensemble::temperature_response(&model.gyro, &rec);
+    let resp_hold = explained.as_deref().map(|r| &r[n_train..]);
+    let relearn = |t: &[f64]| learner.with_chain(&effects, &rounds, t);
+    let m = ensemble::predict_holdout(&model.gyro, model.channel.as_ref(), &rec, hp, seeds, resp_hold, &relearn)
+        .map_err(|err| GapError::Sim { model: last.effect.name().to_string(), err })?;
+    // The real holdout as this model was judged on it (less its own temperature response).
+    let chain_views = found.eval.real_holdout.as_ref().map(|real| compare::compare(hp, real, &m));
+    Ok(Some((base_views, chain_views)))
+}
 
 /// The diagnosis's learning procedure, to be re-run on simulated training parts.
 pub struct Learner<'a> {

@@ -79,7 +79,7 @@ pub use fill::{fill_gaps, gap_runs, refill};
 pub use input::{GapInput, GapOptions, HoldoutCheck, MIN_PART};
 pub use judge::{Evaluated, Judge};
 pub use rank::{CandidateResult, PartGap};
-pub use report::GapReport;
+pub use report::{BaseResult, ChainResult, GapReport, HoldoutResult, InputSummary};
 pub use views::ViewKind;
 
 /// The real OADEV points of the training part (kept for the plot).
@@ -105,7 +105,7 @@ mod tests {
         }
         let opts = GapOptions { seeds: 3, effects: vec![], ..Default::default() };
         let r = diagnose(&GapInput::split(x.clone(), None, 100.0, 0.5).unwrap(), &opts, &|_, _, _| {}).unwrap();
-        assert_eq!(r.missing, [3, 1]);
+        assert_eq!(r.input.missing, [3, 1]);
         let text = r.text();
         assert!(
             text.starts_with("gap diagnosis: 4096 training samples (3 missing) at 100 Hz, 4096 held out (1 missing)"),
@@ -118,9 +118,11 @@ mod tests {
         keys.sort_unstable();
         let want = [
             "band_s",
+            "base",
             "base_fit",
             "base_model",
             "candidates",
+            "chain",
             "effect",
             "effect_params",
             "effects",
@@ -132,6 +134,7 @@ mod tests {
             "holdout",
             "holdout_predictive",
             "holdout_total",
+            "input",
             "missing_samples",
             "model",
             "model_channel",
@@ -154,6 +157,32 @@ mod tests {
             "worst",
         ];
         assert_eq!(keys, want);
+        // The nested sections say what the flat keys say, under names of their own.
+        let section_keys = |s: &str| -> Vec<String> {
+            let mut k: Vec<String> = doc[s].as_object().unwrap().keys().cloned().collect();
+            k.sort_unstable();
+            k
+        };
+        let input = ["channel", "fs_hz", "has_temperature", "missing_samples", "n_holdout", "n_train", "seeds"];
+        assert_eq!(section_keys("input"), [&input[..], &["transients"]].concat());
+        let base = ["band_s", "fit", "fit_strain", "model", "sign", "significant", "size", "total", "view", "worst"];
+        assert_eq!(section_keys("base"), base);
+        let chain = ["effects", "model", "model_channel", "total", "unexplained", "verdict", "worst"];
+        assert_eq!(section_keys("chain"), chain);
+        for (section, key, flat) in [
+            ("input", "missing_samples", "missing_samples"),
+            ("input", "fs_hz", "fs_hz"),
+            ("base", "model", "base_model"),
+            ("base", "fit", "base_fit"),
+            ("base", "total", "total_before"),
+            ("chain", "effects", "effects"),
+            ("chain", "total", "total_after"),
+            ("chain", "verdict", "verdict"),
+        ] {
+            assert_eq!(doc[section][key], doc[flat], "{section}.{key}");
+        }
+        assert_eq!(doc["holdout"]["worst"]["base"], doc["worst"]["holdout"][0]);
+        assert_eq!(doc["holdout"]["total"], doc["holdout_total"]);
 
         // The holdout keeps one sample in 20 (sample 6000 was a gap already): 204 that are not gaps.
         for (i, v) in x.iter_mut().enumerate().skip(4096) {

@@ -174,10 +174,11 @@ impl GapFigure {
     /// The figure of `report`, a diagnosis of `input` (the record as given to [`crate::gap::diagnose`], transients
     /// and all).
     pub fn new(report: &GapReport, input: &GapInput) -> GapFigure {
-        let final_eval = (!report.chain.is_empty()).then(|| report.final_eval());
+        let final_eval = (!report.chain.steps.is_empty()).then(|| report.final_eval());
         let marks = band_marks(report);
         let panels = report
-            .base_eval
+            .base
+            .eval
             .training
             .iter()
             .map(|base| {
@@ -186,8 +187,8 @@ impl GapFigure {
                 view_panel(base, chain, marks)
             })
             .collect();
-        let chain_label = (!report.chain.is_empty()).then(|| {
-            let names: Vec<&str> = report.chain.iter().map(|s| s.effect.name()).collect();
+        let chain_label = (!report.chain.steps.is_empty()).then(|| {
+            let names: Vec<&str> = report.chain.steps.iter().map(|s| s.effect.name()).collect();
             format!("simulated, + {}", names.join(" + "))
         });
         GapFigure {
@@ -195,7 +196,7 @@ impl GapFigure {
             time: time_panel(report, input),
             base_label: "simulated, base model".to_string(),
             chain_label,
-            unexplained: report.unexplained.as_ref().map(|u| u.text.clone()),
+            unexplained: report.chain.unexplained.as_ref().map(|u| u.text.clone()),
         }
     }
 
@@ -334,6 +335,7 @@ fn number(v: f64) -> String {
 fn band_marks(report: &GapReport) -> Vec<(ViewKind, BandMark)> {
     let mut out: Vec<(ViewKind, BandMark)> = report
         .chain
+        .steps
         .iter()
         .enumerate()
         .map(|(k, s)| {
@@ -342,10 +344,12 @@ fn band_marks(report: &GapReport) -> Vec<(ViewKind, BandMark)> {
             (l.view, BandMark { x: band_x(l.view, l.band_s), label, kind: MarkKind::Located { step: k } })
         })
         .collect();
-    if let Some(u) = &report.unexplained {
+    if let Some(u) = &report.chain.unexplained {
         let label = format!("left: {}", u.kind.replace('_', " "));
         out.push((u.view, BandMark { x: band_x(u.view, u.band_s), label, kind: MarkKind::Unexplained }));
-    } else if let (true, true, Some(l)) = (report.chain.is_empty(), report.significant, &report.location) {
+    } else if let (true, true, Some(l)) =
+        (report.chain.steps.is_empty(), report.base.significant, &report.base.location)
+    {
         let label = format!("gap: real {}", l.sign.name());
         out.push((l.view, BandMark { x: band_x(l.view, l.band_s), label, kind: MarkKind::Located { step: 0 } }));
     }
@@ -372,6 +376,7 @@ fn time_panel(report: &GapReport, input: &GapInput) -> TimePanel {
         .collect();
     let train_s = input.n_train as f64 / rate_hz;
     let transients = report
+        .input
         .transients
         .iter()
         .map(|m| {
@@ -495,10 +500,10 @@ pub(super) mod tests {
     fn a_diagnosis_has_one_panel_per_view_with_its_bands_and_transients() {
         let (report, input, bump) = diagnosis();
         let fig = GapFigure::new(&report, &input);
-        let views: Vec<ViewKind> = report.base_eval.training.iter().map(|v| v.view).collect();
+        let views: Vec<ViewKind> = report.base.eval.training.iter().map(|v| v.view).collect();
         assert!(views.contains(&ViewKind::Temperature), "{views:?}");
         assert_eq!(fig.panels.iter().map(|p| p.view).collect::<Vec<_>>(), views);
-        for (panel, v) in fig.panels.iter().zip(&report.base_eval.training) {
+        for (panel, v) in fig.panels.iter().zip(&report.base.eval.training) {
             assert!(panel.title.contains(&format!("gap {:.1}", v.gap)), "{}", panel.title);
             assert!(!panel.base.is_empty());
         }
@@ -507,7 +512,7 @@ pub(super) mod tests {
         assert!(fig.chain_label.as_deref().unwrap().contains("temperature"), "{:?}", fig.chain_label);
         assert!(fig.panels.iter().all(|p| p.chain.is_some()));
         // The first step's band is marked on its view's panel, in that panel's x units.
-        let first = &report.chain[0].location;
+        let first = &report.chain.steps[0].location;
         let panel = fig.panels.iter().find(|p| p.view == first.view).unwrap();
         let mark = panel.marks.iter().find(|m| m.kind == MarkKind::Located { step: 0 }).unwrap();
         let expect =
@@ -515,7 +520,7 @@ pub(super) mod tests {
         assert_eq!(mark.x, expect);
         assert!(mark.label.starts_with("1: "), "{}", mark.label);
         // The bump was masked, reported, and is shaded at its time (it starts at 2000 s of the training part).
-        assert_eq!(report.transients.len(), 1, "{:?}", report.transients);
+        assert_eq!(report.input.transients.len(), 1, "{:?}", report.input.transients);
         let [a, b] = fig.time.transients[0];
         let t = bump as f64 / input.rate_hz;
         assert!(a <= t + 5.0 && b >= t + 35.0 && a > t - 60.0 && b < t + 100.0, "{a}..{b}");
@@ -544,7 +549,7 @@ pub(super) mod tests {
         let views: Vec<ViewKind> = fig.panels.iter().map(|p| p.view).collect();
         assert_eq!(views, [ViewKind::Adev, ViewKind::Psd, ViewKind::Distribution]);
         assert!(fig.chain_label.is_none() && fig.panels.iter().all(|p| p.chain.is_none()));
-        let left = report.unexplained.as_ref().expect("a gap no candidate may explain");
+        let left = report.chain.unexplained.as_ref().expect("a gap no candidate may explain");
         assert_eq!(left.view, ViewKind::Psd, "{}", report.text());
         let psd = &fig.panels[1];
         assert_eq!(psd.marks.len(), 1);

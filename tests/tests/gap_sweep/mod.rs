@@ -113,8 +113,8 @@ pub fn run_case(gen: Gen, kind: &Kind, seed: u64) -> Row {
     let input = GapInput::split(x, t, case.rate_hz, 0.5).unwrap();
     let r = diagnose(&input, &GapOptions::default(), &|_, _, _| {}).unwrap();
     let named: Vec<Effect> = r.effects();
-    let after = r.holdout_total.map_or(f64::NAN, |h| h.gap_after);
-    let before = r.holdout_total.map_or(f64::NAN, |h| h.gap_before);
+    let after = r.holdout.total.map_or(f64::NAN, |h| h.gap_after);
+    let before = r.holdout.total.map_or(f64::NAN, |h| h.gap_before);
     let present = kind.effects();
     let named_right = named.len() == present.len() && present.iter().all(|e| named.contains(e));
     let pass = if present.is_empty() { named.is_empty() } else { named_right && after < PASS_GAP };
@@ -136,7 +136,7 @@ pub fn run_case(gen: Gen, kind: &Kind, seed: u64) -> Row {
         holdout_before: finite(before),
         holdout_after: finite(after),
         oracle_gap: finite(oracle_gap),
-        transients: r.transients.len(),
+        transients: r.input.transients.len(),
         rate_hz: case.rate_hz,
         samples: case.samples,
         what: case.what.clone(),

@@ -22,9 +22,10 @@ use crate::gap::views::ViewKind;
 impl GapReport {
     /// The JSON document (see the module doc for its keys).
     pub fn document(&self) -> Document<'_> {
-        let loc = self.location.as_ref();
-        let hb = self.holdout.map(|p| p.gap_before);
+        let loc = self.base.location.as_ref();
+        let hb = self.holdout.first.map(|p| p.gap_before);
         let candidates = self
+            .chain
             .candidates
             .iter()
             .map(|c| {
@@ -43,18 +44,19 @@ impl GapReport {
                     },
                     worst_after: c.worst_after,
                     holdout_worst_after: c.holdout_worst_after,
-                    chosen: Some(c.effect) == self.effect,
+                    chosen: Some(c.effect) == self.effect(),
                     note: f.is_none().then_some("no trace of this effect in the training data"),
                 }
             })
             .collect();
-        let effects = self
+        let effects: Vec<StepDoc> = self
             .chain
+            .steps
             .iter()
             .enumerate()
             .map(|(i, s)| StepDoc {
                 effect: s.effect,
-                jointly_reestimated: self.chain[i..].iter().any(|later| later.joint),
+                jointly_reestimated: self.chain.steps[i..].iter().any(|later| later.joint),
                 params: &s.final_fit().params,
                 found_params: s.moved().then_some(&s.fit.params),
                 backfitted: s.moved(),
@@ -67,62 +69,102 @@ impl GapReport {
                 holdout: s.holdout.map(|h| StepHoldout { gap_before: h.gap_before, gap_after: h.gap_after }),
             })
             .collect();
-        let first = self.chain.first();
-        Document {
-            effect: self.effect_name(),
-            view: loc.map(|l| l.view),
-            band_s: loc.map(|l| l.band_s),
-            sign: loc.map(|l| l.sign),
-            size: loc.map(|l| Size {
+        let first = self.chain.steps.first();
+        let size = || {
+            loc.map(|l| Size {
                 z_rms: l.z_rms,
                 points: l.points,
                 labels: &l.labels,
                 ratio: l.ratio,
                 correlation_real_sim: l.correlation,
-            }),
+            })
+        };
+        let missing_samples = Missing { training: self.input.missing[0], holdout: self.input.missing[1] };
+        let model_channel = self.chain.model.channel.filter(|_| self.chain.model.channel != self.input.channel);
+        let predictive = self.holdout.predictive.map(|h| PredictiveDoc {
+            gap_before: h.gap_before,
+            gap_after: h.gap_after,
+            shrink: h.shrink,
+            worst: self.holdout.predictive_worst.map(finite),
+        });
+        Document {
+            input: InputDoc {
+                fs_hz: self.input.rate_hz,
+                n_train: self.input.n_train,
+                n_holdout: self.input.n_holdout,
+                missing_samples,
+                transients: &self.input.transients,
+                seeds: self.input.seeds,
+                has_temperature: self.input.has_temperature,
+                channel: self.input.channel,
+            },
+            base: BaseDoc {
+                model: &self.base.gyro,
+                fit: &self.base.fit,
+                fit_strain: self.fit_strain(),
+                significant: self.base.significant,
+                view: loc.map(|l| l.view),
+                band_s: loc.map(|l| l.band_s),
+                sign: loc.map(|l| l.sign),
+                size: size(),
+                total: self.total[0],
+                worst: self.worst[0],
+            },
+            chain: ChainDoc {
+                effects: effects.clone(),
+                model: self.model(),
+                model_channel,
+                verdict: self.verdict(),
+                unexplained: self.chain.unexplained.as_ref(),
+                total: self.total[1],
+                worst: self.worst[1],
+            },
+            effect: self.effect_name(),
+            view: loc.map(|l| l.view),
+            band_s: loc.map(|l| l.band_s),
+            sign: loc.map(|l| l.sign),
+            size: size(),
             gap_before: self.training.gap_before,
             gap_after: self.training.gap_after,
             shrink: self.training.shrink,
-            holdout: self.holdout.map(|h| HoldoutDoc {
+            holdout: self.holdout.first.map(|h| HoldoutDoc {
                 gap_before: h.gap_before,
                 gap_after: h.gap_after,
                 shrink: h.shrink,
                 shrink_if_right: rank::shrink_if_right(h.gap_before),
+                total: self.holdout.total,
+                predictive,
+                worst: BeforeAfter::new(self.worst[2], self.worst[3]),
             }),
-            holdout_predictive: self.holdout_predictive.map(|h| PredictiveDoc {
-                gap_before: h.gap_before,
-                gap_after: h.gap_after,
-                shrink: h.shrink,
-                worst: self.holdout_predictive_worst.map(finite),
-            }),
+            holdout_predictive: predictive,
             candidates,
             model: self.model(),
-            model_channel: self.model.channel.filter(|_| self.model.channel != self.channel),
+            model_channel,
             effect_params: first.map(|s| &s.final_fit().params),
             effects,
-            holdout_total: self.holdout_total,
-            transients: &self.transients,
+            holdout_total: self.holdout.total,
+            transients: &self.input.transients,
             verdict: self.verdict(),
-            unexplained: self.unexplained.as_ref(),
+            unexplained: self.chain.unexplained.as_ref(),
             fit_strain: self.fit_strain(),
-            significant: self.significant,
+            significant: self.base.significant,
             explained: self.verdict() != Verdict::Unexplained,
             threshold: rank::SIGNIFICANT_GAP,
             total_before: self.total[0],
             total_after: self.total[1],
-            base_model: &self.base,
-            base_fit: &self.base_fit,
+            base_model: &self.base.gyro,
+            base_fit: &self.base.fit,
             views: self.view_table(),
             worst: Worst {
                 training: [self.worst[0], self.worst[1]],
                 holdout: [finite(self.worst[2]), finite(self.worst[3])],
             },
             views_detail: self.views_detail(),
-            n_train: self.n_train,
-            n_holdout: self.n_holdout,
-            missing_samples: Missing { training: self.missing[0], holdout: self.missing[1] },
-            rate_hz: self.rate_hz,
-            seeds: self.seeds,
+            n_train: self.input.n_train,
+            n_holdout: self.input.n_holdout,
+            missing_samples,
+            rate_hz: self.input.rate_hz,
+            seeds: self.input.seeds,
         }
     }
 
@@ -137,10 +179,10 @@ impl GapReport {
         let gap = |v: &[ViewGap], k: ViewKind| v.iter().find(|g| g.view == k).map(|g| g.gap);
         let mut m = BTreeMap::new();
         for k in ViewKind::ALL {
-            let Some(tb) = gap(&self.base_eval.training, k) else { continue };
+            let Some(tb) = gap(&self.base.eval.training, k) else { continue };
             let row = ViewRow {
                 training: [Some(tb), gap(&after.training, k)],
-                holdout: [gap(&self.base_eval.holdout, k), gap(&after.holdout, k)],
+                holdout: [gap(&self.base.eval.holdout, k), gap(&after.holdout, k)],
             };
             m.insert(k.name(), row);
         }
@@ -154,13 +196,13 @@ impl GapReport {
             PartViews { training: &e.training, holdout: &e.holdout }
         }
         let mut m = BTreeMap::new();
-        m.insert("base".to_string(), one(&self.base_eval));
-        for c in &self.candidates {
+        m.insert("base".to_string(), one(&self.base.eval));
+        for c in &self.chain.candidates {
             if let Some(e) = &c.eval {
                 m.insert(c.effect.name().to_string(), one(e));
             }
         }
-        for (k, s) in self.chain.iter().enumerate().skip(1) {
+        for (k, s) in self.chain.steps.iter().enumerate().skip(1) {
             m.insert(format!("chain_{}", k + 1), one(&s.eval));
         }
         m
@@ -170,6 +212,12 @@ impl GapReport {
 /// The JSON document of a report (see the module doc).
 #[derive(Debug, Serialize)]
 pub struct Document<'a> {
+    /// The record as diagnosed.
+    input: InputDoc<'a>,
+    /// The base model.
+    base: BaseDoc<'a>,
+    /// The chain of effects.
+    chain: ChainDoc<'a>,
     effect: &'static str,
     view: Option<ViewKind>,
     band_s: Option<[f64; 2]>,
@@ -226,10 +274,16 @@ struct HoldoutDoc {
     gap_after: f64,
     shrink: f64,
     shrink_if_right: f64,
+    /// The whole chain held out (the document's `holdout_total`).
+    total: Option<PartGap>,
+    /// Against the predictive ensembles (the document's `holdout_predictive`).
+    predictive: Option<PredictiveDoc>,
+    /// The worst view's gap on the holdout, base model and chain.
+    worst: BeforeAfter,
 }
 
 /// The held-out check against the predictive ensembles.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize)]
 struct PredictiveDoc {
     gap_before: f64,
     gap_after: f64,
@@ -262,7 +316,7 @@ struct CandidateHoldout {
 }
 
 /// One step of the chain.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 struct StepDoc<'a> {
     effect: Effect,
     /// The parameters the final model carries (backfitted where `backfitted`).
@@ -287,7 +341,7 @@ struct StepDoc<'a> {
 }
 
 /// A step's held-out gap at its band.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize)]
 struct StepHoldout {
     gap_before: f64,
     gap_after: f64,
@@ -315,10 +369,66 @@ struct PartViews<'a> {
 }
 
 /// Gaps per part.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize)]
 struct Missing {
     training: usize,
     holdout: usize,
+}
+
+/// A figure of the base model and of the chain's.
+#[derive(Clone, Copy, Debug, Serialize)]
+struct BeforeAfter {
+    base: Option<f64>,
+    chain: Option<f64>,
+}
+
+impl BeforeAfter {
+    fn new(base: f64, chain: f64) -> BeforeAfter {
+        BeforeAfter { base: finite(base), chain: finite(chain) }
+    }
+}
+
+/// The document's `input` section: the record as the diagnosis saw it.
+#[derive(Debug, Serialize)]
+struct InputDoc<'a> {
+    fs_hz: f64,
+    n_train: usize,
+    n_holdout: usize,
+    missing_samples: Missing,
+    transients: &'a [Masked],
+    seeds: usize,
+    has_temperature: bool,
+    channel: Option<Channel>,
+}
+
+/// The document's `base` section: the base model, its fit, and where and how much its simulation parts from the
+/// training record.
+#[derive(Debug, Serialize)]
+struct BaseDoc<'a> {
+    model: &'a GyroSim,
+    fit: &'a NoiseFit,
+    fit_strain: Option<f64>,
+    significant: bool,
+    view: Option<ViewKind>,
+    band_s: Option<[f64; 2]>,
+    sign: Option<Sign>,
+    size: Option<Size<'a>>,
+    /// The total over views and the worst view's gap, on the training part.
+    total: f64,
+    worst: f64,
+}
+
+/// The document's `chain` section: the effects found, the model with all of them, and what is left.
+#[derive(Debug, Serialize)]
+struct ChainDoc<'a> {
+    effects: Vec<StepDoc<'a>>,
+    model: &'a GyroSim,
+    model_channel: Option<Channel>,
+    verdict: Verdict,
+    unexplained: Option<&'a GapShape>,
+    /// The total over views and the worst view's gap, on the training part.
+    total: f64,
+    worst: f64,
 }
 
 fn finite(v: f64) -> Option<f64> {

@@ -23,31 +23,31 @@ impl GapReport {
     pub fn text(&self) -> String {
         let mut s = String::new();
         let missing = |m: usize| if m > 0 { format!(" ({m} missing)") } else { String::new() };
-        let hold = if self.n_holdout > 0 {
-            format!("{} held out{}", self.n_holdout, missing(self.missing[1]))
+        let hold = if self.input.n_holdout > 0 {
+            format!("{} held out{}", self.input.n_holdout, missing(self.input.missing[1]))
         } else {
             "no holdout".to_string()
         };
-        let [mt, mh] = transients::parts::seconds(&self.transients);
-        let masked = if self.transients.is_empty() {
+        let [mt, mh] = transients::parts::seconds(&self.input.transients);
+        let masked = if self.input.transients.is_empty() {
             "no transient masked".to_string()
         } else {
             format!(
                 "{} transient{} masked ({mt:.1} s of training, {mh:.1} s of holdout)",
-                self.transients.len(),
-                if self.transients.len() == 1 { "" } else { "s" }
+                self.input.transients.len(),
+                if self.input.transients.len() == 1 { "" } else { "s" }
             )
         };
         let _ = writeln!(
             s,
             "gap diagnosis: {} training samples{} at {} Hz, {hold}; {masked}; ensemble of {} seeds{}",
-            self.n_train,
-            missing(self.missing[0]),
-            self.rate_hz,
-            self.seeds,
-            if self.has_temperature { ", driven by the recorded temperature" } else { "" }
+            self.input.n_train,
+            missing(self.input.missing[0]),
+            self.input.rate_hz,
+            self.input.seeds,
+            if self.input.has_temperature { ", driven by the recorded temperature" } else { "" }
         );
-        for t in &self.transients {
+        for t in &self.input.transients {
             let _ = writeln!(
                 s,
                 "  transient in the {} part at {:.1} s for {:.1} s, peak {:.3e} deg/s: masked as a gap",
@@ -61,7 +61,7 @@ impl GapReport {
         let _ = writeln!(
             s,
             "base model (IEEE 952 fit on training): N {:.3e} deg/sqrt(s), B {:.3e} deg/s, K {:.3e} deg/s/sqrt(s), R {:.3e} deg/s^2, bias {:.4e} deg/s",
-            b.n_deg_per_rt_s, b.b_dps, b.k_dps_per_rt_s, b.r_dps_per_s, b.bias_dps
+            b.gyro.n_deg_per_rt_s, b.gyro.b_dps, b.gyro.k_dps_per_rt_s, b.gyro.r_dps_per_s, b.gyro.bias_dps
         );
         if let Some(r) = self.fit_strain() {
             let _ = writeln!(
@@ -69,38 +69,38 @@ impl GapReport {
                 "note: the IEEE five-term fit cannot follow the training curve (reduced chi-square {r:.1}, about 1 when it can): the record has a shape those terms lack"
             );
         }
-        let _ = writeln!(s, "views (gap: the RMS z of real against the ensemble over the worst decade of tau; about 1 when they agree; base -> {}):", if self.chain.is_empty() { "base" } else { "with the chain" });
+        let _ = writeln!(s, "views (gap: the RMS z of real against the ensemble over the worst decade of tau; about 1 when they agree; base -> {}):", if self.chain.steps.is_empty() { "base" } else { "with the chain" });
         let after = self.final_eval();
         let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
         let gap = |v: &[ViewGap], k: ViewKind| v.iter().find(|x| x.view == k).map(|x| x.gap);
-        for g in &self.base_eval.training {
+        for g in &self.base.eval.training {
             let _ = writeln!(
                 s,
                 "  {:<13} training {:>7.2} -> {:>7}   holdout {:>7} -> {:>7}",
                 g.view.name(),
                 g.gap,
                 f(gap(&after.training, g.view)),
-                f(gap(&self.base_eval.holdout, g.view)),
+                f(gap(&self.base.eval.holdout, g.view)),
                 f(gap(&after.holdout, g.view))
             );
         }
-        if let Some(l) = &self.location {
+        if let Some(l) = &self.base.location {
             let _ = writeln!(
                 s,
                 "gap {:.2} (threshold {:.1}: {}): {}",
                 self.training.gap_before,
                 rank::SIGNIFICANT_GAP,
-                if self.significant { "significant" } else { "not significant" },
+                if self.base.significant { "significant" } else { "not significant" },
                 where_text(l)
             );
         }
-        for (k, step) in self.chain.iter().enumerate() {
+        for (k, step) in self.chain.steps.iter().enumerate() {
             if k > 0 {
                 let _ = writeln!(
                     s,
                     "step {}: the gap left on the model with {}: {:.2}: {}",
                     k + 1,
-                    chain_names(&self.chain[..k]),
+                    chain_names(&self.chain.steps[..k]),
                     step.training.gap_before,
                     where_text(&step.location)
                 );
@@ -108,24 +108,24 @@ impl GapReport {
             let _ = writeln!(
                 s,
                 "candidates{} (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):",
-                if self.chain.len() > 1 { format!(" of step {}", k + 1) } else { String::new() }
+                if self.chain.steps.len() > 1 { format!(" of step {}", k + 1) } else { String::new() }
             );
             candidate_lines(&mut s, &step.candidates, Some(step.effect));
         }
-        if !self.last_tried.is_empty() {
+        if !self.chain.last_tried.is_empty() {
             let _ = writeln!(
                 s,
                 "candidates tried on the model with {} (none removes a quarter of the gap it leaves):",
-                chain_names(&self.chain)
+                chain_names(&self.chain.steps)
             );
-            candidate_lines(&mut s, &self.last_tried, None);
+            candidate_lines(&mut s, &self.chain.last_tried, None);
         }
-        if self.chain.is_empty() {
+        if self.chain.steps.is_empty() {
             let _ = writeln!(
                 s,
                 "candidates (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):"
             );
-            candidate_lines(&mut s, &self.candidates, None);
+            candidate_lines(&mut s, &self.chain.candidates, None);
         }
         if self.worst[2].is_finite() {
             let _ = writeln!(
@@ -133,14 +133,14 @@ impl GapReport {
                 "worst view on the holdout: {:.2} -> {:.2}{}",
                 self.worst[2],
                 self.worst[3],
-                match self.base_eval.holdout.iter().max_by(|a, b| a.gap.total_cmp(&b.gap)) {
-                    Some(w) if self.significant && Some(w.view) != self.location.as_ref().map(|l| l.view) =>
+                match self.base.eval.holdout.iter().max_by(|a, b| a.gap.total_cmp(&b.gap)) {
+                    Some(w) if self.base.significant && Some(w.view) != self.base.location.as_ref().map(|l| l.view) =>
                         format!(" ({}: the holdout has a gap of its own that training did not show)", w.view.name()),
                     _ => String::new(),
                 }
             );
         }
-        if let Some(first) = self.chain.first() {
+        if let Some(first) = self.chain.steps.first() {
             let _ = write!(
                 s,
                 "diagnosis: {}{} (gap {:.2} -> {:.2} on training, shrink {:.0}%",
@@ -150,14 +150,14 @@ impl GapReport {
                 self.training.gap_after,
                 100.0 * self.training.shrink
             );
-            if let Some(h) = self.holdout {
+            if let Some(h) = self.holdout.first {
                 let _ = write!(
                     s,
                     "; held out, parameters frozen: {:.2} -> {:.2}, shrink {:.0}%{}",
                     h.gap_before,
                     h.gap_after,
                     100.0 * h.shrink,
-                    match self.holdout_predictive {
+                    match self.holdout.predictive {
                         Some(p) => format!(
                             "; against the predictive ensembles, which carry the learnt parameters' error: {:.2} -> {:.2}, shrink {:.0}%",
                             p.gap_before,
@@ -169,7 +169,7 @@ impl GapReport {
                 );
             }
             let _ = writeln!(s, ")");
-            for step in &self.chain[1..] {
+            for step in &self.chain.steps[1..] {
                 let _ = writeln!(
                     s,
                     "  then {}{} ({} {}, gap {:.2} -> {:.2} on training{})",
@@ -183,7 +183,7 @@ impl GapReport {
                         .map_or(String::new(), |h| format!(", {:.2} -> {:.2} held out", h.gap_before, h.gap_after))
                 );
             }
-            let refitted: Vec<&str> = self.chain.iter().filter(|s| s.moved()).map(|s| s.effect.name()).collect();
+            let refitted: Vec<&str> = self.chain.steps.iter().filter(|s| s.moved()).map(|s| s.effect.name()).collect();
             if !refitted.is_empty() {
                 let _ = writeln!(
                     s,
@@ -191,24 +191,24 @@ impl GapReport {
                     refitted.join(", ")
                 );
             }
-            if let Some(last) = self.chain.iter().rposition(|s| s.joint) {
+            if let Some(last) = self.chain.steps.iter().rposition(|s| s.joint) {
                 let _ = writeln!(
                     s,
                     "jointly re-estimated: the base terms with {} (deterministic parts by least squares, the rest on the Allan curve)",
-                    chain_names(&self.chain[..=last])
+                    chain_names(&self.chain.steps[..=last])
                 );
             }
-            if let (true, Some(t)) = (self.chain.len() > 1, self.holdout_total) {
+            if let (true, Some(t)) = (self.chain.steps.len() > 1, self.holdout.total) {
                 let _ = writeln!(
                     s,
                     "the whole chain ({}), held out with every parameter frozen, at the worst of its bands: {:.2} -> {:.2}, shrink {:.0}%",
-                    chain_names(&self.chain),
+                    chain_names(&self.chain.steps),
                     t.gap_before,
                     t.gap_after,
                     100.0 * t.shrink
                 );
             }
-            if let Some(note) = self.holdout.as_ref().and_then(weak_holdout_note) {
+            if let Some(note) = self.holdout.first.as_ref().and_then(weak_holdout_note) {
                 let _ = writeln!(s, "{note}");
             }
         }
@@ -217,7 +217,7 @@ impl GapReport {
                 let _ = writeln!(s, "diagnosis: none (the simulation of the fitted model agrees with the record)");
             }
             Verdict::Unexplained => {
-                let what = match &self.unexplained {
+                let what = match &self.chain.unexplained {
                     Some(u) => format!(
                         ": {} view, {} the simulation, |z| RMS {:.1}: {}",
                         u.view.name(),
@@ -227,7 +227,7 @@ impl GapReport {
                     ),
                     None => String::new(),
                 };
-                if self.chain.is_empty() {
+                if self.chain.steps.is_empty() {
                     let _ = writeln!(s, "diagnosis: none: the gap is significant, but no candidate removes a quarter of it; it is not one of the known effects{what}");
                 } else {
                     let _ = writeln!(s, "left unexplained after the chain: a significant gap that no candidate removes a quarter of{what}");

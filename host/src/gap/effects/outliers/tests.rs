@@ -215,14 +215,14 @@ fn a_contaminated_record_is_diagnosed_outliers() {
     let input = GapInput::split(x, None, rate_hz, 0.5).unwrap();
     let r = diagnose(&input, &GapOptions { seeds: 12, ..Default::default() }, &|_, _, _| {}).unwrap();
     eprintln!("{}", r.text());
-    assert!(r.transients.is_empty(), "{:?}", r.transients);
+    assert!(r.input.transients.is_empty(), "{:?}", r.input.transients);
     assert_eq!(r.effect_name(), "outliers");
     let dist = |views: &[crate::gap::compare::ViewGap]| {
         views.iter().find(|v| v.view.name() == "distribution").map(|v| v.gap).unwrap()
     };
-    let (before, after) = (dist(&r.base_eval.training), dist(&r.final_eval().training));
-    let (h_before, h_after) = (dist(&r.base_eval.holdout), dist(&r.final_eval().holdout));
-    let total = r.holdout_total.unwrap();
+    let (before, after) = (dist(&r.base.eval.training), dist(&r.final_eval().training));
+    let (h_before, h_after) = (dist(&r.base.eval.holdout), dist(&r.final_eval().holdout));
+    let total = r.holdout.total.unwrap();
     eprintln!(
         "distribution training {before:.2} -> {after:.2}, holdout {h_before:.2} -> {h_after:.2}; holdout total {:.2} -> {:.2}",
         total.gap_before, total.gap_after
