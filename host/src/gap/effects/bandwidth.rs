@@ -1,10 +1,35 @@
 //! The bandwidth candidate: a first-order low-pass on the output, fitted on the short-tau Allan curve.
 
 use super::params::BandwidthParams;
+use octavar_shared::sim::GyroSim;
 
 use super::common::*;
 use super::curve::*;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
+
+/// The bandwidth effect: [`bandwidth`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Bandwidth;
+    type Params = BandwidthParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        bandwidth(data)
+    }
+
+    fn test_statistic(p: &BandwidthParams) -> Option<f64> {
+        Some(p.delta_chi2)
+    }
+
+    fn reestimated(p: &BandwidthParams, gyro: &GyroSim) -> BandwidthParams {
+        BandwidthParams {
+            bandwidth_hz: gyro.bandwidth_hz.unwrap_or(p.bandwidth_hz),
+            n_deg_per_rt_s: gyro.n_deg_per_rt_s,
+            ..p.clone()
+        }
+    }
+}
 
 /// A first-order output bandwidth.
 ///

@@ -5,7 +5,7 @@ use octavar_shared::sim::{BiasSteps, GyroSim};
 use std::sync::Arc;
 
 use super::common::*;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// Fewest detected steps for a bias-step process.
 pub(super) const MIN_STEPS: usize = 3;
@@ -82,6 +82,18 @@ pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
         }
     }
     Some(Scan { threshold, steps })
+}
+
+/// The biassteps effect: [`bias_steps`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::BiasSteps;
+    type Params = BiasStepsParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        bias_steps(data)
+    }
 }
 
 /// Random bias steps.

@@ -16,7 +16,7 @@ use super::common::*;
 use super::curve::{
     base_columns, filtered_gm_avar, joint_fit, joint_fit_keeping, less_known, with_base_terms, CURVE_DELTA_CHI2,
 };
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// Fewest jumps detected at the chosen window: with missed jumps and a false one or two, a few cycles are needed
 /// before the alternation means anything.
@@ -216,6 +216,18 @@ fn telegraph_on_curve(
         false => occupancy,
     };
     Some((t / p_high, t / (1.0 - p_high), j.theta))
+}
+
+/// The bistable effect: [`bistable`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Bistable;
+    type Params = BistableParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        bistable(data)
+    }
 }
 
 /// A bias flipping between two levels (random telegraph noise).

@@ -2,11 +2,30 @@
 //! the Allan curve.
 
 use super::params::GaussMarkovParams;
-use octavar_shared::sim::GaussMarkovSim;
+use octavar_shared::sim::{GaussMarkovSim, GyroSim};
 
 use super::common::*;
 use super::curve::*;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
+
+/// The Gauss-Markov effect: [`gauss_markov`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::GaussMarkov;
+    type Params = GaussMarkovParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        gauss_markov(data)
+    }
+
+    fn reestimated(p: &GaussMarkovParams, gyro: &GyroSim) -> GaussMarkovParams {
+        match gyro.gauss_markov {
+            Some(m) => GaussMarkovParams { sigma_dps: m.sigma_dps, tau_s: m.tau_s, ..p.clone() },
+            None => p.clone(),
+        }
+    }
+}
 
 /// A Gauss-Markov (first-order exponentially correlated) rate noise.
 ///

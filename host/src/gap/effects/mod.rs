@@ -19,7 +19,8 @@
 //! | bistable | the bias-steps MOSUM scan at windows on an octave grid; jumps in time order must alternate in sign beyond chance (binomial tail, 1e-4 over the windows) and have one size (robust spread under 35%); dwell means from the states between jumps, corrected for unseen short excursions, then read again with the base terms from the Allan curve beside the telegraph's exact Allan variance, the step held | `step_dps`, `dwell_low_s`, `dwell_high_s` |
 //! | warm_up | generalised least squares of block means (octave block lengths, 256 blocks from the start) on the block-averaged `exp(-t / tau)`, covariance from the base terms' semivariogram, a trend beside it where the base has a ramp; tau on a grid of 8-16 blocks; kept beyond 5 standard errors | `size_dps`, `tau_s` |
 //!
-//! One module per estimator; `common` holds the small helpers they share, `curve` the Allan-curve forms and
+//! One module per effect, each with a unit type `Kind` implementing [`EffectKind`] (the estimator, the typed
+//! parameters of [`params`], the test statistic and what a joint re-estimation moves); `common` holds the small helpers they share, `curve` the Allan-curve forms and
 //! joint fit of the bandwidth and Gauss-Markov estimators (and the resonance's exact Allan variance), and
 //! `joint_curve` the chain's joint re-estimation of the base terms with every stochastic effect on that curve.
 //!
@@ -121,6 +122,30 @@ impl Effect {
 impl core::fmt::Display for Effect {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+/// An effect of the vocabulary: its estimator and its typed parameters, with what the chain asks of them. Each
+/// effect's module has one unit type `Kind` that implements it; [`estimate`] and [`EffectParams`] dispatch to them.
+pub trait EffectKind {
+    /// Which effect.
+    const EFFECT: Effect;
+    /// Its parameters, each named with its unit.
+    type Params: Clone + Into<EffectParams>;
+
+    /// Fit the effect on the training data; `None` when the data carry no trace of it.
+    fn estimate(data: &TrainingData) -> Option<EffectFit>;
+
+    /// The estimator's own test statistic, where it has one that can name the effect alone
+    /// ([`crate::gap::evidence`]).
+    fn test_statistic(_params: &Self::Params) -> Option<f64> {
+        None
+    }
+
+    /// `params` with the values `gyro` carries for them: the sizes and time scales a joint re-estimation of the
+    /// chain's model moves. The estimator's own statistics (standard errors, tests) stay as it found them.
+    fn reestimated(params: &Self::Params, _gyro: &GyroSim) -> Self::Params {
+        params.clone()
     }
 }
 
@@ -262,15 +287,15 @@ pub fn estimate(effect: Effect, data: &TrainingData) -> Option<EffectFit> {
         return None;
     }
     match effect {
-        Effect::Temperature => temperature::temperature(data),
-        Effect::Sinusoid => sinusoid::sinusoid(data),
-        Effect::Bandwidth => bandwidth::bandwidth(data),
-        Effect::GaussMarkov => gauss_markov::gauss_markov(data),
-        Effect::Quantization => quantization::quantization(data),
-        Effect::BiasSteps => bias_steps::bias_steps(data),
-        Effect::Outliers => outliers::outliers(data),
-        Effect::Resonance => resonance::resonance(data),
-        Effect::Bistable => bistable::bistable(data),
-        Effect::WarmUp => warm_up::warm_up(data),
+        Effect::Temperature => temperature::Kind::estimate(data),
+        Effect::Sinusoid => sinusoid::Kind::estimate(data),
+        Effect::Bandwidth => bandwidth::Kind::estimate(data),
+        Effect::GaussMarkov => gauss_markov::Kind::estimate(data),
+        Effect::Quantization => quantization::Kind::estimate(data),
+        Effect::BiasSteps => bias_steps::Kind::estimate(data),
+        Effect::Outliers => outliers::Kind::estimate(data),
+        Effect::Resonance => resonance::Kind::estimate(data),
+        Effect::Bistable => bistable::Kind::estimate(data),
+        Effect::WarmUp => warm_up::Kind::estimate(data),
     }
 }

@@ -37,7 +37,7 @@ use std::sync::Arc;
 use super::common::*;
 use super::curve::{ar1_avar, refit_base_terms};
 use super::params::OutliersParams;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 mod mixture;
 #[cfg(test)]
@@ -215,6 +215,18 @@ fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Option<Contamina
     let beyond = abs.iter().filter(|&&v| v > TAIL_SIGMAS * mix.sigma).count();
     let expected = n_valid as f64 * (1.0 - mix.eps) * 2.0 * normal_sf(TAIL_SIGMAS);
     Some(Contamination { mix, flagged, rho1, cont_next, tail: (beyond, expected) })
+}
+
+/// The outliers effect: [`outliers`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Outliers;
+    type Params = OutliersParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        outliers(data)
+    }
 }
 
 /// Spikes on a share of the samples ([module docs](self)).

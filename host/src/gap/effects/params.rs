@@ -1,7 +1,7 @@
 //! The parameters each effect reports, as types: the `effect_params` objects of the gap report's JSON and the
 //! parameter lines of its text. Every value carries its unit in its name; `_se` marks a standard error.
 
-use super::Effect;
+use super::{Effect, EffectKind};
 use octavar_shared::sim::GyroSim;
 use serde::Serialize;
 
@@ -22,88 +22,44 @@ pub enum EffectParams {
     WarmUp(WarmUpParams),
 }
 
+/// `$body` with `$kind` the [`EffectKind`] of `$params`'s variant and `$p` its parameters.
+macro_rules! with_kind {
+    ($params:expr, |$kind:ident, $p:ident| $body:expr) => {
+        match $params {
+            EffectParams::Temperature($p) => with_kind!(@ super::temperature::Kind, $kind, $body),
+            EffectParams::Sinusoid($p) => with_kind!(@ super::sinusoid::Kind, $kind, $body),
+            EffectParams::Bandwidth($p) => with_kind!(@ super::bandwidth::Kind, $kind, $body),
+            EffectParams::GaussMarkov($p) => with_kind!(@ super::gauss_markov::Kind, $kind, $body),
+            EffectParams::Quantization($p) => with_kind!(@ super::quantization::Kind, $kind, $body),
+            EffectParams::BiasSteps($p) => with_kind!(@ super::bias_steps::Kind, $kind, $body),
+            EffectParams::Outliers($p) => with_kind!(@ super::outliers::Kind, $kind, $body),
+            EffectParams::Resonance($p) => with_kind!(@ super::resonance::Kind, $kind, $body),
+            EffectParams::Bistable($p) => with_kind!(@ super::bistable::Kind, $kind, $body),
+            EffectParams::WarmUp($p) => with_kind!(@ super::warm_up::Kind, $kind, $body),
+        }
+    };
+    (@ $path:path, $kind:ident, $body:expr) => {{
+        type $kind = $path;
+        $body
+    }};
+}
+
 impl EffectParams {
     /// The effect these parameters belong to.
     pub fn effect(&self) -> Effect {
-        match self {
-            EffectParams::Temperature(_) => Effect::Temperature,
-            EffectParams::Sinusoid(_) => Effect::Sinusoid,
-            EffectParams::Bandwidth(_) => Effect::Bandwidth,
-            EffectParams::GaussMarkov(_) => Effect::GaussMarkov,
-            EffectParams::Quantization(_) => Effect::Quantization,
-            EffectParams::BiasSteps(_) => Effect::BiasSteps,
-            EffectParams::Outliers(_) => Effect::Outliers,
-            EffectParams::Resonance(_) => Effect::Resonance,
-            EffectParams::Bistable(_) => Effect::Bistable,
-            EffectParams::WarmUp(_) => Effect::WarmUp,
-        }
+        with_kind!(self, |K, _p| K::EFFECT)
     }
 
     /// The estimator's test statistic where it has one that can name the effect alone: the t of a temperature
     /// coupling's or a warm-up's size, the fall of the chi-square with a resonance's bump or a bandwidth's corner
     /// (see [`crate::gap::evidence`]).
     pub fn test_statistic(&self) -> Option<f64> {
-        match self {
-            EffectParams::Temperature(p) => Some(p.t_stat),
-            EffectParams::WarmUp(p) => Some(p.t_stat),
-            EffectParams::Resonance(p) => Some(p.delta_chi2),
-            EffectParams::Bandwidth(p) => Some(p.delta_chi2),
-            _ => None,
-        }
-        .filter(|v| v.is_finite())
+        with_kind!(self, |K, p| K::test_statistic(p)).filter(|v| v.is_finite())
     }
 
-    /// These parameters with the values `gyro` carries for them: the sizes and time scales a joint re-estimation
-    /// of the chain's model moves. The estimator's own statistics (standard errors, tests) stay as it found them.
+    /// These parameters with the values `gyro` carries for them ([`EffectKind::reestimated`]).
     pub fn reestimated(&self, gyro: &GyroSim) -> EffectParams {
-        let mut p = self.clone();
-        match &mut p {
-            EffectParams::Bandwidth(b) => {
-                if let Some(f) = gyro.bandwidth_hz {
-                    b.bandwidth_hz = f;
-                }
-                b.n_deg_per_rt_s = gyro.n_deg_per_rt_s;
-            }
-            EffectParams::GaussMarkov(g) => {
-                if let Some(m) = gyro.gauss_markov {
-                    g.sigma_dps = m.sigma_dps;
-                    g.tau_s = m.tau_s;
-                }
-            }
-            EffectParams::Resonance(r) => {
-                if let Some(m) = gyro.resonance {
-                    r.sigma_dps = m.sigma_dps;
-                    r.freq_hz = m.freq_hz;
-                    r.q = m.q;
-                    r.width_hz = m.freq_hz / m.q;
-                }
-            }
-            EffectParams::Temperature(t) => {
-                if let Some(c) = gyro.temperature {
-                    t.dps_per_c = c.dps_per_c;
-                }
-            }
-            EffectParams::WarmUp(w) => {
-                if let Some(m) = gyro.warm_up {
-                    w.size_dps = m.size_dps;
-                }
-            }
-            EffectParams::Sinusoid(s) => {
-                if let Some(first) = gyro.sinusoids.first() {
-                    s.amplitude_dps = first.amplitude_dps;
-                    s.phase_rad = first.phase_rad;
-                }
-                for (one, m) in s.sinusoids.iter_mut().zip(&gyro.sinusoids) {
-                    one.amplitude_dps = m.amplitude_dps;
-                    one.phase_rad = m.phase_rad;
-                }
-            }
-            EffectParams::Quantization(_)
-            | EffectParams::BiasSteps(_)
-            | EffectParams::Outliers(_)
-            | EffectParams::Bistable(_) => {}
-        }
-        p
+        with_kind!(self, |K, p| K::reestimated(p, gyro).into())
     }
 }
 

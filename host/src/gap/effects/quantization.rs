@@ -6,7 +6,7 @@ use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::GyroSim;
 
 use super::common::*;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// The lattice `offset + k q` the sample values sit on: `(q, a lattice point)`, or `None`.
 pub(super) fn lattice(x: &[f64]) -> Option<(f64, f64)> {
@@ -80,6 +80,18 @@ pub(super) fn quantized_var(sigma: f64, q: f64) -> f64 {
         acc += s2 - s1 * s1;
     }
     acc / nu as f64
+}
+
+/// The quantization effect: [`quantization`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Quantization;
+    type Params = QuantizationParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        quantization(data)
+    }
 }
 
 /// ADC quantisation.

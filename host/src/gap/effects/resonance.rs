@@ -10,13 +10,13 @@
 
 use super::params::ResonanceParams;
 use octavar_shared::sim::noise::Resonance;
-use octavar_shared::sim::ResonanceSim;
+use octavar_shared::sim::{GyroSim, ResonanceSim};
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
 use super::common::*;
 use super::curve::*;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// Fewest Welch segments: the spectrum's log has a standard deviation of about `1 / sqrt(segments)`.
 const MIN_SEGMENTS: usize = 16;
@@ -342,6 +342,35 @@ fn fit_bump(
         best = Some(bump);
     }
     best
+}
+
+/// The resonance effect: [`resonance`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Resonance;
+    type Params = ResonanceParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        resonance(data)
+    }
+
+    fn test_statistic(p: &ResonanceParams) -> Option<f64> {
+        Some(p.delta_chi2)
+    }
+
+    fn reestimated(p: &ResonanceParams, gyro: &GyroSim) -> ResonanceParams {
+        match gyro.resonance {
+            Some(r) => ResonanceParams {
+                sigma_dps: r.sigma_dps,
+                freq_hz: r.freq_hz,
+                q: r.q,
+                width_hz: r.freq_hz / r.q,
+                ..p.clone()
+            },
+            None => p.clone(),
+        }
+    }
 }
 
 /// Narrowband random vibration: a resonance.

@@ -1,12 +1,12 @@
 //! The sinusoid candidate: up to four sinusoids on the rate, from the periodogram and a joint least squares.
 
 use super::params::{SinusoidParams, SinusoidsParams};
-use octavar_shared::sim::{Sinusoid, MAX_SINUSOIDS};
+use octavar_shared::sim::{GyroSim, Sinusoid, MAX_SINUSOIDS};
 use rayon::prelude::*;
 
 use super::common::*;
 use super::curve::*;
-use super::{Effect, EffectFit, ParamSpread, TrainingData};
+use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 
 /// `|sum w_n x_n e^{-i 2 pi f n dt}|^2` with the Hann window, by a rotating phasor (renormalised).
 pub(super) fn hann_power(y: &[f64], f: f64, dt: f64) -> f64 {
@@ -305,6 +305,32 @@ fn ls_amplitude_sd(
     let var_amp = (a * a * va + b * b * vb + 2.0 * a * b * cab) / amp2;
     let var_ph = (b * b * va + a * a * vb - 2.0 * a * b * cab) / (amp2 * amp2);
     Some((var_amp.max(0.0).sqrt(), var_ph.max(0.0).sqrt()))
+}
+
+/// The sinusoid effect: [`sinusoid`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Sinusoid;
+    type Params = SinusoidsParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        sinusoid(data)
+    }
+
+    /// The joint fit moves each sinusoid's amplitude and phase; the periods are held.
+    fn reestimated(p: &SinusoidsParams, gyro: &GyroSim) -> SinusoidsParams {
+        let mut out = p.clone();
+        if let Some(first) = gyro.sinusoids.first() {
+            out.amplitude_dps = first.amplitude_dps;
+            out.phase_rad = first.phase_rad;
+        }
+        for (one, m) in out.sinusoids.iter_mut().zip(&gyro.sinusoids) {
+            one.amplitude_dps = m.amplitude_dps;
+            one.phase_rad = m.phase_rad;
+        }
+        out
+    }
 }
 
 /// Sinusoids on the rate.

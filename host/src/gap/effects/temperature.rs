@@ -4,8 +4,28 @@ use super::params::TemperatureParams;
 use octavar_shared::sim::{GyroSim, TempCoupling};
 
 use super::common::*;
-use super::{Effect, EffectFit, ParamSpread, TrainingData};
+use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 use crate::gap::fill::refill;
+
+/// The temperature effect: [`temperature`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Temperature;
+    type Params = TemperatureParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        temperature(data)
+    }
+
+    fn test_statistic(p: &TemperatureParams) -> Option<f64> {
+        Some(p.t_stat)
+    }
+
+    fn reestimated(p: &TemperatureParams, gyro: &GyroSim) -> TemperatureParams {
+        TemperatureParams { dps_per_c: gyro.temperature.map_or(p.dps_per_c, |c| c.dps_per_c), ..p.clone() }
+    }
+}
 
 /// Bias coupled to the temperature through a first-order thermal lag.
 ///

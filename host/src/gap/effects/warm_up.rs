@@ -11,7 +11,7 @@ use super::params::WarmUpParams;
 use octavar_shared::sim::{GyroSim, WarmUpSim};
 
 use super::common::*;
-use super::{Effect, EffectFit, TrainingData};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// Most block means in one regression (the covariance is factorised once per block length).
 const MAX_BLOCKS: usize = 256;
@@ -187,6 +187,27 @@ fn scan(x: &[f64], rate_hz: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64
 #[cfg(test)]
 pub(super) fn largest_t(x: &[f64], rate_hz: f64, sq: &[f64; 5], trend: bool) -> f64 {
     scan(x, rate_hz, sq, trend).map_or(0.0, |(s, e, _)| (s / e).abs())
+}
+
+/// The warmup effect: [`warm_up`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::WarmUp;
+    type Params = WarmUpParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        warm_up(data)
+    }
+
+    fn test_statistic(p: &WarmUpParams) -> Option<f64> {
+        Some(p.t_stat)
+    }
+
+    /// The joint fit moves the size; the time constant is held.
+    fn reestimated(p: &WarmUpParams, gyro: &GyroSim) -> WarmUpParams {
+        WarmUpParams { size_dps: gyro.warm_up.map_or(p.size_dps, |w| w.size_dps), ..p.clone() }
+    }
 }
 
 /// The bias settling after power-on.
