@@ -63,7 +63,7 @@ pub struct Step {
     pub holdout: Option<PartGap>,
     /// Every candidate of this step, in vocabulary order.
     pub candidates: Vec<CandidateResult>,
-    /// The effect estimated again on the chain's final model less itself ([`backfit`]), where the diagnosis kept
+    /// The effect estimated again on the chain's final model less itself ([`super::backfit`]), where the diagnosis kept
     /// that round: its parameters are the ones the final model carries.
     pub refit: Option<EffectFit>,
     /// Whether a backfitting round followed this step (the re-learning on other data repeats it).
