@@ -118,6 +118,7 @@ fn statistics(generator: Generator, seed: u64) -> [Option<f64>; TESTED.len()] {
     let base = base_model(&fit, training);
     let data = TrainingData {
         rate_dps: training,
+        recorded_dps: training,
         temp_c: Some(&c.temp_c[..n_train]),
         rate_hz: c.rate_hz,
         base: &base,

@@ -32,7 +32,8 @@ pub fn without(gyro: &GyroSim, effect: Effect) -> Option<GyroSim> {
 /// One backfitting round over a chain of two or more effects: each effect, in the chain's order, is estimated
 /// again on the final model less itself, so that it is read with every other effect of the chain in place rather
 /// than only the ones found before it (a bandwidth read before the resonance under it takes part of the bump for
-/// its corner; the resonance then sits on that corner). `fits` are the chain's fits in its order, `series` the
+/// its corner; the resonance then sits on that corner). `fits` are the chain's fits in its order, `recorded` the
+/// training samples as recorded (gaps filled; where an ADC lattice is read), `series` the
 /// training samples less the recovered realisations (gaps filled, the runs `gaps`). Returns the final model and,
 /// per step, the fit that replaced it (`None`: kept as found, because the effect is one [`without`] leaves or
 /// its estimator found no trace on the model without it).
@@ -40,6 +41,7 @@ pub fn without(gyro: &GyroSim, effect: Effect) -> Option<GyroSim> {
 pub fn backfit(
     model: &Model,
     fits: &[&EffectFit],
+    recorded: &[f64],
     series: &[f64],
     gaps: &[Range<usize>],
     temp_c: Option<&[f64]>,
@@ -54,7 +56,7 @@ pub fn backfit(
                 continue;
             }
             let Some(rest) = without(&gyro, fit.effect) else { continue };
-            let data = StepData::new(&rest, series, gaps, temp_c, rate_hz, base_fit, false);
+            let data = StepData::new(&rest, recorded, series, gaps, temp_c, rate_hz, base_fit, false);
             if let Some(f) =
                 effects::estimate(fit.effect, &data.training(&rest, model.channel.as_ref(), temp_c, rate_hz))
             {
@@ -84,10 +86,11 @@ pub fn learn(
 ) -> Model {
     let mut model = base.clone();
     let gaps = gap_runs(training);
-    let mut series = fill_gaps(training);
+    let recorded = fill_gaps(training);
+    let mut series = recorded.clone();
     let mut fits = Vec::new();
     for (k, &effect) in effects.iter().enumerate() {
-        let data = StepData::new(&model.gyro, &series, &gaps, temp_c, rate_hz, base_fit, k == 0);
+        let data = StepData::new(&model.gyro, &recorded, &series, &gaps, temp_c, rate_hz, base_fit, k == 0);
         if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, model.channel.as_ref(), temp_c, rate_hz))
         {
             data.take_out(&mut series, &f);
@@ -97,7 +100,7 @@ pub fn learn(
         let round = rounds.get(k).copied().unwrap_or_default();
         if round.backfit {
             let all: Vec<&EffectFit> = fits.iter().collect();
-            let (m, refits) = backfit(&model, &all, &series, &gaps, temp_c, rate_hz, base_fit);
+            let (m, refits) = backfit(&model, &all, &recorded, &series, &gaps, temp_c, rate_hz, base_fit);
             for (f, r) in fits.iter_mut().zip(refits) {
                 if let Some(r) = r {
                     *f = r;

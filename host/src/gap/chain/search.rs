@@ -165,7 +165,16 @@ pub(crate) fn search<'p>(
 impl Search<'_, '_> {
     /// What this step's estimators learn from.
     fn step_data(&self, first: bool) -> StepData {
-        StepData::new(&self.model.gyro, &self.series, &self.gaps, self.temp, self.rate_hz, self.base_fit, first)
+        StepData::new(
+            &self.model.gyro,
+            &self.filled,
+            &self.series,
+            &self.gaps,
+            self.temp,
+            self.rate_hz,
+            self.base_fit,
+            first,
+        )
     }
 
     /// The realisations known on the model with `fit` added to this step's model (`data` its data).
@@ -260,8 +269,16 @@ impl Search<'_, '_> {
             data.take_out(&mut taken, &f);
             let mut fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
             fits.push(&f);
-            let (m, refits) =
-                backfit(&self.model.with(&f), &fits, &taken, &self.gaps, self.temp, self.rate_hz, self.base_fit);
+            let (m, refits) = backfit(
+                &self.model.with(&f),
+                &fits,
+                &self.filled,
+                &taken,
+                &self.gaps,
+                self.temp,
+                self.rate_hz,
+                self.base_fit,
+            );
             if refits.iter().all(Option::is_none) {
                 continue;
             }
@@ -297,8 +314,16 @@ impl Search<'_, '_> {
             let mut series_a = self.series.clone();
             data.take_out(&mut series_a, a);
             let known_a = self.known_with(data, a);
-            let data_a =
-                StepData::new(&with_a.gyro, &series_a, &self.gaps, self.temp, self.rate_hz, self.base_fit, false);
+            let data_a = StepData::new(
+                &with_a.gyro,
+                &self.filled,
+                &series_a,
+                &self.gaps,
+                self.temp,
+                self.rate_hz,
+                self.base_fit,
+                false,
+            );
             let training_a = data_a.training(&with_a.gyro, with_a.channel.as_ref(), self.temp, self.rate_hz);
             for &j in &pool[k + 1..] {
                 let Some(b) = effects::estimate(candidates[j].effect, &training_a) else { continue };
@@ -444,7 +469,7 @@ impl Search<'_, '_> {
         }
         let fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
         let (refitted, refits) =
-            backfit(&self.model, &fits, &self.series, &self.gaps, self.temp, self.rate_hz, self.base_fit);
+            backfit(&self.model, &fits, &self.filled, &self.series, &self.gaps, self.temp, self.rate_hz, self.base_fit);
         if refits.iter().all(Option::is_none) {
             return Ok(());
         }

@@ -152,8 +152,12 @@ pub trait EffectKind {
 /// What an estimator sees: the training samples and the base model fitted on them.
 #[derive(Clone, Copy, Debug)]
 pub struct TrainingData<'a> {
-    /// Rate samples, deg/s (no gaps).
+    /// Rate samples, deg/s (no gaps): the training samples less what the chain's earlier steps explained (the
+    /// model's deterministic part, the realisations recovered).
     pub rate_dps: &'a [f64],
+    /// The training samples as recorded (gaps filled the same way): the sample values an ADC lattice lies on,
+    /// which taking anything out moves off it.
+    pub recorded_dps: &'a [f64],
     /// The temperature at each sample, degC, where there is a temperature channel.
     pub temp_c: Option<&'a [f64]>,
     /// Sample rate, Hz.

@@ -103,13 +103,15 @@ impl EffectKind for Kind {
 /// quantisation noise; the analog N is recovered by inverting the variance of a quantised Gaussian with a uniformly wandering
 /// offset (Sheppard's `sigma^2 + q^2/12` when sigma > 2q, computed exactly below).
 pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
-    // The recorded samples only: a gap's interpolated fill lies off the lattice.
+    // The samples as recorded, outside the gaps: a gap's interpolated fill lies off the lattice, and so does a
+    // sample less an earlier step's bias steps or sinusoid.
+    let (q, point) = lattice(&outside_gaps(d.recorded_dps, d.gaps))?;
+    let rate_hz = d.rate_hz;
+    // The per-sample white variance from the first differences (half their mean square) of what the earlier
+    // steps left (a spike or a sinusoid they explained would swell it): below one step the quantised noise is not
+    // white at longer tau, so N from the Allan curve would not do.
     let kept = outside_gaps(d.rate_dps, d.gaps);
     let x: &[f64] = &kept;
-    let (q, point) = lattice(x)?;
-    let rate_hz = d.rate_hz;
-    // The per-sample white variance from the first differences (half their mean square): below one step the
-    // quantised noise is not white at longer tau, so N from the Allan curve would not do.
     let v_white = x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (x.len() - 1) as f64);
     if !(q > 0.1 * v_white.sqrt()) {
         return None;

@@ -43,7 +43,16 @@ fn base_of(x: &[f64], rate_hz: f64) -> (GyroSim, NoiseFit) {
 
 fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, rate_hz: f64) -> Option<EffectFit> {
     let (g, f) = base_of(x, rate_hz);
-    let d = TrainingData { rate_dps: x, temp_c: t, rate_hz, base: &g, base_fit: &f, gaps: &[], lattice_dps: None };
+    let d = TrainingData {
+        rate_dps: x,
+        recorded_dps: x,
+        temp_c: t,
+        rate_hz,
+        base: &g,
+        base_fit: &f,
+        gaps: &[],
+        lattice_dps: None,
+    };
     let t0 = std::time::Instant::now();
     let out = estimate(effect, &d);
     eprintln!("{effect}: {:?} in {:?}", out.as_ref().map(|e| &e.params), t0.elapsed());
@@ -159,6 +168,7 @@ fn temperature_standard_error_is_the_scatter() {
             let (b, f) = base_of(&x, rate_hz);
             let d = TrainingData {
                 rate_dps: &x,
+                recorded_dps: &x,
                 temp_c: Some(&t),
                 rate_hz,
                 base: &b,
@@ -352,6 +362,7 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
         let with_bw = GyroSim { bandwidth_hz: Some(f3), ..g.clone() };
         let d = TrainingData {
             rate_dps: &x,
+            recorded_dps: &x,
             temp_c: None,
             rate_hz,
             base: &with_bw,
@@ -406,6 +417,36 @@ fn quantization_recovered() {
         assert!((c.code_to_dps(c.dps_to_code(v)) - v).abs() < 1e-6 * q);
     }
     // The analog N is recovered within 15% from the quantised white noise.
+    assert!(rel(e.gyro.n_deg_per_rt_s, m.n_deg_per_rt_s) < 0.15, "{:?}", e.params);
+}
+
+/// A lattice is read from the samples as recorded, not from what an earlier step left: once a bias step of a
+/// third of a step is taken out of half the record, the values are off the lattice, and the lattice is still
+/// found, with N from the step's own samples.
+#[test]
+fn quantization_read_on_the_recorded_samples() {
+    let ch = Channel::bench(ADXRS300);
+    let q = ch.dps_per_code();
+    let rate_hz: f64 = 500.0;
+    let m =
+        GyroSim { n_deg_per_rt_s: 0.5 * q / rate_hz.sqrt(), k_dps_per_rt_s: 0.01, bias_dps: 0.1, ..Default::default() };
+    let mut g = VirtualGyro::new(&m, ch, rate_hz, 9).unwrap();
+    let recorded: Vec<f64> = (0..400_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+    let left: Vec<f64> = recorded.iter().enumerate().map(|(i, v)| if i < 200_000 { *v } else { v - q / 3.0 }).collect();
+    assert!(super::quantization::lattice(&left).is_none_or(|(step, _)| rel(step, q) > 0.01), "premise: a lattice left");
+    let (b, f) = base_of(&left, rate_hz);
+    let d = TrainingData {
+        rate_dps: &left,
+        recorded_dps: &recorded,
+        temp_c: None,
+        rate_hz,
+        base: &b,
+        base_fit: &f,
+        gaps: &[],
+        lattice_dps: None,
+    };
+    let e = estimate(Effect::Quantization, &d).expect("the lattice of the recorded samples");
+    assert!(rel(param(&e, "step_dps"), q) < 1e-6, "{:?}", e.params);
     assert!(rel(e.gyro.n_deg_per_rt_s, m.n_deg_per_rt_s) < 0.15, "{:?}", e.params);
 }
 

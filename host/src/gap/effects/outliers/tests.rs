@@ -170,8 +170,16 @@ fn the_fitted_model_carries_the_mixture_and_the_clean_white_noise() {
     let pts = oadev_points(&x, rate_hz);
     let f = crate::fit::fit(&pts, &crate::fit::FitOptions::default()).unwrap();
     let base = crate::gap::base_model(&f, &x);
-    let d =
-        TrainingData { rate_dps: &x, temp_c: None, rate_hz, base: &base, base_fit: &f, gaps: &[], lattice_dps: None };
+    let d = TrainingData {
+        rate_dps: &x,
+        recorded_dps: &x,
+        temp_c: None,
+        rate_hz,
+        base: &base,
+        base_fit: &f,
+        gaps: &[],
+        lattice_dps: None,
+    };
     let e = outliers(&d).expect("outliers");
     let o = e.gyro.outliers.unwrap();
     let n_true = SIGMA / rate_hz.sqrt();
