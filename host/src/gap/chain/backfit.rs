@@ -56,9 +56,9 @@ pub fn backfit(
                 continue;
             }
             let Some(rest) = without(&gyro, fit.effect) else { continue };
-            let data = StepData::new(&rest, recorded, series, gaps, temp_c, rate_hz, base_fit, false);
+            let data = StepData::new(&rest, series, gaps, temp_c, rate_hz, base_fit, false);
             if let Some(f) =
-                effects::estimate(fit.effect, &data.training(&rest, model.channel.as_ref(), temp_c, rate_hz))
+                effects::estimate(fit.effect, &data.training(recorded, &rest, model.channel.as_ref(), temp_c, rate_hz))
             {
                 gyro = f.gyro.clone();
                 refits[i] = Some(f);
@@ -90,8 +90,9 @@ pub fn learn(
     let mut series = recorded.clone();
     let mut fits = Vec::new();
     for (k, &effect) in effects.iter().enumerate() {
-        let data = StepData::new(&model.gyro, &recorded, &series, &gaps, temp_c, rate_hz, base_fit, k == 0);
-        if let Some(f) = effects::estimate(effect, &data.training(&model.gyro, model.channel.as_ref(), temp_c, rate_hz))
+        let data = StepData::new(&model.gyro, &series, &gaps, temp_c, rate_hz, base_fit, k == 0);
+        if let Some(f) =
+            effects::estimate(effect, &data.training(&recorded, &model.gyro, model.channel.as_ref(), temp_c, rate_hz))
         {
             data.take_out(&mut series, &f);
             model = model.with(&f);

@@ -49,8 +49,6 @@ pub fn deterministic_part(gyro: &GyroSim, rate_hz: f64, temp_c: Option<&[f64]>, 
 pub struct StepData {
     /// The samples, deg/s.
     pub rate_dps: Vec<f64>,
-    /// The training samples as recorded, gaps filled ([`TrainingData::recorded_dps`]).
-    pub recorded: Vec<f64>,
     /// Their base fit.
     pub base_fit: NoiseFit,
     /// The runs of samples missing or masked in the training part (filled in `rate_dps`).
@@ -58,15 +56,12 @@ pub struct StepData {
 }
 
 impl StepData {
-    /// The data of a step on `model`, from the training samples `filled` (the runs `gaps` filled; as recorded,
-    /// `recorded`) and their
+    /// The data of a step on `model`, from the training samples `filled` (the runs `gaps` filled) and their
     /// temperature; `first` says whether this is the chain's first step (the model is the base, fitted as
     /// `base_fit`). The gaps are filled again once the deterministic part is out, and the IEEE fit takes them as
     /// gaps.
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
         model: &GyroSim,
-        recorded: &[f64],
         filled: &[f64],
         gaps: &[Range<usize>],
         temp_c: Option<&[f64]>,
@@ -76,12 +71,7 @@ impl StepData {
     ) -> StepData {
         let gaps = gaps.to_vec();
         if first {
-            return StepData {
-                rate_dps: filled.to_vec(),
-                recorded: recorded.to_vec(),
-                base_fit: base_fit.clone(),
-                gaps,
-            };
+            return StepData { rate_dps: filled.to_vec(), base_fit: base_fit.clone(), gaps };
         }
         let mut rate_dps: Vec<f64> = match deterministic_part(model, rate_hz, temp_c, filled.len()) {
             Some(d) => filled.iter().zip(&d).map(|(x, d)| x - d).collect(),
@@ -91,7 +81,7 @@ impl StepData {
         let base_fit = fit_base(&with_gaps(&rate_dps, &gaps), rate_hz, &FitOptions::default())
             .map(|(_, f)| f)
             .unwrap_or_else(|_| base_fit.clone());
-        StepData { rate_dps, recorded: recorded.to_vec(), base_fit, gaps }
+        StepData { rate_dps, base_fit, gaps }
     }
 
     /// `series` (the samples this step's data was made from) less the realisation of the effect that `fit`
@@ -115,9 +105,11 @@ impl StepData {
         })
     }
 
-    /// The estimators' view of it, on `model` with its ADC `channel` (`None`: the analog rate).
+    /// The estimators' view of it, on `model` with its ADC `channel` (`None`: the analog rate); `recorded` are the
+    /// training samples as recorded, gaps filled ([`TrainingData::recorded_dps`]).
     pub fn training<'a>(
         &'a self,
+        recorded: &'a [f64],
         model: &'a GyroSim,
         channel: Option<&Channel>,
         temp_c: Option<&'a [f64]>,
@@ -126,7 +118,7 @@ impl StepData {
         TrainingData {
             lattice_dps: channel.map(Channel::dps_per_code),
             rate_dps: &self.rate_dps,
-            recorded_dps: &self.recorded,
+            recorded_dps: recorded,
             temp_c,
             rate_hz,
             base: model,

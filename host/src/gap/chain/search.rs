@@ -2,6 +2,7 @@
 //! the views or its own estimator name (see the module doc of [`crate::gap::chain`]).
 
 use std::ops::Range;
+use std::rc::Rc;
 
 use rayon::prelude::*;
 
@@ -77,8 +78,8 @@ struct Search<'a, 'p> {
     rate_hz: f64,
     /// The runs of missing or masked training samples.
     gaps: Vec<Range<usize>>,
-    /// The training samples, gaps filled.
-    filled: Vec<f64>,
+    /// The training samples, gaps filled (shared: the estimators read them beside the search's own state).
+    filled: Rc<[f64]>,
     progress: &'a mut Progress<'p>,
     /// The training samples less the realisations the steps so far recovered (what the next step learns from).
     series: Vec<f64>,
@@ -114,7 +115,7 @@ pub(crate) fn search<'p>(
         rate_hz,
         gaps: gap_runs(training),
         series: filled.clone(),
-        filled,
+        filled: filled.into(),
         progress,
         realised: None,
         steps: Vec::new(),
@@ -165,16 +166,7 @@ pub(crate) fn search<'p>(
 impl Search<'_, '_> {
     /// What this step's estimators learn from.
     fn step_data(&self, first: bool) -> StepData {
-        StepData::new(
-            &self.model.gyro,
-            &self.filled,
-            &self.series,
-            &self.gaps,
-            self.temp,
-            self.rate_hz,
-            self.base_fit,
-            first,
-        )
+        StepData::new(&self.model.gyro, &self.series, &self.gaps, self.temp, self.rate_hz, self.base_fit, first)
     }
 
     /// The realisations known on the model with `fit` added to this step's model (`data` its data).
@@ -199,7 +191,8 @@ impl Search<'_, '_> {
         if !self.steps.is_empty() {
             self.progress.expect("chain", remaining.len());
         }
-        let training = data.training(&self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
+        let training =
+            data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
         let fits: Vec<(Effect, Option<EffectFit>)> =
             remaining.par_iter().map(|&e| (e, effects::estimate(e, &training))).collect();
         let mut candidates = Vec::with_capacity(fits.len());
@@ -314,17 +307,10 @@ impl Search<'_, '_> {
             let mut series_a = self.series.clone();
             data.take_out(&mut series_a, a);
             let known_a = self.known_with(data, a);
-            let data_a = StepData::new(
-                &with_a.gyro,
-                &self.filled,
-                &series_a,
-                &self.gaps,
-                self.temp,
-                self.rate_hz,
-                self.base_fit,
-                false,
-            );
-            let training_a = data_a.training(&with_a.gyro, with_a.channel.as_ref(), self.temp, self.rate_hz);
+            let data_a =
+                StepData::new(&with_a.gyro, &series_a, &self.gaps, self.temp, self.rate_hz, self.base_fit, false);
+            let recorded = Rc::clone(&self.filled);
+            let training_a = data_a.training(&recorded, &with_a.gyro, with_a.channel.as_ref(), self.temp, self.rate_hz);
             for &j in &pool[k + 1..] {
                 let Some(b) = effects::estimate(candidates[j].effect, &training_a) else { continue };
                 let m = with_a.with(&b);
@@ -363,7 +349,8 @@ impl Search<'_, '_> {
         location: &Location,
         first_candidates: Option<&mut Vec<CandidateResult>>,
     ) -> Result<bool, GapError> {
-        let training = data.training(&self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
+        let training =
+            data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
         let Some(fit) = evidence::strongest(remaining, &candidates, &training) else { return Ok(false) };
         let Some(ev) = evidence::of(&fit) else { return Ok(false) };
         let m = self.model.with(&fit);

@@ -398,17 +398,23 @@ fn gauss_markov_recovered() {
     }
 }
 
-#[test]
-fn quantization_recovered() {
+/// `n` samples of the ADXRS300 bench channel's codes at 500 Hz, as deg/s, with its step `q`, the model and the
+/// rate: half a step of white noise, and a random walk that moves the offset over a few steps (the inversion of
+/// the quantised variance assumes the offset wanders over the lattice).
+fn quantized(n: usize, seed: u64) -> (Vec<f64>, f64, GyroSim, f64) {
     let ch = Channel::bench(ADXRS300);
     let q = ch.dps_per_code();
     let rate_hz: f64 = 500.0;
-    // Half a step of white noise, and a random walk that moves the offset over a few steps (the inversion
-    // assumes the offset wanders over the lattice).
     let m =
         GyroSim { n_deg_per_rt_s: 0.5 * q / rate_hz.sqrt(), k_dps_per_rt_s: 0.01, bias_dps: 0.1, ..Default::default() };
-    let mut g = VirtualGyro::new(&m, ch, rate_hz, 8).unwrap();
-    let x: Vec<f64> = (0..1_000_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+    let mut g = VirtualGyro::new(&m, ch, rate_hz, seed).unwrap();
+    let x = (0..n).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+    (x, q, m, rate_hz)
+}
+
+#[test]
+fn quantization_recovered() {
+    let (x, q, m, rate_hz) = quantized(1_000_000, 8);
     let e = run(Effect::Quantization, &x, None, rate_hz).unwrap();
     assert!(rel(param(&e, "step_dps"), q) < 1e-6, "{:?}", e.params);
     // The channel puts codes on the data's lattice.
@@ -425,13 +431,7 @@ fn quantization_recovered() {
 /// found, with N from the step's own samples.
 #[test]
 fn quantization_read_on_the_recorded_samples() {
-    let ch = Channel::bench(ADXRS300);
-    let q = ch.dps_per_code();
-    let rate_hz: f64 = 500.0;
-    let m =
-        GyroSim { n_deg_per_rt_s: 0.5 * q / rate_hz.sqrt(), k_dps_per_rt_s: 0.01, bias_dps: 0.1, ..Default::default() };
-    let mut g = VirtualGyro::new(&m, ch, rate_hz, 9).unwrap();
-    let recorded: Vec<f64> = (0..400_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+    let (recorded, q, m, rate_hz) = quantized(400_000, 9);
     let left: Vec<f64> = recorded.iter().enumerate().map(|(i, v)| if i < 200_000 { *v } else { v - q / 3.0 }).collect();
     assert!(super::quantization::lattice(&left).is_none_or(|(step, _)| rel(step, q) > 0.01), "premise: a lattice left");
     let (b, f) = base_of(&left, rate_hz);
