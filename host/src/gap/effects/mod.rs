@@ -149,6 +149,47 @@ pub trait EffectKind {
     }
 }
 
+/// `$body` with `$kind` the [`EffectKind`] of `$params`'s variant and `$p` its parameters.
+macro_rules! with_kind {
+    ($params:expr, |$kind:ident, $p:ident| $body:expr) => {
+        match $params {
+            EffectParams::Temperature($p) => with_kind!(@ temperature::Kind, $kind, $body),
+            EffectParams::Sinusoid($p) => with_kind!(@ sinusoid::Kind, $kind, $body),
+            EffectParams::Bandwidth($p) => with_kind!(@ bandwidth::Kind, $kind, $body),
+            EffectParams::GaussMarkov($p) => with_kind!(@ gauss_markov::Kind, $kind, $body),
+            EffectParams::Quantization($p) => with_kind!(@ quantization::Kind, $kind, $body),
+            EffectParams::BiasSteps($p) => with_kind!(@ bias_steps::Kind, $kind, $body),
+            EffectParams::Outliers($p) => with_kind!(@ outliers::Kind, $kind, $body),
+            EffectParams::Resonance($p) => with_kind!(@ resonance::Kind, $kind, $body),
+            EffectParams::Bistable($p) => with_kind!(@ bistable::Kind, $kind, $body),
+            EffectParams::WarmUp($p) => with_kind!(@ warm_up::Kind, $kind, $body),
+        }
+    };
+    (@ $path:path, $kind:ident, $body:expr) => {{
+        type $kind = $path;
+        $body
+    }};
+}
+
+impl EffectParams {
+    /// The effect these parameters belong to.
+    pub fn effect(&self) -> Effect {
+        with_kind!(self, |K, _p| K::EFFECT)
+    }
+
+    /// The estimator's test statistic where it has one that can name the effect alone: the t of a temperature
+    /// coupling's or a warm-up's size, the fall of the chi-square with a resonance's bump or a bandwidth's corner
+    /// (see [`crate::gap::evidence`]).
+    pub fn test_statistic(&self) -> Option<f64> {
+        with_kind!(self, |K, p| K::test_statistic(p)).filter(|v| v.is_finite())
+    }
+
+    /// These parameters with the values `gyro` carries for them ([`EffectKind::reestimated`]).
+    pub fn reestimated(&self, gyro: &GyroSim) -> EffectParams {
+        with_kind!(self, |K, p| K::reestimated(p, gyro).into())
+    }
+}
+
 /// What an estimator sees: the training samples and the base model fitted on them.
 #[derive(Clone, Copy, Debug)]
 pub struct TrainingData<'a> {

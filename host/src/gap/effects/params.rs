@@ -1,8 +1,6 @@
 //! The parameters each effect reports, as types: the `effect_params` objects of the gap report's JSON and the
 //! parameter lines of its text. Every value carries its unit in its name; `_se` marks a standard error.
 
-use super::{Effect, EffectKind};
-use octavar_shared::sim::GyroSim;
 use serde::Serialize;
 
 /// An effect's fitted parameters, typed: one variant per effect. It serialises as the variant's own object (the
@@ -20,47 +18,6 @@ pub enum EffectParams {
     Resonance(ResonanceParams),
     Bistable(BistableParams),
     WarmUp(WarmUpParams),
-}
-
-/// `$body` with `$kind` the [`EffectKind`] of `$params`'s variant and `$p` its parameters.
-macro_rules! with_kind {
-    ($params:expr, |$kind:ident, $p:ident| $body:expr) => {
-        match $params {
-            EffectParams::Temperature($p) => with_kind!(@ super::temperature::Kind, $kind, $body),
-            EffectParams::Sinusoid($p) => with_kind!(@ super::sinusoid::Kind, $kind, $body),
-            EffectParams::Bandwidth($p) => with_kind!(@ super::bandwidth::Kind, $kind, $body),
-            EffectParams::GaussMarkov($p) => with_kind!(@ super::gauss_markov::Kind, $kind, $body),
-            EffectParams::Quantization($p) => with_kind!(@ super::quantization::Kind, $kind, $body),
-            EffectParams::BiasSteps($p) => with_kind!(@ super::bias_steps::Kind, $kind, $body),
-            EffectParams::Outliers($p) => with_kind!(@ super::outliers::Kind, $kind, $body),
-            EffectParams::Resonance($p) => with_kind!(@ super::resonance::Kind, $kind, $body),
-            EffectParams::Bistable($p) => with_kind!(@ super::bistable::Kind, $kind, $body),
-            EffectParams::WarmUp($p) => with_kind!(@ super::warm_up::Kind, $kind, $body),
-        }
-    };
-    (@ $path:path, $kind:ident, $body:expr) => {{
-        type $kind = $path;
-        $body
-    }};
-}
-
-impl EffectParams {
-    /// The effect these parameters belong to.
-    pub fn effect(&self) -> Effect {
-        with_kind!(self, |K, _p| K::EFFECT)
-    }
-
-    /// The estimator's test statistic where it has one that can name the effect alone: the t of a temperature
-    /// coupling's or a warm-up's size, the fall of the chi-square with a resonance's bump or a bandwidth's corner
-    /// (see [`crate::gap::evidence`]).
-    pub fn test_statistic(&self) -> Option<f64> {
-        with_kind!(self, |K, p| K::test_statistic(p)).filter(|v| v.is_finite())
-    }
-
-    /// These parameters with the values `gyro` carries for them ([`EffectKind::reestimated`]).
-    pub fn reestimated(&self, gyro: &GyroSim) -> EffectParams {
-        with_kind!(self, |K, p| K::reestimated(p, gyro).into())
-    }
 }
 
 macro_rules! params_of {
@@ -210,6 +167,8 @@ pub struct WarmUpParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gap::effects::Effect;
+    use octavar_shared::sim::GyroSim;
     use serde_json::Value;
 
     fn to_value(params: impl Into<EffectParams>) -> Value {
