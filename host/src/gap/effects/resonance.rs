@@ -12,7 +12,6 @@ use super::params::ResonanceParams;
 use octavar_shared::sim::noise::Resonance;
 use octavar_shared::sim::{GyroSim, ResonanceSim};
 use rustfft::num_complex::Complex;
-use rustfft::FftPlanner;
 
 use super::common::*;
 use super::curve::*;
@@ -40,7 +39,7 @@ const CANDIDATES: usize = 3;
 /// mean removed, the segments that overlap a run of `gaps` (filled in `x`) left out; bins `k df`, `k =
 /// 0..seg/2`. Also the number of segments.
 fn welch(x: &[f64], gaps: &[std::ops::Range<usize>], rate_hz: f64, seg: usize) -> (Vec<f64>, usize) {
-    let fft = FftPlanner::new().plan_fft_forward(seg);
+    let fft = forward_plan(seg);
     let window: Vec<f64> =
         (0..seg).map(|i| 0.5 * (1.0 - (2.0 * std::f64::consts::PI * i as f64 / seg as f64).cos())).collect();
     let w2: f64 = window.iter().map(|w| w * w).sum();

@@ -108,13 +108,20 @@ impl DesignRows {
     }
 }
 
+/// The tolerance of the frequency on the windowed projection, in bins: a start for the least squares' refinement,
+/// which searches half a bin either side of it.
+const HANN_TOL: f64 = 1e-3;
+/// The tolerance of the least squares' frequency, in bins: a phase error of 2 pi x 1e-5 rad over the training part,
+/// well below the frequency's own standard error at any amplitude the periodogram can show.
+const RSS_TOL: f64 = 1e-5;
+
 /// Samples per chunk of [`OneVarying::rss`]'s pass (a multiple of the phasors' renormalisation period, 1024).
 const RSS_CHUNK: usize = 1 << 16;
 
 /// The residual sum of squares of [`sinusoid_ls`] as a function of the frequency of sinusoid `j` alone, the
 /// other frequencies held: the rows of the held columns are stored once, with their `A'A`, `A'y` and `y'y`, so
 /// each trial passes over the record for the two columns that change (a fifth of the work of a whole
-/// [`sinusoid_ls`] with four sinusoids). The refinement below calls it some forty times per frequency.
+/// [`sinusoid_ls`] with four sinusoids). The refinement below calls it a dozen times per frequency.
 struct OneVarying<'a> {
     y: &'a [f64],
     dt: f64,
@@ -274,27 +281,30 @@ fn ls_amplitude_sd(
         solve(ata.to_vec(), e)
     };
     let (ma, mb) = (col(3 + 2 * j)?, col(4 + 2 * j)?);
+    // The two real weight sequences in one complex transform, g_a + i g_b, whose halves come apart by symmetry:
+    // G_a[m] = (Z[m] + conj Z[-m]) / 2, G_b[m] = (Z[m] - conj Z[-m]) / 2i.
     let big = (2 * n).next_power_of_two();
-    let (mut ar, mut ai) = (vec![0.0; big], vec![0.0; big]);
-    let (mut br, mut bi) = (vec![0.0; big], vec![0.0; big]);
+    let (mut zr, mut zi) = (vec![0.0; big], vec![0.0; big]);
     let mut rows = DesignRows::new(n, freqs, dt, t_off);
     let mut r = vec![0.0; p];
     for i in 0..n {
         rows.next_row(&mut r);
-        ar[i] = r.iter().zip(&ma).map(|(x, m)| x * m).sum();
-        br[i] = r.iter().zip(&mb).map(|(x, m)| x * m).sum();
+        zr[i] = r.iter().zip(&ma).map(|(x, m)| x * m).sum();
+        zi[i] = r.iter().zip(&mb).map(|(x, m)| x * m).sum();
     }
-    fft(&mut ar, &mut ai);
-    fft(&mut br, &mut bi);
+    fft(&mut zr, &mut zi);
     let two_pi = 2.0 * std::f64::consts::PI;
     let df = 1.0 / (big as f64 * dt);
     let (mut va, mut vb, mut cab) = (0.0, 0.0, 0.0);
     for m in 1..=big / 2 {
+        let k = big - m;
+        let (ar, ai) = (0.5 * (zr[m] + zr[k]), 0.5 * (zi[m] - zi[k]));
+        let (br, bi) = (0.5 * (zi[m] + zi[k]), -0.5 * (zr[m] - zr[k]));
         let f = m as f64 * df;
         let s = squares[1] + squares[2] / (two_pi * f) + squares[3] / (two_pi * f).powi(2);
-        va += 2.0 * (ar[m] * ar[m] + ai[m] * ai[m]) * s * df;
-        vb += 2.0 * (br[m] * br[m] + bi[m] * bi[m]) * s * df;
-        cab += 2.0 * (ar[m] * br[m] + ai[m] * bi[m]) * s * df;
+        va += 2.0 * (ar * ar + ai * ai) * s * df;
+        vb += 2.0 * (br * br + bi * bi) * s * df;
+        cab += 2.0 * (ar * br + ai * bi) * s * df;
     }
     let (a, b) = (ls.coef[3 + 2 * j], ls.coef[4 + 2 * j]);
     let amp2 = a * a + b * b;
@@ -342,7 +352,7 @@ impl EffectKind for Kind {
 /// above, interpolated in log-log), so 1/f and 1/f^2 noise set their own level; a bin is a peak where it is a local
 /// maximum beyond `ln(bins) + 7` times the background mean (the periodogram ordinate is exponential, so about
 /// 1e-3 false peaks per record). Periods from a third of the record to two samples are searched. Each peak's
-/// frequency is refined by golden search on the windowed projection within +-1 bin; amplitudes and phases of up
+/// frequency is refined by Brent's search on the windowed projection within +-1 bin; amplitudes and phases of up
 /// to four peaks come from one joint least-squares fit of sines and cosines (plus a quadratic trend). The base
 /// terms are re-fitted on the record without the sinusoids (the base fit covered their Allan bump with B or K).
 pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
@@ -445,7 +455,7 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         .iter()
         .map(|&k| {
             let f0 = k as f64 * df;
-            let (f, _) = golden((f0 - df).max(df * 0.5), f0 + df, 30, |f| -hann_power(&y, f, dt));
+            let (f, _) = brent((f0 - df).max(df * 0.5), f0 + df, HANN_TOL * df, 40, |f| -hann_power(&y, f, dt));
             f
         })
         .collect();
@@ -457,7 +467,7 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         for j in 0..freqs.len() {
             let f0 = freqs[j];
             let varying = OneVarying::new(&y, &freqs, j, dt, t_off);
-            let (f, _) = golden(f0 - 0.5 * df, f0 + 0.5 * df, 20, |f| varying.rss(f));
+            let (f, _) = brent(f0 - 0.5 * df, f0 + 0.5 * df, RSS_TOL * df, 30, |f| varying.rss(f));
             freqs[j] = f;
         }
     }

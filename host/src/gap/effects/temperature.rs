@@ -82,7 +82,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let nfft = 2 * (nb + 1);
     let half = nfft / 2;
     let tapers = sine_tapers(nb, TAPERS);
-    let fft_plan = rustfft::FftPlanner::new().plan_fft_forward(nfft);
+    let fft_plan = forward_plan(nfft);
     let transform = |v: &[f64]| -> Vec<(Vec<f64>, Vec<f64>)> { sine_tapered(v, TAPERS, &*fft_plan) };
     let rt1 = transform(&r);
     let df = 1.0 / (nfft as f64 * dt);

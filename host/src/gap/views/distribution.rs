@@ -14,7 +14,7 @@
 //! would turn any 2% error of the fitted N into the worst gap of the whole diagnosis.
 
 use super::PointInfo;
-use crate::stats::robust::{median_in_place as median, quantile_in_place as quantile};
+use crate::stats::robust::{median_in_place as median, quartiles_in_place};
 
 /// Tail threshold of the distribution view, robust sigmas.
 pub const TAIL_SIGMA: f64 = 5.0;
@@ -93,8 +93,8 @@ impl DistributionPlan {
         let (m2, m3, m4) = (m2 / n, m3 / n, m4 / n);
         let skew = if m2 > 0.0 { m3 / m2.powf(1.5) } else { f64::NAN };
         let kurt = if m2 > 0.0 { m4 / (m2 * m2) - 3.0 } else { f64::NAN };
-        let med = median(&mut r);
-        let iqr_sigma = (quantile(&mut r, 0.75) - quantile(&mut r, 0.25)) / 1.349;
+        let (q1, med, q3) = quartiles_in_place(&mut r);
+        let iqr_sigma = (q3 - q1) / 1.349;
         for v in r.iter_mut() {
             *v = (*v - med).abs();
         }
