@@ -125,6 +125,7 @@ fn statistics(generator: Generator, seed: u64) -> [Option<f64>; TESTED.len()] {
         base_fit: &fit,
         gaps: &[],
         lattice_dps: None,
+        shaped_dps: None,
     };
     TESTED.map(|e| estimate(e, &data).and_then(|f| evidence::of(&f)).map(|ev| ev.value))
 }

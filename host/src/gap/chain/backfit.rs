@@ -34,7 +34,8 @@ pub fn without(gyro: &GyroSim, effect: Effect) -> Option<GyroSim> {
 /// than only the ones found before it (a bandwidth read before the resonance under it takes part of the bump for
 /// its corner; the resonance then sits on that corner). `fits` are the chain's fits in its order, `recorded` the
 /// training samples as recorded (gaps filled; where an ADC lattice is read), `series` the
-/// training samples less the recovered realisations (gaps filled, the runs `gaps`). Returns the final model and,
+/// training samples less the recovered realisations (gaps filled, the runs `gaps`), `shaped` the part of those
+/// realisations the sensor's filter shapes ([`StepData::shaped_with`]). Returns the final model and,
 /// per step, the fit that replaced it (`None`: kept as found, because the effect is one [`without`] leaves or
 /// its estimator found no trace on the model without it).
 #[allow(clippy::too_many_arguments)]
@@ -43,6 +44,7 @@ pub fn backfit(
     fits: &[&EffectFit],
     recorded: &[f64],
     series: &[f64],
+    shaped: Option<&[f64]>,
     gaps: &[Range<usize>],
     temp_c: Option<&[f64]>,
     rate_hz: f64,
@@ -56,7 +58,7 @@ pub fn backfit(
                 continue;
             }
             let Some(rest) = without(&gyro, fit.effect) else { continue };
-            let data = StepData::new(&rest, series, gaps, temp_c, rate_hz, base_fit, false);
+            let data = StepData::new(&rest, series, shaped, gaps, temp_c, rate_hz, base_fit, false);
             if let Some(f) =
                 effects::estimate(fit.effect, &data.training(recorded, &rest, model.channel.as_ref(), temp_c, rate_hz))
             {
@@ -88,12 +90,16 @@ pub fn learn(
     let gaps = gap_runs(training);
     let recorded = fill_gaps(training);
     let mut series = recorded.clone();
+    let mut shaped: Option<Vec<f64>> = None;
     let mut fits = Vec::new();
     for (k, &effect) in effects.iter().enumerate() {
-        let data = StepData::new(&model.gyro, &series, &gaps, temp_c, rate_hz, base_fit, k == 0);
+        let data = StepData::new(&model.gyro, &series, shaped.as_deref(), &gaps, temp_c, rate_hz, base_fit, k == 0);
         if let Some(f) =
             effects::estimate(effect, &data.training(&recorded, &model.gyro, model.channel.as_ref(), temp_c, rate_hz))
         {
+            if f.cleaned.is_some() {
+                shaped = data.shaped_with(shaped.as_deref(), &f);
+            }
             data.take_out(&mut series, &f);
             model = model.with(&f);
             fits.push(f);
@@ -101,7 +107,8 @@ pub fn learn(
         let round = rounds.get(k).copied().unwrap_or_default();
         if round.backfit {
             let all: Vec<&EffectFit> = fits.iter().collect();
-            let (m, refits) = backfit(&model, &all, &recorded, &series, &gaps, temp_c, rate_hz, base_fit);
+            let (m, refits) =
+                backfit(&model, &all, &recorded, &series, shaped.as_deref(), &gaps, temp_c, rate_hz, base_fit);
             for (f, r) in fits.iter_mut().zip(refits) {
                 if let Some(r) = r {
                     *f = r;
@@ -110,7 +117,7 @@ pub fn learn(
             model = m;
         }
         if round.joint {
-            if let Some(m) = joint::reestimate(&model, &series, &gaps, temp_c, rate_hz) {
+            if let Some(m) = joint::reestimate(&model, &series, shaped.as_deref(), &gaps, temp_c, rate_hz) {
                 model = m;
             }
         }

@@ -11,7 +11,7 @@ use octavar_shared::sim::GyroSim;
 
 use crate::fit::{FitOptions, NoiseFit};
 use crate::gap::base::fit_base;
-use crate::gap::effects::{EffectFit, TrainingData};
+use crate::gap::effects::{low_passed, EffectFit, TrainingData};
 use crate::gap::fill::{refill, with_gaps};
 
 /// The deterministic part of `gyro`'s rate over the `temp_c.len()` (or `n`) first samples of the record at
@@ -49,6 +49,9 @@ pub fn deterministic_part(gyro: &GyroSim, rate_hz: f64, temp_c: Option<&[f64]>, 
 pub struct StepData {
     /// The samples, deg/s.
     pub rate_dps: Vec<f64>,
+    /// The realisations the steps before took out that the sensor's filter shapes, as taken out
+    /// ([`TrainingData::shaped_dps`]).
+    pub shaped: Option<Vec<f64>>,
     /// Their base fit.
     pub base_fit: NoiseFit,
     /// The runs of samples missing or masked in the training part (filled in `rate_dps`).
@@ -60,9 +63,11 @@ impl StepData {
     /// temperature; `first` says whether this is the chain's first step (the model is the base, fitted as
     /// `base_fit`). The gaps are filled again once the deterministic part is out, and the IEEE fit takes them as
     /// gaps.
+    #[allow(clippy::too_many_arguments)] // the samples and what the steps took out, the record's context, the model
     pub fn new(
         model: &GyroSim,
         filled: &[f64],
+        shaped: Option<&[f64]>,
         gaps: &[Range<usize>],
         temp_c: Option<&[f64]>,
         rate_hz: f64,
@@ -70,18 +75,25 @@ impl StepData {
         first: bool,
     ) -> StepData {
         let gaps = gaps.to_vec();
+        let shaped = shaped.map(<[f64]>::to_vec);
         if first {
-            return StepData { rate_dps: filled.to_vec(), base_fit: base_fit.clone(), gaps };
+            return StepData { rate_dps: filled.to_vec(), shaped, base_fit: base_fit.clone(), gaps };
         }
         let mut rate_dps: Vec<f64> = match deterministic_part(model, rate_hz, temp_c, filled.len()) {
             Some(d) => filled.iter().zip(&d).map(|(x, d)| x - d).collect(),
             None => filled.to_vec(),
         };
+        // The shaped realisations were taken out sharp; the model's sensor passes them through its filter.
+        if let (Some(s), Some(f)) = (shaped.as_deref(), model.bandwidth_hz) {
+            for (r, (s, lp)) in rate_dps.iter_mut().zip(s.iter().zip(low_passed(s, f, rate_hz))) {
+                *r += s - lp;
+            }
+        }
         refill(&mut rate_dps, &gaps);
         let base_fit = fit_base(&with_gaps(&rate_dps, &gaps), rate_hz, &FitOptions::default())
             .map(|(_, f)| f)
             .unwrap_or_else(|_| base_fit.clone());
-        StepData { rate_dps, base_fit, gaps }
+        StepData { rate_dps, shaped, base_fit, gaps }
     }
 
     /// `series` (the samples this step's data was made from) less the realisation of the effect that `fit`
@@ -105,6 +117,15 @@ impl StepData {
         })
     }
 
+    /// `before` (the shaped realisations the steps before took out; `None`: none) with the one `fit` recovered from
+    /// this step's data added where the sensor's filter shapes it; `before` as it was otherwise.
+    pub fn shaped_with(&self, before: Option<&[f64]>, fit: &EffectFit) -> Option<Vec<f64>> {
+        if !fit.effect.passes_sensor_filter() {
+            return before.map(<[f64]>::to_vec);
+        }
+        self.realised_with(before, fit).or_else(|| before.map(<[f64]>::to_vec))
+    }
+
     /// The estimators' view of it, on `model` with its ADC `channel` (`None`: the analog rate); `recorded` are the
     /// training samples as recorded, gaps filled ([`TrainingData::recorded_dps`]).
     pub fn training<'a>(
@@ -124,6 +145,7 @@ impl StepData {
             base: model,
             base_fit: &self.base_fit,
             gaps: &self.gaps,
+            shaped_dps: self.shaped.as_deref(),
         }
     }
 }
@@ -160,5 +182,28 @@ mod tests {
         gyro.sinusoids.clear();
         assert!(deterministic_part(&gyro, rate_hz, None, n).is_none());
         assert!(deterministic_part(&GyroSim { n_deg_per_rt_s: 0.1, ..Default::default() }, rate_hz, None, n).is_none());
+    }
+
+    /// On a model with a bandwidth, the step's samples are the record less the shaped realisations through the
+    /// model's filter (written out here as `y = a y + (1 - a) x` from the first input); on one without, less them
+    /// as taken out.
+    #[test]
+    fn shaped_realisations_are_taken_out_through_the_models_filter() {
+        let (rate_hz, n) = (50.0, 4000);
+        let record: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let jumps: Vec<f64> = (0..n).map(|i| if (i / 500) % 2 == 1 { 0.8 } else { 0.0 }).collect();
+        let series: Vec<f64> = record.iter().zip(&jumps).map(|(x, j)| x - j).collect();
+        let (_, fit) = fit_base(&series, rate_hz, &FitOptions::default()).unwrap();
+        let model = GyroSim { n_deg_per_rt_s: 0.01, bandwidth_hz: Some(2.0), ..Default::default() };
+        let d = StepData::new(&model, &series, Some(&jumps), &[], None, rate_hz, &fit, false);
+        let a = (-2.0 * std::f64::consts::PI * 2.0 / rate_hz).exp();
+        let mut y = 0.0;
+        for i in 0..n {
+            y = if i == 0 { jumps[0] } else { a * y + (1.0 - a) * jumps[i] };
+            assert!((d.rate_dps[i] - (record[i] - y)).abs() < 1e-12, "sample {i}");
+        }
+        let plain = GyroSim { bandwidth_hz: None, ..model };
+        let d = StepData::new(&plain, &series, Some(&jumps), &[], None, rate_hz, &fit, false);
+        assert_eq!(d.rate_dps, series);
     }
 }

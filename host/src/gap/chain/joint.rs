@@ -23,7 +23,7 @@ use octavar_shared::sim::{GyroSim, Sinusoid, TempCoupling, WarmUpSim};
 
 use super::data::deterministic_part;
 use super::model::Model;
-use crate::gap::effects::joint_curve;
+use crate::gap::effects::{joint_curve, low_passed};
 use crate::gap::fill::refill;
 
 /// Columns of the trend beside the deterministic effects: `1`, `u`, `u^2 - 1/3` over `u` from -1 to 1.
@@ -32,15 +32,27 @@ const TREND: usize = 3;
 /// `model` re-estimated jointly on `series` (the training samples less the recovered realisations, the runs
 /// `gaps` filled) with the temperature `temp_c`: its deterministic part by least squares where it has two or more
 /// deterministic effects, then its stochastic part on the Allan curve of what the deterministic part leaves.
-/// `None` when neither part changes the model (no stochastic curve to fit, a singular design).
+/// `shaped` is the part of the recovered realisations the sensor's filter shapes (bias jumps, taken out sharp):
+/// under the model's bandwidth they are taken out through it instead, as the sensor passed them. `None` when
+/// neither part changes the model (no stochastic curve to fit, a singular design).
 pub fn reestimate(
     model: &Model,
     series: &[f64],
+    shaped: Option<&[f64]>,
     gaps: &[Range<usize>],
     temp_c: Option<&[f64]>,
     rate_hz: f64,
 ) -> Option<Model> {
     let mut gyro = model.gyro.clone();
+    let through_filter: Vec<f64>;
+    let series = match (shaped, gyro.bandwidth_hz) {
+        (Some(s), Some(f)) => {
+            through_filter =
+                series.iter().zip(s).zip(low_passed(s, f, rate_hz)).map(|((x, s), lp)| x + s - lp).collect();
+            &through_filter[..]
+        }
+        _ => series,
+    };
     let mut changed = false;
     if let Some(g) = deterministic(&gyro, series, gaps, temp_c, rate_hz) {
         gyro = g;

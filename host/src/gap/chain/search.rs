@@ -85,6 +85,8 @@ struct Search<'a, 'p> {
     series: Vec<f64>,
     /// What the steps recovered of their effects' realisations (`filled - series`); `None` before any.
     realised: Option<Vec<f64>>,
+    /// The part of `realised` that the sensor's filter shapes ([`StepData::shaped_with`]); `None` before any.
+    shaped: Option<Vec<f64>>,
     steps: Vec<Step>,
     model: Model,
     eval: Evaluated,
@@ -118,6 +120,7 @@ pub(crate) fn search<'p>(
         filled: filled.into(),
         progress,
         realised: None,
+        shaped: None,
         steps: Vec::new(),
         model: base,
         eval: base_eval,
@@ -166,7 +169,8 @@ pub(crate) fn search<'p>(
 impl Search<'_, '_> {
     /// What this step's estimators learn from.
     fn step_data(&self, first: bool) -> StepData {
-        StepData::new(&self.model.gyro, &self.series, &self.gaps, self.temp, self.rate_hz, self.base_fit, first)
+        let (model, shaped) = (&self.model.gyro, self.shaped.as_deref());
+        StepData::new(model, &self.series, shaped, &self.gaps, self.temp, self.rate_hz, self.base_fit, first)
     }
 
     /// The realisations known on the model with `fit` added to this step's model (`data` its data).
@@ -262,11 +266,13 @@ impl Search<'_, '_> {
             data.take_out(&mut taken, &f);
             let mut fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
             fits.push(&f);
+            let shaped = data.shaped_with(self.shaped.as_deref(), &f);
             let (m, refits) = backfit(
                 &self.model.with(&f),
                 &fits,
                 &self.filled,
                 &taken,
+                shaped.as_deref(),
                 &self.gaps,
                 self.temp,
                 self.rate_hz,
@@ -307,8 +313,17 @@ impl Search<'_, '_> {
             let mut series_a = self.series.clone();
             data.take_out(&mut series_a, a);
             let known_a = self.known_with(data, a);
-            let data_a =
-                StepData::new(&with_a.gyro, &series_a, &self.gaps, self.temp, self.rate_hz, self.base_fit, false);
+            let shaped_a = data.shaped_with(self.shaped.as_deref(), a);
+            let data_a = StepData::new(
+                &with_a.gyro,
+                &series_a,
+                shaped_a.as_deref(),
+                &self.gaps,
+                self.temp,
+                self.rate_hz,
+                self.base_fit,
+                false,
+            );
             let recorded = Rc::clone(&self.filled);
             let training_a = data_a.training(&recorded, &with_a.gyro, with_a.channel.as_ref(), self.temp, self.rate_hz);
             for &j in &pool[k + 1..] {
@@ -394,6 +409,7 @@ impl Search<'_, '_> {
         let training = PartGap::new(rank::band_gap(&self.eval.training, location).unwrap_or(0.0), gap_after);
         let holdout = rank::band_gap(&self.eval.holdout, location).map(|b| PartGap::new(b, holdout_after.unwrap_or(b)));
         if fit.cleaned.is_some() {
+            self.shaped = data.shaped_with(self.shaped.as_deref(), &fit);
             data.take_out(&mut self.series, &fit);
             self.realised = Some(self.filled.iter().zip(&self.series).map(|(f, s)| f - s).collect());
         }
@@ -424,7 +440,8 @@ impl Search<'_, '_> {
     /// model no worse and it does not turn a significant gap into none; each step's parameters are then read
     /// from it.
     fn joint_round(&mut self) -> Result<(), GapError> {
-        let Some(m) = joint::reestimate(&self.model, &self.series, &self.gaps, self.temp, self.rate_hz) else {
+        let shaped = self.shaped.as_deref();
+        let Some(m) = joint::reestimate(&self.model, &self.series, shaped, &self.gaps, self.temp, self.rate_hz) else {
             return Ok(());
         };
         self.progress.expect("joint", 1);
@@ -455,8 +472,17 @@ impl Search<'_, '_> {
             return Ok(());
         }
         let fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
-        let (refitted, refits) =
-            backfit(&self.model, &fits, &self.filled, &self.series, &self.gaps, self.temp, self.rate_hz, self.base_fit);
+        let (refitted, refits) = backfit(
+            &self.model,
+            &fits,
+            &self.filled,
+            &self.series,
+            self.shaped.as_deref(),
+            &self.gaps,
+            self.temp,
+            self.rate_hz,
+            self.base_fit,
+        );
         if refits.iter().all(Option::is_none) {
             return Ok(());
         }

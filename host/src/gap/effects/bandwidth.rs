@@ -39,8 +39,9 @@ impl EffectKind for Kind {
 /// terms), the corner f3dB on a log grid from rate_hz/2000 to rate_hz/2 refined by golden search. It counts when the
 /// log-domain chi-square falls by at least [`CURVE_DELTA_CHI2`] from the unfiltered fit. N, B, K, R and Q are
 /// re-fitted with the bandwidth in place (the base fit reads N low from the bent short taus). On a model that
-/// already carries a resonance, a Gauss-Markov process or a bistable bias (a later step of the chain), their
-/// closed-form Allan variance through the corner tried is taken off the curve first.
+/// already carries a resonance or a Gauss-Markov process (a later step of the chain), their closed-form Allan
+/// variance through the corner tried is taken off the curve first; where an earlier step took bias jumps out (bias
+/// steps, a bistable bias), each corner is tried on the record less those jumps through it.
 pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     let rate_hz = d.rate_hz;
     // The Allan variance of a resonance or a Gauss-Markov process the model already has is not the filter's; the
@@ -50,8 +51,19 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
         return None;
     }
     let with_q = d.base.q_deg > 0.0;
+    // Bias jumps an earlier step took out sharp reached the output through the sensor's filter: under a corner
+    // tried, the samples are the record less them through that corner (their sharp edges taken out of a smooth
+    // record leave high-pass residue that fills the roll-off in).
+    let raw_at = |f: Option<f64>| match (d.shaped_dps, f) {
+        (Some(s), Some(f)) => {
+            let y: Vec<f64> =
+                d.rate_dps.iter().zip(s).zip(low_passed(s, f, rate_hz)).map(|((r, s), lp)| r + s - lp).collect();
+            gapped_oadev_points(&y, d.gaps, rate_hz)
+        }
+        _ => raw.clone(),
+    };
     let score = |f: Option<f64>| {
-        let pts = less_known(&raw, d.base, f, rate_hz, d.lattice_dps);
+        let pts = less_known(&raw_at(f), d.base, f, rate_hz, d.lattice_dps);
         joint_fit(&pts, &base_columns(&pts, rate_hz, f, with_q))
     };
     let plain = score(None)?;

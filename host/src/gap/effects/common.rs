@@ -6,6 +6,7 @@ use std::cell::RefCell;
 use std::ops::Range;
 use std::sync::Arc;
 
+use octavar_shared::sim::noise::LowPass;
 use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
@@ -82,6 +83,12 @@ pub(super) fn refit_base(
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
     let f = fit(&pts, &opts).ok()?;
     Some((f.sim_terms(base.clone()), f.squares))
+}
+
+/// `x` through the sensor's first-order low-pass at `bandwidth_hz` as the simulator applies it ([`LowPass`]).
+pub(crate) fn low_passed(x: &[f64], bandwidth_hz: f64, rate_hz: f64) -> Vec<f64> {
+    let mut lp = LowPass::new(bandwidth_hz, rate_hz);
+    x.iter().map(|&v| lp.next(v)).collect()
 }
 
 /// The standard normal upper tail.

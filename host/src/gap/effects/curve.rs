@@ -158,10 +158,11 @@ pub(super) fn filtered_gm_avar(t_s: f64, f3db_hz: Option<f64>, tau: f64, rate_hz
     }
 }
 
-/// The Allan variance at `tau` of the stochastic effects `model` already carries beyond the base terms (a
-/// resonance, a Gauss-Markov process, a bistable bias, each with its closed form), after the output bandwidth
-/// `f3db_hz` as the simulator applies it, which an estimator fitting the base terms and one more effect on the
-/// Allan curve must not take for its own.
+/// The Allan variance at `tau` of the stochastic effects `model` already carries beyond the base terms whose
+/// realisation is still in the samples (a resonance, a Gauss-Markov process, each with its closed form), after the
+/// output bandwidth `f3db_hz` as the simulator applies it, which an estimator fitting the base terms and one more
+/// effect on the Allan curve must not take for its own. A bistable bias is not among them: the step that names it
+/// takes its levels out of the samples ([`TrainingData::shaped_dps`] carries them).
 pub(super) fn known_avar(model: &GyroSim, f3db_hz: Option<f64>, tau: f64, rate_hz: f64) -> f64 {
     let mut v = 0.0;
     if let Some(r) = &model.resonance {
@@ -169,11 +170,6 @@ pub(super) fn known_avar(model: &GyroSim, f3db_hz: Option<f64>, tau: f64, rate_h
     }
     if let Some(g) = &model.gauss_markov {
         v += g.sigma_dps * g.sigma_dps * filtered_gm_avar(g.tau_s, f3db_hz, tau, rate_hz);
-    }
-    if let Some(b) = &model.bistable {
-        let (l1, l2) = (1.0 / b.dwell_low_s, 1.0 / b.dwell_high_s);
-        let var = b.step_dps * b.step_dps * l1 * l2 / ((l1 + l2) * (l1 + l2));
-        v += var * filtered_gm_avar(1.0 / (l1 + l2), f3db_hz, tau, rate_hz);
     }
     v
 }

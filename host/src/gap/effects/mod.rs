@@ -46,6 +46,7 @@ mod gauss_markov;
 pub mod joint_curve;
 mod outliers;
 pub mod params;
+pub(crate) use common::low_passed;
 pub use params::EffectParams;
 mod quantization;
 mod resonance;
@@ -110,6 +111,13 @@ impl Effect {
             Effect::Bistable => "bistable",
             Effect::WarmUp => "warm_up",
         }
+    }
+
+    /// Whether the sensor's output filter shapes the effect's realisation, as the simulator applies it: bias steps
+    /// and a bistable bias are jumps of the sensor's bias, which reach the output through its bandwidth; spikes
+    /// are added after it.
+    pub fn passes_sensor_filter(self) -> bool {
+        matches!(self, Effect::BiasSteps | Effect::Bistable)
     }
 
     /// The effect of a name (as [`Effect::name`] gives it; `-` is accepted for `_`, case is ignored).
@@ -215,6 +223,11 @@ pub struct TrainingData<'a> {
     /// quantisation noise, white with `step^2 / 12` per sample and added after the sensor's filter, is in the
     /// samples but is not the sensor's: the estimators that fit the Allan curve take it off first.
     pub lattice_dps: Option<f64>,
+    /// The realisations earlier steps took out that the sensor's filter shapes ([`Effect::passes_sensor_filter`]),
+    /// as they were taken out (sharp-edged), training length; `None`: none. Where the model has no bandwidth,
+    /// `rate_dps` is the samples less them; a bandwidth estimator tries each corner on the samples less them
+    /// through that corner, as the sensor passed them.
+    pub shaped_dps: Option<&'a [f64]>,
 }
 
 /// An effect fitted on the training data.

@@ -179,6 +179,7 @@ fn the_fitted_model_carries_the_mixture_and_the_clean_white_noise() {
         base_fit: &f,
         gaps: &[],
         lattice_dps: None,
+        shaped_dps: None,
     };
     let e = outliers(&d).expect("outliers");
     let o = e.gyro.outliers.unwrap();
