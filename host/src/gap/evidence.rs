@@ -21,7 +21,10 @@
 //! them, peaks 7-50 beyond the look-elsewhere level, nearly all at periods of a third to a fifth of the record,
 //! where flicker and random walk make the lowest bins of a short record stand above any smooth background) and
 //! the Gauss-Markov process's fall of the Allan chi-square (on 3%, up to 160: flicker is a sum of Gauss-Markov
-//! processes). The other effects' estimators find a trace only where a view would show it too (heavy tails, a
+//! processes). The sinusoid's amplitude over its standard error under the noise model (`amplitude_z`) reaches
+//! 4.0 and 5.5 on those records of the two generators, but a sinusoid of about two cycles per part that the views
+//! barely see reaches only 5.3 (20 times its local noise), and a narrow resonance passes any threshold the
+//! controls allow: it names nothing on its own either. The other effects' estimators find a trace only where a view would show it too (heavy tails, a
 //! lattice), or their detection threshold is a rate of events, not a standard error.
 
 use serde::Serialize;

@@ -142,6 +142,9 @@ pub struct SinusoidsParams {
     /// The strongest peak of the periodogram over its background, less the look-elsewhere level `ln(bins)`
     /// (a peak counts beyond 7).
     pub peak_excess: f64,
+    /// The largest amplitude over its standard error under the noise model (flicker and random walk leaking
+    /// through the record's window included): the estimator's own test statistic.
+    pub amplitude_z: f64,
     pub sinusoids: Vec<SinusoidParams>,
 }
 
@@ -197,9 +200,10 @@ mod tests {
             period_s: 1.0,
             phase_rad: 0.0,
             peak_excess: 9.0,
+            amplitude_z: 12.0,
             sinusoids: vec![one],
         });
-        assert_eq!(keys(&s), ["amplitude_dps", "peak_excess", "period_s", "phase_rad", "sinusoids"]);
+        assert_eq!(keys(&s), ["amplitude_dps", "amplitude_z", "peak_excess", "period_s", "phase_rad", "sinusoids"]);
         assert_eq!(
             keys(&s["sinusoids"][0]),
             ["amplitude_dps", "amplitude_se_dps", "period_s", "period_se_s", "phase_rad"]

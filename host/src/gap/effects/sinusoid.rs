@@ -115,6 +115,12 @@ const HANN_TOL: f64 = 1e-3;
 /// well below the frequency's own standard error at any amplitude the periodogram can show.
 const RSS_TOL: f64 = 1e-5;
 
+/// The fewest cycles in the record of a sinusoid looked for beyond the periodogram's reach (three cycles).
+const LONG_PERIOD_CYCLES: f64 = 1.5;
+/// The amplitude, in its standard deviations under the base fit's noise, that a sinusoid of fewer than three
+/// cycles in the record must reach to be a candidate.
+const LONG_PERIOD_Z: f64 = 4.0;
+
 /// Samples per chunk of [`OneVarying::rss`]'s pass (a multiple of the phasors' renormalisation period, 1024).
 const RSS_CHUNK: usize = 1 << 16;
 
@@ -351,9 +357,9 @@ impl EffectKind for Kind {
 /// median of the periodogram in a band around it (+-16 bins at low frequency, log bands of 1/8 relative width
 /// above, interpolated in log-log), so 1/f and 1/f^2 noise set their own level; a bin is a peak where it is a local
 /// maximum beyond `ln(bins) + 7` times the background mean (the periodogram ordinate is exponential, so about
-/// 1e-3 false peaks per record). Periods from a third of the record to two samples are searched. Each peak's
-/// frequency is refined by Brent's search on the windowed projection within +-1 bin; amplitudes and phases of up
-/// to four peaks come from one joint least-squares fit of sines and cosines (plus a quadratic trend). The base
+/// 1e-3 false peaks per record). Periods from a third of the record to two samples are searched, and down to 1.5
+/// cycles by the least squares (below). Each peak's frequency is refined by Brent's search on the windowed
+/// projection within +-1 bin; amplitudes and phases of up to four peaks come from one joint least-squares fit of sines and cosines (plus a quadratic trend). The base
 /// terms are re-fitted on the record without the sinusoids (the base fit covered their Allan bump with B or K).
 pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
@@ -447,6 +453,28 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             }
         }
     }
+    // Periods beyond a third of the record, where red noise lifts the lowest bins above any band median, come from
+    // the least squares instead: the strongest local maximum down to 1.5 cycles is kept when its amplitude stands
+    // beyond LONG_PERIOD_Z of its own standard deviation under the base fit's noise (flicker and random walk
+    // leaking through the record's window included).
+    if chosen.len() < MAX_SINUSOIDS {
+        let k_long = ((LONG_PERIOD_CYCLES / record) / df).ceil().max(2.0) as usize;
+        let long = (k_long..k_lo.min(k_hi))
+            .filter(|&k| pw[k] >= pw[k - 1] && pw[k] >= pw[k + 1])
+            .max_by(|&a, &b| pw[a].total_cmp(&pw[b]))
+            .filter(|&k| chosen.iter().all(|&c| c.abs_diff(k) > sep));
+        if let Some(k) = long {
+            let f0 = k as f64 * df;
+            let (f, _) = brent((f0 - df).max(df * 0.5), f0 + df, HANN_TOL * df, 40, |f| -hann_power(&y, f, dt));
+            let z = sinusoid_ls(&y, &[f], dt, t_off).and_then(|ls| {
+                let sd = ls_amplitude_sd(&ls, n, dt, t_off, &[f], 0, &d.base_fit.squares)?.0;
+                Some(ls.coef[3].hypot(ls.coef[4]) / sd)
+            });
+            if z.is_some_and(|z| z > LONG_PERIOD_Z) {
+                chosen.push(k);
+            }
+        }
+    }
     if chosen.is_empty() {
         return None;
     }
@@ -528,6 +556,7 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         let _ = gyro.sinusoids.push(*s);
     }
     let s0 = list[0];
+    let amplitude_z = list.iter().zip(&se).map(|(s, e)| s.amplitude_dps / e[0]).fold(f64::NAN, f64::max);
     let all: Vec<SinusoidParams> = list
         .iter()
         .zip(&se)
@@ -546,6 +575,7 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             period_s: s0.period_s,
             phase_rad: s0.phase_rad,
             peak_excess,
+            amplitude_z,
             sinusoids: all,
         }
         .into(),

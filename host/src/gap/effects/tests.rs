@@ -208,6 +208,30 @@ fn sinusoids_recovered() {
     assert!((s[0].phase_rad + 1.0).abs() < 0.1 && (s[1].phase_rad - 0.4).abs() < 0.1, "{s:?}");
 }
 
+/// A sinusoid of two cycles per record, beyond the periodogram's search (a third of the record and shorter): the
+/// least squares finds it, with its amplitude's z under the noise model, and a record without it finds nothing.
+#[test]
+fn a_sinusoid_of_two_cycles_per_record_is_found() {
+    let (rate_hz, n) = (10.0, 1 << 18);
+    let record_s = n as f64 / rate_hz;
+    let period_s = record_s / 2.1;
+    for seed in [5, 6] {
+        let mut m = base_model();
+        m.sinusoids.push(Sinusoid { amplitude_dps: 0.04, period_s, phase_rad: 1.1 }).unwrap();
+        let (x, _) = simulate(&m, rate_hz, n, seed, None);
+        let e = run(Effect::Sinusoid, &x, None, rate_hz).expect("the long period is found");
+        let EffectParams::Sinusoid(p) = &e.params else { panic!("{:?}", e.params) };
+        // Tolerance: four of its own standard errors on the period and the amplitude.
+        let one = &p.sinusoids[0];
+        assert!((one.period_s - period_s).abs() < 4.0 * one.period_se_s, "seed {seed}: {one:?}");
+        assert!((one.amplitude_dps - 0.04).abs() < 4.0 * one.amplitude_se_dps, "seed {seed}: {one:?}");
+        assert!(p.amplitude_z > 6.0, "seed {seed}: z {}", p.amplitude_z);
+        let (clean, _) = simulate(&base_model(), rate_hz, n, seed, None);
+        let none = run(Effect::Sinusoid, &clean, None, rate_hz);
+        assert!(none.is_none(), "seed {seed}: found on the clean record: {:?}", none.map(|e| e.params));
+    }
+}
+
 /// The amplitude's standard error (the spread the ensemble members draw from) against the closed form on white
 /// noise, `sqrt(2 / n) sigma`, and against the scatter of the estimates over 16 records of red noise (flicker
 /// and random walk, whose leakage through the record's window the Hann background alone missed: on withheld
