@@ -11,7 +11,7 @@ use octavar_shared::sim::GyroSim;
 
 use crate::fit::{FitOptions, NoiseFit};
 use crate::gap::base::fit_base;
-use crate::gap::effects::{low_passed, EffectFit, TrainingData};
+use crate::gap::effects::{jumps_through_filter, EffectFit, TrainingData};
 use crate::gap::fill::{refill, with_gaps};
 
 /// The deterministic part of `gyro`'s rate over the `temp_c.len()` (or `n`) first samples of the record at
@@ -85,9 +85,7 @@ impl StepData {
         };
         // The shaped realisations were taken out sharp; the model's sensor passes them through its filter.
         if let (Some(s), Some(f)) = (shaped.as_deref(), model.bandwidth_hz) {
-            for (r, (s, lp)) in rate_dps.iter_mut().zip(s.iter().zip(low_passed(s, f, rate_hz))) {
-                *r += s - lp;
-            }
+            rate_dps = jumps_through_filter(&rate_dps, s, f, rate_hz);
         }
         refill(&mut rate_dps, &gaps);
         let base_fit = fit_base(&with_gaps(&rate_dps, &gaps), rate_hz, &FitOptions::default())

@@ -23,7 +23,7 @@ use octavar_shared::sim::{GyroSim, Sinusoid, TempCoupling, WarmUpSim};
 
 use super::data::deterministic_part;
 use super::model::Model;
-use crate::gap::effects::{joint_curve, low_passed};
+use crate::gap::effects::{joint_curve, jumps_through_filter};
 use crate::gap::fill::refill;
 
 /// Columns of the trend beside the deterministic effects: `1`, `u`, `u^2 - 1/3` over `u` from -1 to 1.
@@ -47,8 +47,7 @@ pub fn reestimate(
     let through_filter: Vec<f64>;
     let series = match (shaped, gyro.bandwidth_hz) {
         (Some(s), Some(f)) => {
-            through_filter =
-                series.iter().zip(s).zip(low_passed(s, f, rate_hz)).map(|((x, s), lp)| x + s - lp).collect();
+            through_filter = jumps_through_filter(series, s, f, rate_hz);
             &through_filter[..]
         }
         _ => series,

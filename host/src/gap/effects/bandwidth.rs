@@ -55,11 +55,7 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     // tried, the samples are the record less them through that corner (their sharp edges taken out of a smooth
     // record leave high-pass residue that fills the roll-off in).
     let raw_at = |f: Option<f64>| match (d.shaped_dps, f) {
-        (Some(s), Some(f)) => {
-            let y: Vec<f64> =
-                d.rate_dps.iter().zip(s).zip(low_passed(s, f, rate_hz)).map(|((r, s), lp)| r + s - lp).collect();
-            gapped_oadev_points(&y, d.gaps, rate_hz)
-        }
+        (Some(s), Some(f)) => gapped_oadev_points(&jumps_through_filter(d.rate_dps, s, f, rate_hz), d.gaps, rate_hz),
         _ => raw.clone(),
     };
     let score = |f: Option<f64>| {

@@ -85,10 +85,11 @@ pub(super) fn refit_base(
     Some((f.sim_terms(base.clone()), f.squares))
 }
 
-/// `x` through the sensor's first-order low-pass at `bandwidth_hz` as the simulator applies it ([`LowPass`]).
-pub(crate) fn low_passed(x: &[f64], bandwidth_hz: f64, rate_hz: f64) -> Vec<f64> {
+/// `x`, samples that bias jumps `shaped` were taken out of sharp, with those jumps taken out through the sensor's
+/// first-order low-pass at `bandwidth_hz` instead, as the simulator passes them ([`LowPass`]): `x + s - lp(s)`.
+pub(crate) fn jumps_through_filter(x: &[f64], shaped: &[f64], bandwidth_hz: f64, rate_hz: f64) -> Vec<f64> {
     let mut lp = LowPass::new(bandwidth_hz, rate_hz);
-    x.iter().map(|&v| lp.next(v)).collect()
+    x.iter().zip(shaped).map(|(&v, &s)| v + s - lp.next(s)).collect()
 }
 
 /// The standard normal upper tail.

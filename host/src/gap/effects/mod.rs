@@ -46,7 +46,7 @@ mod gauss_markov;
 pub mod joint_curve;
 mod outliers;
 pub mod params;
-pub(crate) use common::low_passed;
+pub(crate) use common::jumps_through_filter;
 pub use params::EffectParams;
 mod quantization;
 mod resonance;

@@ -41,19 +41,25 @@ fn base_of(x: &[f64], rate_hz: f64) -> (GyroSim, NoiseFit) {
     (crate::gap::base_model(&f, x), f)
 }
 
-fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, rate_hz: f64) -> Option<EffectFit> {
-    let (g, f) = base_of(x, rate_hz);
-    let d = TrainingData {
+/// The estimators' view of the samples `x` at `rate_hz` on the model `base` fitted as `fit`: the samples as
+/// recorded, no gaps, no temperature, an analog rate, nothing taken out before.
+fn data_of<'a>(x: &'a [f64], rate_hz: f64, base: &'a GyroSim, fit: &'a NoiseFit) -> TrainingData<'a> {
+    TrainingData {
         rate_dps: x,
         recorded_dps: x,
-        temp_c: t,
+        temp_c: None,
         rate_hz,
-        base: &g,
-        base_fit: &f,
+        base,
+        base_fit: fit,
         gaps: &[],
         lattice_dps: None,
         shaped_dps: None,
-    };
+    }
+}
+
+fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, rate_hz: f64) -> Option<EffectFit> {
+    let (g, f) = base_of(x, rate_hz);
+    let d = TrainingData { temp_c: t, ..data_of(x, rate_hz, &g, &f) };
     let t0 = std::time::Instant::now();
     let out = estimate(effect, &d);
     eprintln!("{effect}: {:?} in {:?}", out.as_ref().map(|e| &e.params), t0.elapsed());
@@ -167,17 +173,7 @@ fn temperature_standard_error_is_the_scatter() {
             let mut g = VirtualGyro::new(&m, Channel::bench(ADXRS300), rate_hz, 100 + seed).unwrap();
             let x: Vec<f64> = t.iter().map(|&tc| g.next_rate(tc)).collect();
             let (b, f) = base_of(&x, rate_hz);
-            let d = TrainingData {
-                rate_dps: &x,
-                recorded_dps: &x,
-                temp_c: Some(&t),
-                rate_hz,
-                base: &b,
-                base_fit: &f,
-                gaps: &[],
-                lattice_dps: None,
-                shaped_dps: None,
-            };
+            let d = TrainingData { temp_c: Some(&t), ..data_of(&x, rate_hz, &b, &f) };
             let e = estimate(Effect::Temperature, &d).expect("a 10-sigma coupling is found");
             let k = param(&e, "dps_per_c");
             (k, k / param(&e, "t_stat"))
@@ -386,17 +382,7 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
         let (x, _) = simulate(&m, rate_hz, 1 << 19, seed, None);
         let (g, f) = base_of(&x, rate_hz);
         let with_bw = GyroSim { bandwidth_hz: Some(f3), ..g.clone() };
-        let d = TrainingData {
-            rate_dps: &x,
-            recorded_dps: &x,
-            temp_c: None,
-            rate_hz,
-            base: &with_bw,
-            base_fit: &f,
-            gaps: &[],
-            lattice_dps: None,
-            shaped_dps: None,
-        };
+        let d = data_of(&x, rate_hz, &with_bw, &f);
         let e = estimate(Effect::Resonance, &d).expect("the resonance under the filter is found");
         for (key, se, truth) in [("sigma_dps", "sigma_se_dps", sigma), ("freq_hz", "freq_se_hz", f0), ("q", "q_se", q)]
         {
@@ -437,17 +423,7 @@ fn bandwidth_read_under_bias_jumps_taken_out_sharp() {
         }
         let less: Vec<f64> = x.iter().zip(&telegraph).map(|(x, t)| x - t).collect();
         let (g, f) = base_of(&less, rate_hz);
-        let d = TrainingData {
-            rate_dps: &less,
-            recorded_dps: &x,
-            temp_c: None,
-            rate_hz,
-            base: &g,
-            base_fit: &f,
-            gaps: &[],
-            lattice_dps: None,
-            shaped_dps: Some(&telegraph),
-        };
+        let d = TrainingData { recorded_dps: &x, shaped_dps: Some(&telegraph), ..data_of(&less, rate_hz, &g, &f) };
         let e = estimate(Effect::Bandwidth, &d).expect("the filter is found");
         assert!(rel(e.gyro.bandwidth_hz.unwrap(), f3) < 0.1, "seed {seed}: {:?}", e.params);
         let sharp = estimate(Effect::Bandwidth, &TrainingData { shaped_dps: None, ..d });
@@ -512,17 +488,7 @@ fn quantization_read_on_the_recorded_samples() {
     let left: Vec<f64> = recorded.iter().enumerate().map(|(i, v)| if i < 200_000 { *v } else { v - q / 3.0 }).collect();
     assert!(super::quantization::lattice(&left).is_none_or(|(step, _)| rel(step, q) > 0.01), "premise: a lattice left");
     let (b, f) = base_of(&left, rate_hz);
-    let d = TrainingData {
-        rate_dps: &left,
-        recorded_dps: &recorded,
-        temp_c: None,
-        rate_hz,
-        base: &b,
-        base_fit: &f,
-        gaps: &[],
-        lattice_dps: None,
-        shaped_dps: None,
-    };
+    let d = TrainingData { recorded_dps: &recorded, ..data_of(&left, rate_hz, &b, &f) };
     let e = estimate(Effect::Quantization, &d).expect("the lattice of the recorded samples");
     assert!(rel(param(&e, "step_dps"), q) < 1e-6, "{:?}", e.params);
     assert!(rel(e.gyro.n_deg_per_rt_s, m.n_deg_per_rt_s) < 0.15, "{:?}", e.params);
