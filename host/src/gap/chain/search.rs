@@ -15,14 +15,15 @@ use crate::gap::effects::{self, Effect, EffectFit};
 use crate::gap::error::GapError;
 use crate::gap::evidence;
 use crate::gap::fill::{fill_gaps, gap_runs};
+use crate::gap::compare::ViewGap;
 use crate::gap::judge::{Evaluated, Judge};
 use crate::gap::rank::{self, CandidateResult, Location, PartGap};
 
 /// Candidates of a later step that get a second chance with the chain backfitted around them, best score first.
 const SECOND_CHANCES: usize = 2;
 
-/// The best-scored candidates tried in pairs when no single one explains the gap.
-const PAIR_POOL: usize = 3;
+/// The best-scored candidates tried first in pairs when no single one explains the gap.
+const PAIR_POOL: usize = 2;
 
 /// Progress: `(stage, done, total)`, called after each ensemble.
 pub type ProgressFn<'a> = dyn Fn(&str, usize, usize) + Sync + 'a;
@@ -295,9 +296,11 @@ impl Search<'_, '_> {
         Ok(None)
     }
 
-    /// Two effects that share the gap, neither removing a quarter of it alone: the [`PAIR_POOL`] best-scored
-    /// candidates in pairs, the better-scored one first and the other estimated on the model with it; the best
-    /// pair that explains the gap (the parameters of both paid for) is added as two steps.
+    /// Two effects that share the gap, neither removing a quarter of it alone: each candidate of [`pair_pool`]
+    /// first, and every other effect estimated on the model with it (the first's realisation taken out); the best
+    /// pair that explains the gap (the parameters of both paid for) is added as two steps. A second effect whose
+    /// part of the gap the first hid from every view (outliers diluted by a sinusoid the base fit read as white
+    /// noise) need not score well alone to be found.
     fn pair_step(
         &mut self,
         data: &StepData,
@@ -305,7 +308,7 @@ impl Search<'_, '_> {
         location: &Location,
         total_before: f64,
     ) -> Result<bool, GapError> {
-        let pool: Vec<usize> = by_score(candidates).into_iter().take(PAIR_POOL).collect();
+        let pool = pair_pool(candidates, &self.eval.training);
         let mut best: Option<(f64, usize, EffectFit, Evaluated)> = None;
         for (k, &i) in pool.iter().enumerate() {
             let Some(a) = candidates[i].fit.as_ref() else { continue };
@@ -326,7 +329,9 @@ impl Search<'_, '_> {
             );
             let recorded = Rc::clone(&self.filled);
             let training_a = data_a.training(&recorded, &with_a.gyro, with_a.channel.as_ref(), self.temp, self.rate_hz);
-            for &j in &pool[k + 1..] {
+            // The second: every other effect, learnt on the model with the first (one the first hid may show now),
+            // but for the firsts already tried with this one.
+            for j in (0..candidates.len()).filter(|&j| j != i && !pool[..k].contains(&j)) {
                 let Some(b) = effects::estimate(candidates[j].effect, &training_a) else { continue };
                 let m = with_a.with(&b);
                 let known = data_a.realised_with(known_a.as_deref(), &b).or_else(|| known_a.clone());
@@ -366,7 +371,8 @@ impl Search<'_, '_> {
     ) -> Result<bool, GapError> {
         let training =
             data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
-        let Some(fit) = evidence::strongest(remaining, &candidates, &training) else { return Ok(false) };
+        let significant = rank::gap_of(&self.eval.training) > rank::SIGNIFICANT_GAP;
+        let Some(fit) = evidence::strongest(remaining, &candidates, &training, significant) else { return Ok(false) };
         let Some(ev) = evidence::of(&fit) else { return Ok(false) };
         let m = self.model.with(&fit);
         let known = self.known_with(data, &fit);
@@ -504,6 +510,37 @@ impl Search<'_, '_> {
         Ok(())
     }
 }
+
+/// The candidates tried first in pairs: the [`PAIR_POOL`] best-scored, and for each view the one that takes the most
+/// of its gap (`before`, the views of the model so far) where it takes a quarter or more. Two effects that share
+/// the gap each take their own view's part and leave the other's, so neither need score well alone: a bistable
+/// bias beside a strong sinusoid clears the distribution view and leaves the spectrum's line, and scores behind
+/// effects that touch nothing.
+fn pair_pool(candidates: &[CandidateResult], before: &[ViewGap]) -> Vec<usize> {
+    let mut pool: Vec<usize> = by_score(candidates).into_iter().take(PAIR_POOL).collect();
+    for v in before {
+        let after = |c: &CandidateResult| {
+            c.eval.as_ref()?.training.iter().find(|w| w.view == v.view).map(|w| w.gap).filter(|g| g.is_finite())
+        };
+        let best = (0..candidates.len())
+            .filter_map(|i| Some((i, after(&candidates[i])?)))
+            .filter(|&(_, g)| g < PAIR_VIEW_SHARE * v.gap && v.gap > rank::SIGNIFICANT_GAP)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((i, _)) = best {
+            if !pool.contains(&i) && candidates[i].score.is_some() {
+                pool.push(i);
+            }
+        }
+    }
+    // The better-scored of each pair goes first.
+    pool.sort_by(|&a, &b| {
+        candidates[a].score.unwrap_or(f64::INFINITY).total_cmp(&candidates[b].score.unwrap_or(f64::INFINITY))
+    });
+    pool
+}
+
+/// The share of a significant view's gap a candidate must leave at most to join the pairs for that view.
+const PAIR_VIEW_SHARE: f64 = 0.75;
 
 /// The indices of the candidates that have a score, best (lowest) first.
 fn by_score(candidates: &[CandidateResult]) -> Vec<usize> {

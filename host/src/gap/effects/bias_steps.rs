@@ -147,7 +147,7 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
             v - level
         })
         .collect();
-    let refit = refit_base(d.base, d.gaps, &cleaned, rate_hz).map_or_else(|| d.base.clone(), |r| r.0);
+    let refit = refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0);
     let gyro = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }), ..refit };
     let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / rate_hz).collect();
     Some(EffectFit {

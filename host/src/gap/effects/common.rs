@@ -11,6 +11,8 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
+use super::curve::less_known;
+use super::TrainingData;
 use crate::fit::{fit, fit_input, octave_oadev, FitOptions, FitPoint, Term};
 use crate::gap::fill::with_gaps;
 pub(super) use crate::gap::spectral::{block_means, sine_tapers};
@@ -61,8 +63,9 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
     std::borrow::Cow::Owned(out)
 }
 
-/// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component: the
-/// base model with its Q, N, B, K, R replaced by the fitted terms of that fit, and the fit's squares.
+/// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component (the
+/// step's data `d` otherwise): the base model with its Q, N, B, K, R replaced by the fitted terms of that fit, and
+/// the fit's squares.
 ///
 /// The rate ramp R enters only when the base fit has one: a ramp is a deterministic drift, and taking an
 /// effect's component out of the record cannot create one. Where the re-fit found one anyway, it was the
@@ -71,14 +74,13 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
 /// its own.
 ///
 /// `gaps` are the runs of samples that were missing or masked (filled in `cleaned`): the Allan deviation is taken
-/// with them as gaps, as the base fit took it.
-pub(super) fn refit_base(
-    base: &GyroSim,
-    gaps: &[Range<usize>],
-    cleaned: &[f64],
-    rate_hz: f64,
-) -> Option<(GyroSim, [f64; 5])> {
-    let pts = gapped_oadev_points(cleaned, gaps, rate_hz);
+/// with them as gaps, as the base fit took it. The stochastic effects the base already carries (a Gauss-Markov
+/// process, a resonance) and the quantisation noise of the model's ADC lattice ([`less_known`]) are taken off the
+/// curve first, so that the IEEE terms do not absorb them a second time.
+pub(super) fn refit_base(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, [f64; 5])> {
+    let (base, rate_hz) = (d.base, d.rate_hz);
+    let pts = gapped_oadev_points(cleaned, d.gaps, rate_hz);
+    let pts = less_known(&pts, base, base.bandwidth_hz, rate_hz, d.lattice_dps);
     let terms = Term::ALL.into_iter().filter(|t| *t != Term::R || base.r_dps_per_s != 0.0).collect();
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
     let f = fit(&pts, &opts).ok()?;

@@ -43,6 +43,7 @@ mod bistable;
 mod common;
 mod curve;
 mod gauss_markov;
+pub(crate) mod noise_spectrum;
 pub mod joint_curve;
 mod outliers;
 pub mod params;

@@ -112,7 +112,7 @@ fn unit_spectrum(freq_hz: f64, q: f64, rate_hz: f64, f: impl Iterator<Item = f64
 }
 
 /// The unit-variance resonance's one-sided spectrum at one frequency.
-fn unit_spectrum_at(freq_hz: f64, q: f64, rate_hz: f64, f: f64) -> f64 {
+pub(super) fn unit_spectrum_at(freq_hz: f64, q: f64, rate_hz: f64, f: f64) -> f64 {
     unit_spectrum(freq_hz, q, rate_hz, std::iter::once(f)).next().unwrap_or(f64::NAN)
 }
 

@@ -7,6 +7,7 @@ use rayon::prelude::*;
 use super::common::*;
 use super::curve::*;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
+use super::noise_spectrum::NoiseSpectrum;
 
 /// `|sum w_n x_n e^{-i 2 pi f n dt}|^2` with the Hann window, by a rotating phasor (renormalised).
 pub(super) fn hann_power(y: &[f64], f: f64, dt: f64) -> f64 {
@@ -276,7 +277,7 @@ fn ls_amplitude_sd(
     t_off: f64,
     freqs: &[f64],
     j: usize,
-    squares: &[f64; 5],
+    noise: &NoiseSpectrum,
 ) -> Option<(f64, f64)> {
     let ata = &ls.ata;
     let p = ata.len();
@@ -299,7 +300,6 @@ fn ls_amplitude_sd(
         zi[i] = r.iter().zip(&mb).map(|(x, m)| x * m).sum();
     }
     fft(&mut zr, &mut zi);
-    let two_pi = 2.0 * std::f64::consts::PI;
     let df = 1.0 / (big as f64 * dt);
     let (mut va, mut vb, mut cab) = (0.0, 0.0, 0.0);
     for m in 1..=big / 2 {
@@ -307,7 +307,7 @@ fn ls_amplitude_sd(
         let (ar, ai) = (0.5 * (zr[m] + zr[k]), 0.5 * (zi[m] - zi[k]));
         let (br, bi) = (0.5 * (zi[m] + zi[k]), -0.5 * (zr[m] - zr[k]));
         let f = m as f64 * df;
-        let s = squares[1] + squares[2] / (two_pi * f) + squares[3] / (two_pi * f).powi(2);
+        let s = noise.at(f);
         va += 2.0 * (ar * ar + ai * ai) * s * df;
         vb += 2.0 * (br * br + bi * bi) * s * df;
         cab += 2.0 * (ar * br + ai * bi) * s * df;
@@ -321,6 +321,25 @@ fn ls_amplitude_sd(
     let var_amp = (a * a * va + b * b * vb + 2.0 * a * b * cab) / amp2;
     let var_ph = (b * b * va + a * a * vb - 2.0 * a * b * cab) / (amp2 * amp2);
     Some((var_amp.max(0.0).sqrt(), var_ph.max(0.0).sqrt()))
+}
+
+/// The share of the temperature's variance about a quadratic trend above which one sinusoid describes a
+/// temperature cycle: the sim's and a chamber's cycles give nearly all of it, a temperature that only wanders
+/// spreads its variance over many periods.
+const TEMPERATURE_CYCLE_SHARE: f64 = 0.25;
+
+/// The share of the variance of `temp` (sampled every `dt`, the first sample at `t_off`) about a quadratic trend
+/// that one sinusoid of frequency `f` describes.
+fn temperature_share(temp: &[f64], f: f64, dt: f64, t_off: f64) -> f64 {
+    let rss = |freqs: &[f64]| -> Option<f64> {
+        let (ata, atb, yty) = normal_equations(temp, freqs, dt, t_off);
+        let c = solve(ata, atb.clone())?;
+        Some(yty - c.iter().zip(&atb).map(|(c, b)| c * b).sum::<f64>())
+    };
+    match (rss(&[]), rss(&[f])) {
+        (Some(r0), Some(r1)) if r0 > 0.0 => (1.0 - r1 / r0).clamp(0.0, 1.0),
+        _ => 0.0,
+    }
 }
 
 /// The sinusoid effect: [`sinusoid`] and its parameters.
@@ -467,13 +486,20 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             let f0 = k as f64 * df;
             let (f, _) = brent((f0 - df).max(df * 0.5), f0 + df, HANN_TOL * df, 40, |f| -hann_power(&y, f, dt));
             let z = sinusoid_ls(&y, &[f], dt, t_off).and_then(|ls| {
-                let sd = ls_amplitude_sd(&ls, n, dt, t_off, &[f], 0, &d.base_fit.squares)?.0;
+                let sd = ls_amplitude_sd(&ls, n, dt, t_off, &[f], 0, &NoiseSpectrum::of(d.base, d.rate_hz))?.0;
                 Some(ls.coef[3].hypot(ls.coef[4]) / sd)
             });
             if z.is_some_and(|z| z > LONG_PERIOD_Z) {
                 chosen.push(k);
             }
         }
+    }
+    // A rate component at a period where the recorded temperature has a cycle of its own is the temperature's
+    // response, left to the temperature estimator: the temperature explains it with a measured cause and two
+    // parameters, where a sinusoid would copy it with three and go on after the temperature changes its rhythm.
+    if let Some(temp) = d.temp_c.filter(|t| t.len() >= n0) {
+        let temp_blocks = if dec == 1 { temp[..n0].to_vec() } else { block_means(&temp[..n0], dec) };
+        chosen.retain(|&k| temperature_share(&temp_blocks, k as f64 * df, dt, t_off) < TEMPERATURE_CYCLE_SHARE);
     }
     if chosen.is_empty() {
         return None;
@@ -537,13 +563,13 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             v - list.iter().map(|s| s.amplitude_dps * (two_pi * t / s.period_s + s.phase_rad).sin()).sum::<f64>()
         })
         .collect();
-    let (mut gyro, squares) =
-        refit_base(d.base, d.gaps, &cleaned, d.rate_hz).unwrap_or_else(|| (d.base.clone(), d.base_fit.squares));
+    let mut gyro = refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0);
+    let noise = NoiseSpectrum::of(&gyro, d.rate_hz);
     // The least squares' own errors under the noise model, leakage of its red noise included; the Hann
     // background above sees only the noise at the peak's bins.
     let se: Vec<[f64; 3]> = fitted
         .iter()
-        .map(|&(e, j, g)| match ls_amplitude_sd(&ls, n, dt, t_off, &freqs, j, &squares) {
+        .map(|&(e, j, g)| match ls_amplitude_sd(&ls, n, dt, t_off, &freqs, j, &noise) {
             Some((sd_a, sd_p)) => {
                 let sd_a = sd_a / g;
                 [sd_a, sd_p, e[2] * sd_a / e[0].max(1e-300)]

@@ -4,6 +4,7 @@ use super::params::TemperatureParams;
 use octavar_shared::sim::{GyroSim, TempCoupling};
 
 use super::common::*;
+use super::noise_spectrum::NoiseSpectrum;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 use crate::gap::fill::refill;
 
@@ -86,13 +87,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let transform = |v: &[f64]| -> Vec<(Vec<f64>, Vec<f64>)> { sine_tapered(v, TAPERS, &*fft_plan) };
     let rt1 = transform(&r);
     let df = 1.0 / (nfft as f64 * dt);
-    let two_pi = 2.0 * std::f64::consts::PI;
-    let spectrum_at = |sq: &[f64; 5], f: f64| -> f64 {
-        let floor = (sq[1] + sq[2] + sq[3]).max(1e-300) * 1e-9;
-        (sq[1] + sq[2] / (two_pi * f) + sq[3] / (two_pi * two_pi * f * f)).max(floor)
-    };
-    let spectrum =
-        |sq: &[f64; 5]| -> Vec<f64> { (0..=half).map(|k| spectrum_at(sq, (k as f64 * df).max(df))).collect() };
+    let spectrum = |noise: &NoiseSpectrum| -> Vec<f64> { (0..=half).map(|k| noise.at((k as f64 * df).max(df))).collect() };
     // (k, GLS residual, sum |X|^2/S) for a lagged temperature's transforms, summed over the tapers.
     let gls = |xt: &[(Vec<f64>, Vec<f64>)], rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]| -> (f64, f64, f64) {
         let (mut sxx, mut sxr, mut srr) = (0.0, 0.0, 0.0);
@@ -119,7 +114,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         }
     };
     // Pass 1: the base fit's noise.
-    let s1 = spectrum(&d.base_fit.squares);
+    let s1 = spectrum(&NoiseSpectrum::of(d.base, d.rate_hz));
     let lag1 = best_lag(&rt1, &s1);
     let (k1, _, _) = gls(&transform(&lagged(lag1)), &rt1, &s1);
     // The lagged temperature at every sample.
@@ -143,14 +138,15 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     // Pass 2: the noise of the record without the coupling; where the record had gaps, the rate with them filled
     // from the first pass's coupling (a line through a gap lacks the response there, and reads the coupling low).
     let cleaned1 = cleaned_of(k1, lag1);
-    let (_, squares) = refit_base(d.base, d.gaps, &cleaned1, d.rate_hz)?;
+    let (refit1, _) = refit_base(d, &cleaned1)?;
+    let noise = NoiseSpectrum::of(&refit1, d.rate_hz);
     if !d.gaps.is_empty() {
         let refilled: Vec<f64> = cleaned1.iter().zip(response(lag1)).map(|(c, y)| c + k1 * y).collect();
         r = block_means(&refilled, m);
         r.truncate(nb);
     }
     let rt = if d.gaps.is_empty() { rt1 } else { transform(&r) };
-    let s2 = spectrum(&squares);
+    let s2 = spectrum(&noise);
     let lag = best_lag(&rt, &s2);
     let x = lagged(lag);
     let xt = transform(&x);
@@ -158,7 +154,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     if !(k.is_finite() && k != 0.0 && sxx > 0.0) {
         return None;
     }
-    let se = gls_sd(&tapers, &xt, &s2, sxx, dt, |f| spectrum_at(&squares, f));
+    let se = gls_sd(&tapers, &xt, &s2, sxx, dt, |f| noise.at(f));
     if !(k.abs() > 5.0 * se) {
         return None;
     }
@@ -169,7 +165,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         .map(|(xr, xi)| (1..=half).map(|k| (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k] * k as f64 * df).sum::<f64>())
         .sum::<f64>()
         / sxx;
-    let (refit, _) = refit_base(d.base, d.gaps, &cleaned_of(k, lag), d.rate_hz)?;
+    let (refit, _) = refit_base(d, &cleaned_of(k, lag))?;
     // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
     let c0 = mean(&r) - k * mean(&x);
     let ref_c = (d.base.bias_dps - c0) / k;

@@ -17,9 +17,10 @@ use super::{Effect, EffectFit, EffectKind, TrainingData};
 const MAX_BLOCKS: usize = 256;
 /// Shortest block, samples.
 const MIN_BLOCK: usize = 4;
-/// The time constants tried at a block length: 8 to 16 blocks (four per octave), so the decay spans eight blocks
-/// or more and the window 16 time constants or more where the record allows.
-const TAU_BLOCKS: [f64; 4] = [8.0, 9.513_656_920_021_768, 11.313_708_498_984_761, 13.454_342_644_059_432];
+/// The longest time constant tried, as a share of the record: a warm-up that has not settled by the record's end
+/// still bends the bias in a way random walk does not, and a time constant of a third of a whole recording is two
+/// thirds of its training part.
+const LONGEST_TAU: f64 = 0.7;
 /// The warm-up counts beyond this many standard errors of its size: on 40 records each of white noise, flicker
 /// and random walk, with and without a ramp and a tenfold random walk, the largest of the scan's some fifty
 /// correlated t-statistics stayed at or below 3.2 and 4.0 (the test `warm_up_scan_holds_its_threshold_on_noise`).
@@ -28,21 +29,68 @@ pub(super) const T_STAT: f64 = 5.0;
 /// t-statistics read low), keeps a candidate beyond this many.
 const T_STAT_FIRST: f64 = 3.0;
 
-/// Half the variance of the difference of two block means `k` blocks apart (`k >= 1`), for blocks of `t_s`
-/// seconds (`b` samples at `fs`), under the IEEE terms with squares `sq` = [Q^2, N^2, B^2, K^2, R^2] (R is a
-/// trend, fitted, not noise): white `N^2 / T`; flicker `(2 B^2 / pi) J(k)` with
-/// `J(k) = [-4 ln 2 - 4 k^2 ln 2k + 2 (k+1)^2 ln 2(k+1) + 2 (k-1)^2 ln 2(k-1)] / 8` (the integral of its spectrum
-/// through the two block means; `J(1) = ln 2`, the Allan variance); random walk `K^2 T (k - 1/3) / 2`; white
-/// angle noise `(Q rate_hz / b)^2` times 3 (neighbours share an end) or 2.
-fn semivariogram(sq: &[f64; 5], t_s: f64, b: f64, rate_hz: f64, k: usize) -> f64 {
-    if k == 0 {
-        return 0.0;
+/// The noise a warm-up is weighed against: the model's IEEE terms and its Gauss-Markov process (a flicker fit
+/// reads a Gauss-Markov process as bias instability, whose block means wander far more than the process's do).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BlockNoise {
+    /// [Q^2, N^2, B^2, K^2]: deg^2, (deg/s)^2 s, (deg/s)^2, (deg/s)^2/s.
+    squares: [f64; 4],
+    /// The Gauss-Markov process's variance, (deg/s)^2, and correlation time, s.
+    gauss_markov: Option<(f64, f64)>,
+}
+
+impl BlockNoise {
+    /// The noise of `gyro`'s stochastic terms (its ramp is a trend, fitted, not noise).
+    pub(super) fn of(gyro: &GyroSim) -> Self {
+        BlockNoise {
+            squares: [
+                gyro.q_deg * gyro.q_deg,
+                gyro.n_deg_per_rt_s * gyro.n_deg_per_rt_s,
+                gyro.b_dps * gyro.b_dps,
+                gyro.k_dps_per_rt_s * gyro.k_dps_per_rt_s,
+            ],
+            gauss_markov: gyro.gauss_markov.as_ref().map(|g| (g.sigma_dps * g.sigma_dps, g.tau_s)),
+        }
     }
-    let kf = k as f64;
-    let xlnx = |v: f64| if v > 0.0 { v * v * (2.0 * v).ln() } else { 0.0 };
-    let j = (-4.0 * std::f64::consts::LN_2 - 4.0 * xlnx(kf) + 2.0 * xlnx(kf + 1.0) + 2.0 * xlnx(kf - 1.0)) / 8.0;
-    let q = (sq[0].sqrt() * rate_hz / b).powi(2) * if k == 1 { 3.0 } else { 2.0 };
-    sq[1] / t_s + 2.0 * sq[2] / std::f64::consts::PI * j + sq[3] * t_s * (kf - 1.0 / 3.0) / 2.0 + q
+
+    /// Half the variance of the difference of two block means `k` blocks apart, for `k` in `0..count`, blocks of
+    /// `b` samples at `rate_hz` (`t_s` seconds). The IEEE terms: white `N^2 / T`; flicker `(2 B^2 / pi) J(k)` with
+    /// `J(k) = [-4 ln 2 - 4 k^2 ln 2k + 2 (k+1)^2 ln 2(k+1) + 2 (k-1)^2 ln 2(k-1)] / 8` (the integral of its
+    /// spectrum through the two block means; `J(1) = ln 2`, the Allan variance); random walk `K^2 T (k - 1/3) / 2`;
+    /// white angle noise `(Q rate_hz / b)^2` times 3 (neighbours share an end) or 2. The Gauss-Markov process, the
+    /// sampled AR(1) of pole `a` and variance `v`: `C(0) - C(k)`, the block means' covariances
+    /// `C(0) = v/b^2 sum_{|d|<b} (b - |d|) a^|d|` and `C(k) = v/b^2 a^(kb) sum_{|d|<b} (b - |d|) a^d`.
+    fn semivariogram(&self, b: usize, rate_hz: f64, count: usize) -> Vec<f64> {
+        let [q2, n2, b2, k2] = self.squares;
+        let (bf, t_s) = (b as f64, b as f64 / rate_hz);
+        let xlnx = |v: f64| if v > 0.0 { v * v * (2.0 * v).ln() } else { 0.0 };
+        let gm = self.gauss_markov.filter(|&(v, t)| v > 0.0 && t > 0.0).map(|(v, t)| {
+            let a = (-1.0 / (rate_hz * t)).exp();
+            let (mut c0, mut g) = (bf, bf);
+            let mut p = 1.0;
+            for d in 1..b {
+                p *= a;
+                let w = bf - d as f64;
+                c0 += 2.0 * w * p;
+                g += w * (p + 1.0 / p);
+            }
+            (v / (bf * bf), a.powf(bf), c0, g)
+        });
+        (0..count)
+            .map(|k| {
+                if k == 0 {
+                    return 0.0;
+                }
+                let kf = k as f64;
+                let j = (-4.0 * std::f64::consts::LN_2 - 4.0 * xlnx(kf) + 2.0 * xlnx(kf + 1.0) + 2.0 * xlnx(kf - 1.0))
+                    / 8.0;
+                let q = q2 * (rate_hz / bf).powi(2) * if k == 1 { 3.0 } else { 2.0 };
+                let ieee = n2 / t_s + 2.0 * b2 / std::f64::consts::PI * j + k2 * t_s * (kf - 1.0 / 3.0) / 2.0 + q;
+                let markov = gm.map_or(0.0, |(scale, ab, c0, g)| scale * (c0 - ab.powf(kf) * g));
+                ieee + markov
+            })
+            .collect()
+    }
 }
 
 /// In-place Cholesky factor (lower) of a symmetric positive definite matrix stored row-major, size `m`; `None`
@@ -96,8 +144,8 @@ struct Blocks {
 
 impl Blocks {
     /// The first `min(n / b, MAX_BLOCKS)` block means of the record whose running sums are `pre`, as contrasts
-    /// against the last of them, whitened under the noise of squares `sq`; with a `trend` column or without.
-    fn new(pre: &[f64], b: usize, sq: &[f64; 5], rate_hz: f64, trend: bool) -> Option<Blocks> {
+    /// against the last of them, whitened under `noise`; with a `trend` column or without.
+    fn new(pre: &[f64], b: usize, noise: &BlockNoise, rate_hz: f64, trend: bool) -> Option<Blocks> {
         let n = pre.len() - 1;
         let nb = (n / b).min(MAX_BLOCKS);
         if nb < 32 {
@@ -105,8 +153,7 @@ impl Blocks {
         }
         let m = nb - 1;
         let y: Vec<f64> = (0..nb).map(|j| (pre[(j + 1) * b] - pre[j * b]) / b as f64).collect();
-        let t_s = b as f64 / rate_hz;
-        let gam: Vec<f64> = (0..nb).map(|k| semivariogram(sq, t_s, b as f64, rate_hz, k)).collect();
+        let gam = noise.semivariogram(b, rate_hz, nb);
         let last = nb - 1;
         let mut l = vec![0.0; m * m];
         for i in 0..m {
@@ -152,7 +199,7 @@ impl Blocks {
 
 /// The best warm-up over every block length and time constant, with a trend or without: `(size, se, tau_s)` with
 /// the largest `|size| / se`.
-fn scan(x: &[f64], rate_hz: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64, f64)> {
+fn scan(x: &[f64], rate_hz: f64, noise: &BlockNoise, trend: bool) -> Option<(f64, f64, f64)> {
     let n = x.len();
     let mut pre = Vec::with_capacity(n + 1);
     let mut acc = 0.0;
@@ -164,10 +211,14 @@ fn scan(x: &[f64], rate_hz: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64
     let mut best: Option<(f64, f64, f64)> = None;
     let mut b = MIN_BLOCK;
     while 8 * b <= n / 4 {
-        if let Some(blocks) = Blocks::new(&pre, b, sq, rate_hz, trend) {
-            for &k in &TAU_BLOCKS {
+        // The longest block length (the next would leave fewer than 32 blocks) carries the time constants on,
+        // four per octave, up to LONGEST_TAU of the record.
+        let longest = 16 * b > n / 4;
+        let taus = (0..).map(|j| 8.0 * 2f64.powf(j as f64 / 4.0)).take_while(|&k| longest || k < 16.0);
+        if let Some(blocks) = Blocks::new(&pre, b, noise, rate_hz, trend) {
+            for k in taus {
                 let tau = k * b as f64;
-                if tau > n as f64 / 4.0 {
+                if tau > n as f64 * if longest { LONGEST_TAU } else { 0.25 } {
                     break;
                 }
                 if let Some((size, se)) = blocks.fit(tau) {
@@ -182,11 +233,11 @@ fn scan(x: &[f64], rate_hz: f64, sq: &[f64; 5], trend: bool) -> Option<(f64, f64
     best
 }
 
-/// The scan's largest |t| on `x` under the noise of squares `sq`, with a trend or without (for the threshold's
+/// The scan's largest |t| on `x` under `noise`, with a trend or without (for the threshold's
 /// test).
 #[cfg(test)]
-pub(super) fn largest_t(x: &[f64], rate_hz: f64, sq: &[f64; 5], trend: bool) -> f64 {
-    scan(x, rate_hz, sq, trend).map_or(0.0, |(s, e, _)| (s / e).abs())
+pub(super) fn largest_t(x: &[f64], rate_hz: f64, noise: &BlockNoise, trend: bool) -> f64 {
+    scan(x, rate_hz, noise, trend).map_or(0.0, |(s, e, _)| (s / e).abs())
 }
 
 /// The warmup effect: [`warm_up`] and its parameters.
@@ -216,9 +267,10 @@ impl EffectKind for Kind {
 /// record's start), as contrasts against the last block used, regressed by generalised least squares on the
 /// warm-up `exp(-t / tau)` averaged over each block exactly (t from the first sample), and on a linear trend where
 /// the base model has a ramp (else a warm-up of a long tau would be half taken by the trend); the
-/// covariance is the one the base model's IEEE terms give block means (white, flicker and random walk, through
-/// their semivariogram, [`semivariogram`]). tau runs over 8 to 16 blocks at each block length, four per octave,
-/// up to a quarter of the record; the largest t-statistic of the size wins. Two passes, as for the temperature
+/// covariance is the one the model's noise gives block means (white, flicker, random walk and a Gauss-Markov
+/// process, through their semivariogram, [`BlockNoise::semivariogram`]). tau runs over 8 to 16 blocks at each
+/// block length, four per octave, up to a quarter of the record, and on at the longest block length up to
+/// [`LONGEST_TAU`] of it; the largest t-statistic of the size wins. Two passes, as for the temperature
 /// coupling: the base fit's noise first (it took part of the warm-up for random walk or ramp), then the noise
 /// of the IEEE fit of the record less that warm-up, which also gives the model's base terms. The warm-up counts
 /// beyond [`T_STAT`] standard errors.
@@ -226,7 +278,7 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let rate_hz = d.rate_hz;
     let trend = d.base.r_dps_per_s != 0.0;
-    let (size1, se1, tau1) = scan(x, rate_hz, &d.base_fit.squares, trend)?;
+    let (size1, se1, tau1) = scan(x, rate_hz, &BlockNoise::of(d.base), trend)?;
     if !((size1 / se1).abs() > T_STAT_FIRST) {
         return None;
     }
@@ -241,12 +293,12 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
             })
             .collect()
     };
-    let (_, squares) = refit_base(d.base, d.gaps, &cleaned_of(size1, tau1), rate_hz)?;
-    let (size, se, tau_s) = scan(x, rate_hz, &squares, trend)?;
+    let (refit1, _) = refit_base(d, &cleaned_of(size1, tau1))?;
+    let (size, se, tau_s) = scan(x, rate_hz, &BlockNoise::of(&refit1), trend)?;
     if !((size / se).abs() > T_STAT) {
         return None;
     }
-    let (refit, _) = refit_base(d.base, d.gaps, &cleaned_of(size, tau_s), rate_hz)?;
+    let (refit, _) = refit_base(d, &cleaned_of(size, tau_s))?;
     let gyro = GyroSim { warm_up: Some(WarmUpSim { size_dps: size, tau_s }), ..refit };
     Some(EffectFit {
         effect: Effect::WarmUp,
@@ -257,4 +309,35 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
         spread: None,
         cleaned: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gap::effects::curve::gm_avar;
+    use octavar_shared::sim::GaussMarkovSim;
+
+    /// Two neighbouring block means differ by the Allan variance at the block's length, so the Gauss-Markov
+    /// part of the semivariogram at one block is the process's Allan variance (curve.rs's exact AR(1) form), at
+    /// blocks shorter and longer than its correlation time; far apart, the block means are independent, and the
+    /// semivariogram tends to the block mean's variance.
+    #[test]
+    fn the_gauss_markov_semivariogram_is_its_allan_variance_at_one_block() {
+        let rate_hz = 10.0;
+        let gm = GaussMarkovSim { sigma_dps: 0.3, tau_s: 2.0 };
+        let noise = BlockNoise::of(&GyroSim { gauss_markov: Some(gm), ..Default::default() });
+        for b in [1usize, 4, 20, 64, 500] {
+            let g = noise.semivariogram(b, rate_hz, 400);
+            let tau = b as f64 / rate_hz;
+            let avar = 0.09 * gm_avar(2.0, tau, 1.0 / rate_hz);
+            assert!((g[1] / avar - 1.0).abs() < 1e-9, "b {b}: {} against {avar}", g[1]);
+            // Far apart: C(k) -> 0, so gamma -> C(0), the block mean's variance, which is 2 T / (b tau0) of the
+            // process's for blocks much longer than T.
+            if b >= 64 {
+                let c0 = g[399];
+                let expected = 0.09 * 2.0 * 2.0 / tau * (1.0 - 2.0 / tau * (1.0 - (-tau / 2.0).exp()));
+                assert!((c0 / expected - 1.0).abs() < 0.02, "b {b}: {c0} against {expected}");
+            }
+        }
+    }
 }

@@ -1,0 +1,124 @@
+//! The power spectral density of a model's noise: what a generalised least-squares estimator weighs each
+//! frequency by when it looks for a deterministic effect (a temperature coupling, a sinusoid) in samples that
+//! still carry the model's stochastic parts.
+
+use octavar_shared::sim::GyroSim;
+
+use super::curve::lowpass_gain;
+use super::resonance::unit_spectrum_at;
+
+/// The two-sided PSD, (deg/s)^2/Hz, of the stochastic parts of a model whose realisation stays in the samples:
+/// white rate noise N, differenced white angle Q, flicker B and random walk K (IEEE 952 Annex C: `N^2`,
+/// `B^2 / (2 pi f)`, `K^2 / (2 pi f)^2`), a Gauss-Markov process and a resonance, all through the sensor's
+/// first-order bandwidth as shared::sim applies it. Deterministic parts (ramp, sinusoids, temperature, warm-up)
+/// have no spectrum here, and the realisations a chain step takes out of the samples (bias steps, a bistable
+/// bias, outliers) are no longer in them.
+#[derive(Clone, Debug)]
+pub(crate) struct NoiseSpectrum {
+    squares: [f64; 4],
+    gauss_markov: Option<(f64, f64)>,
+    resonance: Option<(f64, f64, f64)>,
+    bandwidth_hz: Option<f64>,
+    rate_hz: f64,
+}
+
+impl NoiseSpectrum {
+    /// The noise spectrum of `gyro` sampled at `rate_hz`.
+    pub(crate) fn of(gyro: &GyroSim, rate_hz: f64) -> Self {
+        NoiseSpectrum {
+            squares: [
+                gyro.q_deg * gyro.q_deg,
+                gyro.n_deg_per_rt_s * gyro.n_deg_per_rt_s,
+                gyro.b_dps * gyro.b_dps,
+                gyro.k_dps_per_rt_s * gyro.k_dps_per_rt_s,
+            ],
+            gauss_markov: gyro.gauss_markov.map(|g| (g.sigma_dps * g.sigma_dps, g.tau_s)),
+            resonance: gyro.resonance.map(|r| (r.sigma_dps * r.sigma_dps, r.freq_hz, r.q)),
+            bandwidth_hz: gyro.bandwidth_hz,
+            rate_hz,
+        }
+    }
+
+    /// The two-sided PSD at `f` > 0 Hz, never below a billionth of the white, flicker and random-walk levels
+    /// together (a weight of zero would make the estimator trust one frequency without limit).
+    pub(crate) fn at(&self, f: f64) -> f64 {
+        use std::f64::consts::PI;
+        let [q2, n2, b2, k2] = self.squares;
+        let (fs, w) = (self.rate_hz, 2.0 * PI * f);
+        let mut s = n2 + b2 / w + k2 / (w * w);
+        // Q fs (w_n - w_(n-1)): |1 - e^{-i 2 pi f/fs}|^2 = 4 sin^2(pi f/fs), per-sample variance Q^2 fs^2 spread
+        // over fs.
+        s += 4.0 * q2 * fs * (PI * f / fs).sin().powi(2);
+        if let Some((var, t_s)) = self.gauss_markov {
+            // The sampled AR(1) of pole a = exp(-1/(fs T)) and variance var.
+            let a = (-1.0 / (fs * t_s)).exp();
+            s += var * (1.0 - a * a) / (fs * (1.0 - 2.0 * a * (w / fs).cos() + a * a));
+        }
+        if let Some((var, f0, q)) = self.resonance {
+            s += 0.5 * var * unit_spectrum_at(f0, q, fs, f);
+        }
+        if let Some(bw) = self.bandwidth_hz {
+            s *= lowpass_gain(bw, fs, f);
+        }
+        let floor = (n2 + b2 + k2).max(1e-300) * 1e-9;
+        if s.is_finite() {
+            s.max(floor)
+        } else {
+            floor
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use octavar_shared::sim::{GaussMarkovSim, ResonanceSim};
+
+    /// Integrated over (-fs/2, fs/2), the spectrum of white noise, of a Gauss-Markov process and of a resonance
+    /// gives each one's per-sample variance, the sum for all three together, and the low-pass takes away what
+    /// the closed form of a filtered white noise says: `fs (1 - a)/(1 + a)` for unit N.
+    #[test]
+    fn the_spectrum_integrates_to_each_parts_variance() {
+        let fs = 50.0;
+        let integral = |g: &GyroSim| {
+            let s = NoiseSpectrum::of(g, fs);
+            let n = 200_000;
+            let df = 0.5 * fs / n as f64;
+            2.0 * (0..n).map(|i| s.at((i as f64 + 0.5) * df) * df).sum::<f64>()
+        };
+        let white = GyroSim { n_deg_per_rt_s: 0.01, ..Default::default() };
+        assert!((integral(&white) / (1e-4 * fs) - 1.0).abs() < 1e-6);
+        let gm = GyroSim {
+            gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.2, tau_s: 0.5 }),
+            ..Default::default()
+        };
+        assert!((integral(&gm) / 0.04 - 1.0).abs() < 1e-3, "{}", integral(&gm));
+        let res = GyroSim {
+            resonance: Some(ResonanceSim { sigma_dps: 0.3, freq_hz: 4.0, q: 10.0 }),
+            ..Default::default()
+        };
+        assert!((integral(&res) / 0.09 - 1.0).abs() < 1e-3, "{}", integral(&res));
+        let all = GyroSim { gauss_markov: gm.gauss_markov, resonance: res.resonance, ..white.clone() };
+        assert!((integral(&all) / (1e-4 * fs + 0.04 + 0.09) - 1.0).abs() < 1e-3);
+        let filtered = GyroSim { bandwidth_hz: Some(2.0), ..white };
+        let a = (-2.0 * std::f64::consts::PI * 2.0 / fs).exp();
+        let expected = 1e-4 * fs * (1.0 - a) / (1.0 + a);
+        assert!((integral(&filtered) / expected - 1.0).abs() < 1e-4, "{} {expected}", integral(&filtered));
+    }
+
+    /// Q's differenced white angle has the per-sample variance `2 Q^2 fs^2`, and flicker and random walk follow
+    /// IEEE 952's `B^2/(2 pi f)` and `K^2/(2 pi f)^2`.
+    #[test]
+    fn quantization_flicker_and_random_walk_follow_their_closed_forms() {
+        let fs = 10.0;
+        let q = GyroSim { q_deg: 0.001, ..Default::default() };
+        let s = NoiseSpectrum::of(&q, fs);
+        let n = 100_000;
+        let df = 0.5 * fs / n as f64;
+        let var = 2.0 * (0..n).map(|i| s.at((i as f64 + 0.5) * df) * df).sum::<f64>();
+        assert!((var / (2.0 * 1e-6 * fs * fs) - 1.0).abs() < 1e-6, "{var}");
+        let bk = NoiseSpectrum::of(&GyroSim { b_dps: 0.02, k_dps_per_rt_s: 0.003, ..Default::default() }, fs);
+        let w = 2.0 * std::f64::consts::PI * 0.01;
+        assert!((bk.at(0.01) / (4e-4 / w + 9e-6 / (w * w)) - 1.0).abs() < 1e-12);
+    }
+}
