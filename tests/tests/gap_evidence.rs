@@ -245,9 +245,10 @@ fn evidence_statistics() {
         let all: Vec<[Option<f64>; TESTED.len()]> =
             (0..records).into_par_iter().map(|s| statistics(generator, s)).collect();
         for (k, e) in TESTED.iter().enumerate() {
-            let mut v: Vec<f64> = all.iter().filter_map(|a| a[k]).map(f64::abs).collect();
-            v.sort_by(|a, b| b.total_cmp(a));
-            let top: Vec<String> = v.iter().take(6).map(|x| format!("{x:.3}")).collect();
+            let mut v: Vec<(f64, usize)> =
+                all.iter().enumerate().filter_map(|(s, a)| a[k].map(|x| (x.abs(), s))).collect();
+            v.sort_by(|a, b| b.0.total_cmp(&a.0));
+            let top: Vec<String> = v.iter().take(6).map(|(x, s)| format!("{x:.3} (record {s})")).collect();
             println!(
                 "{generator:?} {e}: a trace in {}/{records} records; threshold {}; largest |statistic| {}",
                 v.len(),

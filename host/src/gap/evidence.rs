@@ -15,10 +15,10 @@
 //! | resonance | `delta_chi2`: the fall of the Welch spectrum's chi-square with the bump | 100 | the estimator's own acceptance |
 //! | bandwidth | `delta_chi2`: the fall of the Allan curve's log chi-square with the corner | 30 | the estimator's own acceptance |
 //!
-//! The two chi-square tests name only where the model so far leaves no significant gap: a curve's chi-square
-//! falls with any added freedom where the model misses something else, so beside an unexplained gap it measures
-//! that gap (a filter corner took 8,000 of the Allan curve's chi-square beside a sinusoid and a bistable bias the
-//! chain had not named), while a t weighs its effect against the noise alone.
+//! Beside a significant gap the model leaves, the two chi-square tests name only an effect that takes that gap
+//! below significance itself: a curve's chi-square falls with any added freedom where the model misses something
+//! else, so there it measures that gap (a filter corner took 8,000 of the Allan curve's chi-square beside a
+//! sinusoid and a bistable bias the chain had not named), while a t weighs its effect against the noise alone.
 //!
 //! On 300 effect-free records of each generator (`evidence_statistics` in tests/tests/gap_evidence.rs) none of
 //! these four estimators found a trace beyond its threshold. Two others have a statistic but no test here,
@@ -98,32 +98,27 @@ pub const VIEWS_TOLERANCE: f64 = 1.1;
 /// Whether `effect`'s test is the fall of a curve's chi-square (the Allan curve's for a filter corner, the
 /// spectrum's for a resonance), which measures the effect only against a model that fits the rest of the curve:
 /// where the model leaves a significant gap, the curve's misfit is that gap's, and any added freedom lowers it.
-/// A generalised least-squares t weighs the effect against the noise alone, and holds beside an unexplained gap.
+/// Such an effect is named beside a significant gap only where it takes that gap below significance itself; a
+/// generalised least-squares t weighs the effect against the noise alone, and holds beside an unexplained gap.
 pub fn needs_a_fitting_model(effect: Effect) -> bool {
     matches!(effect, Effect::Resonance | Effect::Bandwidth)
 }
 
-/// The fit, among the `remaining` effects that have a test, whose evidence names it most strongly (its statistic
-/// furthest beyond its threshold), estimated on `data`, or taken from `candidates` where the step's ranking
-/// estimated it already; `None` when no test names its effect. Where the model so far leaves a significant gap
-/// (`gap_significant`), the curve-fit tests ([`needs_a_fitting_model`]) do not name.
-pub fn strongest(
-    remaining: &[Effect],
-    candidates: &[CandidateResult],
-    data: &TrainingData,
-    gap_significant: bool,
-) -> Option<EffectFit> {
-    remaining
+/// The fits, among the `remaining` effects that have a test, whose evidence names them, strongest first (the
+/// statistic furthest beyond its threshold), each estimated on `data`, or taken from `candidates` where the step's
+/// ranking estimated it already.
+pub fn named(remaining: &[Effect], candidates: &[CandidateResult], data: &TrainingData) -> Vec<EffectFit> {
+    let mut out: Vec<(f64, EffectFit)> = remaining
         .iter()
         .filter(|&&e| threshold(e).is_some())
-        .filter(|&&e| !(gap_significant && needs_a_fitting_model(e)))
         .filter_map(|&e| match candidates.iter().find(|c| c.effect == e) {
             Some(c) => c.fit.clone(),
             None => effects::estimate(e, data),
         })
         .filter_map(|f| of(&f).filter(Evidence::names).map(|ev| (ev.strength(), f)))
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, f)| f)
+        .collect();
+    out.sort_by(|a, b| b.0.total_cmp(&a.0));
+    out.into_iter().map(|(_, f)| f).collect()
 }
 
 #[cfg(test)]
