@@ -29,13 +29,8 @@ pub fn without(gyro: &GyroSim, effect: Effect) -> Option<GyroSim> {
     Some(g)
 }
 
-/// Backfitting passes in one round: two effects whose signatures overlap (a Gauss-Markov process and the filter
-/// corner above it) each move the other's estimate, and one pass leaves the second read against the first's
-/// reading without it.
-const ROUNDS: usize = 3;
-
-/// One backfitting round over a chain of two or more effects ([`ROUNDS`] passes): each effect, in the chain's
-/// order, is estimated again on the model less itself, so that it is read with every other effect of the chain in place rather
+/// One backfitting round over a chain of two or more effects: each effect, in the chain's order, is estimated
+/// again on the final model less itself, so that it is read with every other effect of the chain in place rather
 /// than only the ones found before it (a bandwidth read before the resonance under it takes part of the bump for
 /// its corner; the resonance then sits on that corner). `fits` are the chain's fits in its order, `recorded` the
 /// training samples as recorded (gaps filled; where an ADC lattice is read), `series` the
@@ -57,10 +52,7 @@ pub fn backfit(
 ) -> (Model, Vec<Option<EffectFit>>) {
     let mut gyro = model.gyro.clone();
     let mut refits: Vec<Option<EffectFit>> = vec![None; fits.len()];
-    for _ in 0..ROUNDS {
-        if fits.len() < 2 {
-            break;
-        }
+    if fits.len() >= 2 {
         for (i, fit) in fits.iter().enumerate() {
             if fit.cleaned.is_some() {
                 continue;

@@ -91,10 +91,6 @@ struct Search<'a, 'p> {
     steps: Vec<Step>,
     model: Model,
     eval: Evaluated,
-    /// The choice a step is made to take (the other branch of a tie).
-    force: Option<Tie>,
-    /// The first tie the chain met.
-    tie: Option<Tie>,
 }
 
 /// The chain of `effects` on the training samples `training` (gaps as NaN) and their temperature, from the base
@@ -114,54 +110,6 @@ pub(crate) fn search<'p>(
     rate_hz: f64,
     progress: &mut Progress<'p>,
 ) -> Result<Found, GapError> {
-    let run = |force: Option<Tie>, progress: &mut Progress<'p>| {
-        let (b, e) = (base.clone(), base_eval.clone());
-        search_once(judge, effects, b, e, base_fit, training, temp, rate_hz, progress, force)
-    };
-    let (found, tie) = run(None, progress)?;
-    // A step chose between two effects the views could not tell apart, and the chain left a gap: the other branch
-    // is followed to its end, and the chain that leaves the lower score is kept.
-    let Some(tie) = tie.filter(|_| rank::gap_of(&found.eval.training) > rank::SIGNIFICANT_GAP) else {
-        return Ok(found);
-    };
-    let (other, _) = run(Some(tie), progress)?;
-    Ok(if final_score(&other) < final_score(&found) { other } else { found })
-}
-
-/// A step's choice between two candidates whose scores lie within [`TIE`] of each other: the step (its index in
-/// the chain) and the runner-up effect.
-#[derive(Clone, Copy, Debug)]
-struct Tie {
-    step: usize,
-    effect: Effect,
-}
-
-/// Two candidates whose scores lie within this ratio are tied: the views see no difference between them beyond
-/// the parameter penalty (a first-order filter's corner on white noise and a Gauss-Markov process of the same
-/// correlation time have the same spectrum).
-const TIE: f64 = 1.06;
-
-/// A finished chain's score: the total over the views with every step's parameters paid for.
-fn final_score(found: &Found) -> f64 {
-    let params = found.steps.iter().map(|s| s.final_fit().n_params).sum();
-    rank::score(rank::total_of(&found.eval.training), params)
-}
-
-/// One search, with the step `force.step` taking `force.effect` where it is among the candidates that explain the
-/// gap; also returns the chain's first tie ([`Tie`]) where one of its steps had one.
-#[allow(clippy::too_many_arguments)]
-fn search_once<'p>(
-    judge: &Judge,
-    effects: &[Effect],
-    base: Model,
-    base_eval: Evaluated,
-    base_fit: &NoiseFit,
-    training: &[f64],
-    temp: Option<&[f64]>,
-    rate_hz: f64,
-    progress: &mut Progress<'p>,
-    force: Option<Tie>,
-) -> Result<(Found, Option<Tie>), GapError> {
     let filled = fill_gaps(training);
     let mut s = Search {
         judge,
@@ -177,8 +125,6 @@ fn search_once<'p>(
         steps: Vec::new(),
         model: base,
         eval: base_eval,
-        force,
-        tie: None,
     };
     let mut first_candidates = Vec::new();
     let mut last_tried = Vec::new();
@@ -218,8 +164,7 @@ fn search_once<'p>(
     if !s.steps.is_empty() {
         s.joint_round()?;
     }
-    let tie = s.tie;
-    Ok((Found { steps: s.steps, first_candidates, last_tried, model: s.model, eval: s.eval }, tie))
+    Ok(Found { steps: s.steps, first_candidates, last_tried, model: s.model, eval: s.eval })
 }
 
 impl Search<'_, '_> {
@@ -280,7 +225,7 @@ impl Search<'_, '_> {
         first: bool,
     ) -> Result<bool, GapError> {
         let total_before = rank::total_of(&self.eval.training);
-        if let Some(i) = self.choose(candidates, total_before, location) {
+        if let Some(i) = rank::choose(candidates, total_before, Some(location)) {
             let (Some(fit), Some(after)) = (candidates[i].fit.clone(), candidates[i].eval.clone()) else {
                 return Ok(false);
             };
@@ -302,28 +247,6 @@ impl Search<'_, '_> {
             }
         }
         self.pair_step(data, candidates, location, total_before)
-    }
-
-    /// The candidate this step takes ([`rank::choose`]), or the forced one where this is the forced step and it
-    /// explains the gap too; notes the first tie.
-    fn choose(&mut self, candidates: &[CandidateResult], total_before: f64, location: &Location) -> Option<usize> {
-        let chosen = rank::choose(candidates, total_before, Some(location))?;
-        let step = self.steps.len();
-        let explains = |c: &CandidateResult| c.score.is_some_and(|s| rank::explains(s, total_before));
-        if let Some(f) = self.force.filter(|f| f.step == step) {
-            if let Some(i) = candidates.iter().position(|c| c.effect == f.effect && explains(c)) {
-                return Some(i);
-            }
-        }
-        if self.tie.is_none() {
-            let best = candidates[chosen].score.unwrap_or(f64::INFINITY);
-            let runner_up = by_score(candidates)
-                .into_iter()
-                .filter(|&i| i != chosen && explains(&candidates[i]))
-                .find(|&i| candidates[i].score.is_some_and(|s| s <= TIE * best));
-            self.tie = runner_up.map(|i| Tie { step, effect: candidates[i].effect });
-        }
-        Some(chosen)
     }
 
     /// A later step whose best candidates explain too little alone: each gets a second chance with the chain
