@@ -11,11 +11,11 @@ use super::data::StepData;
 use super::joint;
 use super::model::{Model, NamedBy, Step, MAX_STEPS};
 use crate::fit::NoiseFit;
+use crate::gap::compare::ViewGap;
 use crate::gap::effects::{self, Effect, EffectFit};
 use crate::gap::error::GapError;
 use crate::gap::evidence;
 use crate::gap::fill::{fill_gaps, gap_runs};
-use crate::gap::compare::ViewGap;
 use crate::gap::judge::{Evaluated, Judge};
 use crate::gap::rank::{self, CandidateResult, Location, PartGap};
 
@@ -382,7 +382,8 @@ impl Search<'_, '_> {
             let after = self.evaluate(&m, known.as_deref(), fit.effect.name())?;
             // Named on its own test, it must still leave the views no worse than it found them, and a curve's test
             // beside a significant gap must take that gap below significance.
-            let worse = rank::total_of(&after.training) > evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training);
+            let worse =
+                rank::total_of(&after.training) > evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training);
             let clears = rank::band_gap(&after.training, location).is_some_and(|g| g < rank::SIGNIFICANT_GAP);
             if worse || (significant && evidence::needs_a_fitting_model(fit.effect) && !clears) {
                 continue;

@@ -88,15 +88,10 @@ mod tests {
         };
         let white = GyroSim { n_deg_per_rt_s: 0.01, ..Default::default() };
         assert!((integral(&white) / (1e-4 * fs) - 1.0).abs() < 1e-6);
-        let gm = GyroSim {
-            gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.2, tau_s: 0.5 }),
-            ..Default::default()
-        };
+        let gm = GyroSim { gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.2, tau_s: 0.5 }), ..Default::default() };
         assert!((integral(&gm) / 0.04 - 1.0).abs() < 1e-3, "{}", integral(&gm));
-        let res = GyroSim {
-            resonance: Some(ResonanceSim { sigma_dps: 0.3, freq_hz: 4.0, q: 10.0 }),
-            ..Default::default()
-        };
+        let res =
+            GyroSim { resonance: Some(ResonanceSim { sigma_dps: 0.3, freq_hz: 4.0, q: 10.0 }), ..Default::default() };
         assert!((integral(&res) / 0.09 - 1.0).abs() < 1e-3, "{}", integral(&res));
         let all = GyroSim { gauss_markov: gm.gauss_markov, resonance: res.resonance, ..white.clone() };
         assert!((integral(&all) / (1e-4 * fs + 0.04 + 0.09) - 1.0).abs() < 1e-3);

@@ -6,8 +6,8 @@ use rayon::prelude::*;
 
 use super::common::*;
 use super::curve::*;
-use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 use super::noise_spectrum::NoiseSpectrum;
+use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 
 /// `|sum w_n x_n e^{-i 2 pi f n dt}|^2` with the Hann window, by a rotating phasor (renormalised).
 pub(super) fn hann_power(y: &[f64], f: f64, dt: f64) -> f64 {

@@ -87,7 +87,8 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     let transform = |v: &[f64]| -> Vec<(Vec<f64>, Vec<f64>)> { sine_tapered(v, TAPERS, &*fft_plan) };
     let rt1 = transform(&r);
     let df = 1.0 / (nfft as f64 * dt);
-    let spectrum = |noise: &NoiseSpectrum| -> Vec<f64> { (0..=half).map(|k| noise.at((k as f64 * df).max(df))).collect() };
+    let spectrum =
+        |noise: &NoiseSpectrum| -> Vec<f64> { (0..=half).map(|k| noise.at((k as f64 * df).max(df))).collect() };
     // (k, GLS residual, sum |X|^2/S) for a lagged temperature's transforms, summed over the tapers.
     let gls = |xt: &[(Vec<f64>, Vec<f64>)], rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]| -> (f64, f64, f64) {
         let (mut sxx, mut sxr, mut srr) = (0.0, 0.0, 0.0);
