@@ -374,18 +374,40 @@ impl Search<'_, '_> {
             data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
         let significant = rank::gap_of(&self.eval.training) > rank::SIGNIFICANT_GAP;
         let mut chosen = None;
-        for fit in evidence::named(remaining, &candidates, &training) {
+        for mut fit in evidence::named(remaining, &candidates, &training) {
             let Some(ev) = evidence::of(&fit) else { continue };
             let m = self.model.with(&fit);
             let known = self.known_with(data, &fit);
             self.progress.expect("evidence", 1);
-            let after = self.evaluate(&m, known.as_deref(), fit.effect.name())?;
+            let mut after = self.evaluate(&m, known.as_deref(), fit.effect.name())?;
+            let mut m = m;
             // Named on its own test, it must still leave the views no worse than it found them, and a curve's test
             // beside a significant gap must take that gap below significance.
-            let worse =
-                rank::total_of(&after.training) > evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training);
+            let allowed = evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training);
+            let worse_than_before = |e: &Evaluated| rank::total_of(&e.training) > allowed;
+            let mut worse = worse_than_before(&after);
+            // The estimator refitted the base terms alone beside its effect, on a curve whose other effects it took
+            // as known; where that leaves the views worse, the model's stochastic terms re-estimated together with
+            // the new effect in place may not.
+            if worse {
+                if let Some(j) = self.reestimated(&m) {
+                    self.progress.expect("evidence", 1);
+                    let joint = self.evaluate(&j, known.as_deref(), fit.effect.name())?;
+                    if !worse_than_before(&joint) {
+                        fit = EffectFit { params: fit.params.reestimated(&j.gyro), gyro: j.gyro.clone(), ..fit };
+                        (m, after, worse) = (j, joint, false);
+                    }
+                }
+            }
             let clears = rank::band_gap(&after.training, location).is_some_and(|g| g < rank::SIGNIFICANT_GAP);
-            if worse || (significant && evidence::needs_a_fitting_model(fit.effect) && !clears) {
+            // A curve's test names an effect only where the views find the model with it better: beside a
+            // significant gap, below significance in the gap's band; elsewhere, a total lower by more than the
+            // ensemble's draw moves it (a filter corner read into a Gauss-Markov process's roll-off lowers the
+            // curve's chi-square and nothing else).
+            let curve_test = evidence::needs_a_fitting_model(fit.effect);
+            let better =
+                evidence::VIEWS_TOLERANCE * rank::total_of(&after.training) < rank::total_of(&self.eval.training);
+            if worse || (curve_test && if significant { !clears } else { !better }) {
                 continue;
             }
             chosen = Some((fit, ev, m, after));
@@ -479,6 +501,12 @@ impl Search<'_, '_> {
             self.eval = after;
         }
         Ok(())
+    }
+
+    /// `m` jointly re-estimated ([`joint::reestimate`]) on the training samples less the realisations the chain
+    /// recovered; `None` where nothing changes.
+    fn reestimated(&self, m: &Model) -> Option<Model> {
+        joint::reestimate(m, &self.series, self.shaped.as_deref(), &self.gaps, self.temp, self.rate_hz)
     }
 
     /// A backfitting round over a chain of two or more whose last step had none: kept when the final model's

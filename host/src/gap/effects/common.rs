@@ -94,6 +94,12 @@ pub(crate) fn jumps_through_filter(x: &[f64], shaped: &[f64], bandwidth_hz: f64,
     x.iter().zip(shaped).map(|(&v, &s)| v + s - lp.next(s)).collect()
 }
 
+/// The powers of `gyro`'s IEEE noise terms that stay in the samples, `[Q^2, N^2, B^2, K^2]`: deg^2, (deg/s)^2 s,
+/// (deg/s)^2 and (deg/s)^2/s (the ramp is a trend, not noise).
+pub(super) fn ieee_squares(gyro: &GyroSim) -> [f64; 4] {
+    [gyro.q_deg, gyro.n_deg_per_rt_s, gyro.b_dps, gyro.k_dps_per_rt_s].map(|v| v * v)
+}
+
 /// The standard normal upper tail.
 pub(super) fn normal_sf(z: f64) -> f64 {
     0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)

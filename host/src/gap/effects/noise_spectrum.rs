@@ -4,6 +4,7 @@
 
 use octavar_shared::sim::GyroSim;
 
+use super::common::ieee_squares;
 use super::curve::lowpass_gain;
 use super::resonance::unit_spectrum_at;
 
@@ -20,23 +21,29 @@ pub(crate) struct NoiseSpectrum {
     resonance: Option<(f64, f64, f64)>,
     bandwidth_hz: Option<f64>,
     rate_hz: f64,
+    /// The rate of the series the angle noise Q is differenced at: the sample rate, or the block rate of block
+    /// means (a block mean of differenced white angle is the difference across the block).
+    q_rate_hz: f64,
 }
 
 impl NoiseSpectrum {
     /// The noise spectrum of `gyro` sampled at `rate_hz`.
     pub(crate) fn of(gyro: &GyroSim, rate_hz: f64) -> Self {
         NoiseSpectrum {
-            squares: [
-                gyro.q_deg * gyro.q_deg,
-                gyro.n_deg_per_rt_s * gyro.n_deg_per_rt_s,
-                gyro.b_dps * gyro.b_dps,
-                gyro.k_dps_per_rt_s * gyro.k_dps_per_rt_s,
-            ],
+            squares: ieee_squares(gyro),
             gauss_markov: gyro.gauss_markov.map(|g| (g.sigma_dps * g.sigma_dps, g.tau_s)),
             resonance: gyro.resonance.map(|r| (r.sigma_dps * r.sigma_dps, r.freq_hz, r.q)),
             bandwidth_hz: gyro.bandwidth_hz,
             rate_hz,
+            q_rate_hz: rate_hz,
         }
+    }
+
+    /// The noise spectrum of the means of blocks of `m` samples of `gyro` sampled at `rate_hz`, at frequencies
+    /// below the block rate's Nyquist: the same as the samples' (averaging passes them), except the angle noise
+    /// Q, whose block mean `Q (fs/m) (w_end - w_start)` is differenced white angle at the block rate.
+    pub(crate) fn of_block_means(gyro: &GyroSim, rate_hz: f64, m: usize) -> Self {
+        NoiseSpectrum { q_rate_hz: rate_hz / m.max(1) as f64, ..Self::of(gyro, rate_hz) }
     }
 
     /// The two-sided PSD at `f` > 0 Hz, never below a billionth of the white, flicker and random-walk levels
@@ -46,9 +53,10 @@ impl NoiseSpectrum {
         let [q2, n2, b2, k2] = self.squares;
         let (fs, w) = (self.rate_hz, 2.0 * PI * f);
         let mut s = n2 + b2 / w + k2 / (w * w);
-        // Q fs (w_n - w_(n-1)): |1 - e^{-i 2 pi f/fs}|^2 = 4 sin^2(pi f/fs), per-sample variance Q^2 fs^2 spread
-        // over fs.
-        s += 4.0 * q2 * fs * (PI * f / fs).sin().powi(2);
+        // Q fq (w_n - w_(n-1)) at the rate fq: |1 - e^{-i 2 pi f/fq}|^2 = 4 sin^2(pi f/fq), per-sample variance
+        // 2 Q^2 fq^2 spread over fq.
+        let fq = self.q_rate_hz;
+        s += 4.0 * q2 * fq * (PI * f / fq).sin().powi(2);
         if let Some((var, t_s)) = self.gauss_markov {
             // The sampled AR(1) of pole a = exp(-1/(fs T)) and variance var.
             let a = (-1.0 / (fs * t_s)).exp();
@@ -101,7 +109,8 @@ mod tests {
         assert!((integral(&filtered) / expected - 1.0).abs() < 1e-4, "{} {expected}", integral(&filtered));
     }
 
-    /// Q's differenced white angle has the per-sample variance `2 Q^2 fs^2`, and flicker and random walk follow
+    /// Q's differenced white angle has the per-sample variance `2 Q^2 fs^2` (and its block means `2 Q^2 fb^2` at
+    /// the block rate fb), and flicker and random walk follow
     /// IEEE 952's `B^2/(2 pi f)` and `K^2/(2 pi f)^2`.
     #[test]
     fn quantization_flicker_and_random_walk_follow_their_closed_forms() {
@@ -112,6 +121,12 @@ mod tests {
         let df = 0.5 * fs / n as f64;
         let var = 2.0 * (0..n).map(|i| s.at((i as f64 + 0.5) * df) * df).sum::<f64>();
         assert!((var / (2.0 * 1e-6 * fs * fs) - 1.0).abs() < 1e-6, "{var}");
+        // Means of blocks of 5 samples: the difference of the angle across a block, over the block's length.
+        let blocks = NoiseSpectrum::of_block_means(&q, fs, 5);
+        let fb = fs / 5.0;
+        let dfb = 0.5 * fb / n as f64;
+        let var_b = 2.0 * (0..n).map(|i| blocks.at((i as f64 + 0.5) * dfb) * dfb).sum::<f64>();
+        assert!((var_b / (2.0 * 1e-6 * fb * fb) - 1.0).abs() < 1e-6, "{var_b}");
         let bk = NoiseSpectrum::of(&GyroSim { b_dps: 0.02, k_dps_per_rt_s: 0.003, ..Default::default() }, fs);
         let w = 2.0 * std::f64::consts::PI * 0.01;
         assert!((bk.at(0.01) / (4e-4 / w + 9e-6 / (w * w)) - 1.0).abs() < 1e-12);

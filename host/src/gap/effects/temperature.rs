@@ -115,7 +115,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
         }
     };
     // Pass 1: the base fit's noise.
-    let s1 = spectrum(&NoiseSpectrum::of(d.base, d.rate_hz));
+    let s1 = spectrum(&NoiseSpectrum::of_block_means(d.base, d.rate_hz, m));
     let lag1 = best_lag(&rt1, &s1);
     let (k1, _, _) = gls(&transform(&lagged(lag1)), &rt1, &s1);
     // The lagged temperature at every sample.
@@ -140,7 +140,7 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     // from the first pass's coupling (a line through a gap lacks the response there, and reads the coupling low).
     let cleaned1 = cleaned_of(k1, lag1);
     let (refit1, _) = refit_base(d, &cleaned1)?;
-    let noise = NoiseSpectrum::of(&refit1, d.rate_hz);
+    let noise = NoiseSpectrum::of_block_means(&refit1, d.rate_hz, m);
     if !d.gaps.is_empty() {
         let refilled: Vec<f64> = cleaned1.iter().zip(response(lag1)).map(|(c, y)| c + k1 * y).collect();
         r = block_means(&refilled, m);

@@ -745,7 +745,7 @@ fn warm_up_scan_holds_its_threshold_on_noise() {
         .map(|i| {
             let m = if i % 2 == 0 { base_model() } else { drift.clone() };
             let (x, _) = simulate(&m, rate_hz, 262_144, 700 + i, None);
-            let (g, f) = base_of(&x, rate_hz);
+            let (g, _) = base_of(&x, rate_hz);
             warm_up::largest_t(&x, rate_hz, &warm_up::BlockNoise::of(&g), g.r_dps_per_s != 0.0)
         })
         .collect();

@@ -12,6 +12,7 @@ use octavar_shared::sim::{GyroSim, WarmUpSim};
 
 use super::common::*;
 use super::{Effect, EffectFit, EffectKind, TrainingData};
+use crate::stats::linalg::{cholesky, forward_solve};
 
 /// Most block means in one regression (the covariance is factorised once per block length).
 const MAX_BLOCKS: usize = 256;
@@ -25,6 +26,10 @@ const LONGEST_TAU: f64 = 0.7;
 /// and random walk, with and without a ramp and a tenfold random walk, the largest of the scan's some fifty
 /// correlated t-statistics stayed at or below 3.2 and 4.0 (the test `warm_up_scan_holds_its_threshold_on_noise`).
 pub(super) const T_STAT: f64 = 5.0;
+/// How much more of the block means' chi-square a warm-up fitted without the trend must take than the trend
+/// alone, where the base model has a ramp, for the warm-up to replace the ramp: a time constant is searched where
+/// the slope is not, and a true ramp is a straight line that an exponential follows only in part.
+const RAMP_MARGIN_CHI2: f64 = 9.0;
 /// The first pass, against the base fit's noise (which took part of a warm-up for random walk or ramp, so its
 /// t-statistics read low), keeps a candidate beyond this many.
 const T_STAT_FIRST: f64 = 3.0;
@@ -43,12 +48,7 @@ impl BlockNoise {
     /// The noise of `gyro`'s stochastic terms (its ramp is a trend, fitted, not noise).
     pub(super) fn of(gyro: &GyroSim) -> Self {
         BlockNoise {
-            squares: [
-                gyro.q_deg * gyro.q_deg,
-                gyro.n_deg_per_rt_s * gyro.n_deg_per_rt_s,
-                gyro.b_dps * gyro.b_dps,
-                gyro.k_dps_per_rt_s * gyro.k_dps_per_rt_s,
-            ],
+            squares: ieee_squares(gyro),
             gauss_markov: gyro.gauss_markov.as_ref().map(|g| (g.sigma_dps * g.sigma_dps, g.tau_s)),
         }
     }
@@ -93,41 +93,6 @@ impl BlockNoise {
     }
 }
 
-/// In-place Cholesky factor (lower) of a symmetric positive definite matrix stored row-major, size `m`; `None`
-/// when it is not positive definite.
-fn cholesky(a: &mut [f64], m: usize) -> Option<()> {
-    for j in 0..m {
-        let mut d = a[j * m + j];
-        for k in 0..j {
-            d -= a[j * m + k] * a[j * m + k];
-        }
-        if !(d > 0.0) {
-            return None;
-        }
-        let d = d.sqrt();
-        a[j * m + j] = d;
-        for i in j + 1..m {
-            let mut s = a[i * m + j];
-            for k in 0..j {
-                s -= a[i * m + k] * a[j * m + k];
-            }
-            a[i * m + j] = s / d;
-        }
-    }
-    Some(())
-}
-
-/// Solve `L y = v` in place (forward substitution) for the lower factor `l` of size `m`.
-fn forward(l: &[f64], m: usize, v: &mut [f64]) {
-    for i in 0..m {
-        let mut s = v[i];
-        for k in 0..i {
-            s -= l[i * m + k] * v[k];
-        }
-        v[i] = s / l[i * m + i];
-    }
-}
-
 /// One block length's regression: the whitened contrasts of the block means and of the trend, ready for any tau.
 struct Blocks {
     /// Samples per block.
@@ -135,7 +100,7 @@ struct Blocks {
     /// Block means used.
     nb: usize,
     /// Cholesky factor of the contrasts' covariance.
-    l: Vec<f64>,
+    l: Vec<Vec<f64>>,
     /// Whitened contrasts of the block means.
     z: Vec<f64>,
     /// Whitened contrasts of the block index (the trend), where one is fitted.
@@ -155,37 +120,26 @@ impl Blocks {
         let y: Vec<f64> = (0..nb).map(|j| (pre[(j + 1) * b] - pre[j * b]) / b as f64).collect();
         let gam = noise.semivariogram(b, rate_hz, nb);
         let last = nb - 1;
-        let mut l = vec![0.0; m * m];
-        for i in 0..m {
-            for j in 0..=i {
-                let v = gam[last - i] + gam[last - j] - gam[i - j];
-                l[i * m + j] = v;
-                l[j * m + i] = v;
-            }
-        }
-        cholesky(&mut l, m)?;
-        let mut z: Vec<f64> = (0..m).map(|j| y[j] - y[last]).collect();
-        forward(&l, m, &mut z);
-        let t = trend.then(|| {
-            let mut t: Vec<f64> = (0..m).map(|j| j as f64 - last as f64).collect();
-            forward(&l, m, &mut t);
-            t
-        });
+        let cov: Vec<Vec<f64>> =
+            (0..m).map(|i| (0..m).map(|j| gam[last - i] + gam[last - j] - gam[i.abs_diff(j)]).collect()).collect();
+        let l = cholesky(&cov)?;
+        let z = forward_solve(&l, &(0..m).map(|j| y[j] - y[last]).collect::<Vec<_>>());
+        let t = trend.then(|| forward_solve(&l, &(0..m).map(|j| j as f64 - last as f64).collect::<Vec<_>>()));
         Some(Blocks { b, nb, l, z, t })
     }
 
     /// The GLS fit of the contrasts on the warm-up of time constant `tau` samples (block-averaged exactly) and the
-    /// trend where there is one: the warm-up's size (deg/s at the first sample) and its standard error.
-    fn fit(&self, tau: f64) -> Option<(f64, f64)> {
+    /// trend where there is one and `with_trend` asks for it: the warm-up's size (deg/s at the first sample) and its
+    /// standard error.
+    fn fit(&self, tau: f64, with_trend: bool) -> Option<(f64, f64)> {
         let (b, m, last) = (self.b as f64, self.nb - 1, self.nb - 1);
         let d = (-1.0 / tau).exp();
         let scale = -(-b / tau).exp_m1() / (b * -(-1.0 / tau).exp_m1());
         let g_at = |j: usize| d.powf(j as f64 * b) * scale;
-        let mut g: Vec<f64> = (0..m).map(|j| g_at(j) - g_at(last)).collect();
-        forward(&self.l, m, &mut g);
+        let g = forward_solve(&self.l, &(0..m).map(|j| g_at(j) - g_at(last)).collect::<Vec<_>>());
         let dot = |a: &[f64], c: &[f64]| a.iter().zip(c).map(|(x, y)| x * y).sum::<f64>();
         let (gg, gz) = (dot(&g, &g), dot(&g, &self.z));
-        let Some(t) = &self.t else {
+        let Some(t) = self.t.as_ref().filter(|_| with_trend) else {
             return (gg > 0.0).then(|| (gz / gg, 1.0 / gg.sqrt()));
         };
         let (gt, tt, tz) = (dot(&g, t), dot(t, t), dot(t, &self.z));
@@ -195,10 +149,24 @@ impl Blocks {
         }
         Some(((tt * gz - gt * tz) / det, (tt / det).sqrt()))
     }
+
+    /// The chi-square the trend alone takes from the contrasts (0 without a trend column).
+    fn trend_chi2(&self) -> f64 {
+        self.t.as_ref().map_or(0.0, |t| {
+            let (tt, tz) = t.iter().zip(&self.z).fold((0.0, 0.0), |(a, b), (x, z)| (a + x * x, b + x * z));
+            if tt > 0.0 {
+                tz * tz / tt
+            } else {
+                0.0
+            }
+        })
+    }
 }
 
 /// The best warm-up over every block length and time constant, with a trend or without: `(size, se, tau_s)` with
-/// the largest `|size| / se`.
+/// the largest `|size| / se`. With a trend, a warm-up fitted without it that takes [`RAMP_MARGIN_CHI2`] more of
+/// the block means' chi-square than the trend alone wins over any fitted beside the trend: the base fit read the
+/// warm-up's long tail as a ramp.
 fn scan(x: &[f64], rate_hz: f64, noise: &BlockNoise, trend: bool) -> Option<(f64, f64, f64)> {
     let n = x.len();
     let mut pre = Vec::with_capacity(n + 1);
@@ -208,7 +176,7 @@ fn scan(x: &[f64], rate_hz: f64, noise: &BlockNoise, trend: bool) -> Option<(f64
         acc += v;
         pre.push(acc);
     }
-    let mut best: Option<(f64, f64, f64)> = None;
+    let (mut best, mut instead_of_ramp): (Option<(f64, f64, f64)>, _) = (None, None);
     let mut b = MIN_BLOCK;
     while 8 * b <= n / 4 {
         // The longest block length (the next would leave fewer than 32 blocks) carries the time constants on,
@@ -216,21 +184,30 @@ fn scan(x: &[f64], rate_hz: f64, noise: &BlockNoise, trend: bool) -> Option<(f64
         let longest = 16 * b > n / 4;
         let taus = (0..).map(|j| 8.0 * 2f64.powf(j as f64 / 4.0)).take_while(|&k| longest || k < 16.0);
         if let Some(blocks) = Blocks::new(&pre, b, noise, rate_hz, trend) {
+            let trend_chi2 = blocks.trend_chi2();
             for k in taus {
                 let tau = k * b as f64;
                 if tau > n as f64 * if longest { LONGEST_TAU } else { 0.25 } {
                     break;
                 }
-                if let Some((size, se)) = blocks.fit(tau) {
-                    if best.is_none_or(|(s, e, _)| (size / se).abs() > (s / e).abs()) {
-                        best = Some((size, se, tau / rate_hz));
+                let better = |best: Option<(f64, f64, f64)>, (size, se): (f64, f64)| {
+                    best.is_none_or(|(s, e, _)| (size / se).abs() > (s / e).abs())
+                };
+                if let Some(fit) = blocks.fit(tau, true) {
+                    if better(best, fit) {
+                        best = Some((fit.0, fit.1, tau / rate_hz));
+                    }
+                }
+                if let Some(fit @ (size, se)) = blocks.fit(tau, false).filter(|_| trend) {
+                    if (size / se).powi(2) > trend_chi2 + RAMP_MARGIN_CHI2 && better(instead_of_ramp, fit) {
+                        instead_of_ramp = Some((size, se, tau / rate_hz));
                     }
                 }
             }
         }
         b *= 2;
     }
-    best
+    instead_of_ramp.or(best)
 }
 
 /// The scan's largest |t| on `x` under `noise`, with a trend or without (for the threshold's
@@ -266,22 +243,21 @@ impl EffectKind for Kind {
 /// Method: block means at block lengths on an octave grid from 4 samples (at most 256 blocks each, from the
 /// record's start), as contrasts against the last block used, regressed by generalised least squares on the
 /// warm-up `exp(-t / tau)` averaged over each block exactly (t from the first sample), and on a linear trend where
-/// the base model has a ramp (else a warm-up of a long tau would be half taken by the trend); the
-/// covariance is the one the model's noise gives block means (white, flicker, random walk and a Gauss-Markov
-/// process, through their semivariogram, [`BlockNoise::semivariogram`]). tau runs over 8 to 16 blocks at each
-/// block length, four per octave, up to a quarter of the record, and on at the longest block length up to
-/// [`LONGEST_TAU`] of it; the largest t-statistic of the size wins. Two passes, as for the temperature
-/// coupling: the base fit's noise first (it took part of the warm-up for random walk or ramp), then the noise
-/// of the IEEE fit of the record less that warm-up, which also gives the model's base terms. The warm-up counts
-/// beyond [`T_STAT`] standard errors.
+/// the base model has a ramp (else a warm-up of a long tau would be half taken by the trend; a warm-up without
+/// the trend that explains the block means better than the trend replaces it, [`scan`]); the covariance is the
+/// one the model's noise gives block means (white, flicker, random walk and a Gauss-Markov process, through their
+/// semivariogram, [`BlockNoise::semivariogram`]). tau runs over 8 to 16 blocks at each block length, four per
+/// octave, up to a quarter of the record, and on at the longest block length up to [`LONGEST_TAU`] of it; the
+/// largest t-statistic of the size wins. Two passes, as for the temperature coupling. The first proposes a
+/// warm-up under two noises: the base fit's, and the base fit's without random walk and ramp (the base fit took
+/// the warm-up's long tail for them, and a warm-up over half the record then looks like their wander). Each
+/// proposal beyond [`T_STAT_FIRST`] is taken out and the IEEE terms refitted on what is left; the second pass
+/// scans again under that refit's noise, which also gives the model's base terms, and the proposal whose second
+/// pass has the larger t-statistic is kept. The warm-up counts beyond [`T_STAT`] standard errors of that second
+/// pass, which weighs it against the noise the record has without it.
 pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let rate_hz = d.rate_hz;
-    let trend = d.base.r_dps_per_s != 0.0;
-    let (size1, se1, tau1) = scan(x, rate_hz, &BlockNoise::of(d.base), trend)?;
-    if !((size1 / se1).abs() > T_STAT_FIRST) {
-        return None;
-    }
     let cleaned_of = |size: f64, tau_s: f64| -> Vec<f64> {
         let decay = (-1.0 / (rate_hz * tau_s)).exp();
         let mut w = size;
@@ -293,8 +269,19 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
             })
             .collect()
     };
-    let (refit1, _) = refit_base(d, &cleaned_of(size1, tau1))?;
-    let (size, se, tau_s) = scan(x, rate_hz, &BlockNoise::of(&refit1), trend)?;
+    // The first pass's noises: the base fit's, and the base fit's without its random walk and ramp, which may be
+    // the warm-up's own long tail.
+    let quiet = GyroSim { k_dps_per_rt_s: 0.0, r_dps_per_s: 0.0, ..d.base.clone() };
+    let firsts = [d.base, &quiet].map(|g| scan(x, rate_hz, &BlockNoise::of(g), g.r_dps_per_s != 0.0));
+    let (size, se, tau_s) = firsts
+        .into_iter()
+        .flatten()
+        .filter(|&(size1, se1, _)| (size1 / se1).abs() > T_STAT_FIRST)
+        .filter_map(|(size1, _, tau1)| {
+            let (refit1, _) = refit_base(d, &cleaned_of(size1, tau1))?;
+            scan(x, rate_hz, &BlockNoise::of(&refit1), refit1.r_dps_per_s != 0.0)
+        })
+        .max_by(|a, b| (a.0 / a.1).abs().total_cmp(&(b.0 / b.1).abs()))?;
     if !((size / se).abs() > T_STAT) {
         return None;
     }

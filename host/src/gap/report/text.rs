@@ -239,15 +239,23 @@ impl GapReport {
     }
 }
 
-/// `, named by its estimator's test (t = 6.20, beyond 5)` for a step its estimator named; empty for a step the
-/// views named.
+/// `, named by its estimator's test where no view's gap did (t = 6.20, beyond 5)` for a step its estimator named
+/// (beside a significant gap no view's candidate took: `..., beside a gap no view's candidate took`); empty for a
+/// step the views named.
 fn named_by_text(step: &Step) -> String {
     match step.named_by {
         NamedBy::View => String::new(),
-        NamedBy::Estimator(ev) => format!(
-            ", named by its estimator's test where no view's gap did ({} = {:.2}, beyond {})",
-            ev.statistic, ev.value, ev.threshold
-        ),
+        NamedBy::Estimator(ev) => {
+            let route = if step.training.gap_before > rank::SIGNIFICANT_GAP {
+                "beside a gap no view's candidate took"
+            } else {
+                "where no view's gap did"
+            };
+            format!(
+                ", named by its estimator's test {route} ({} = {:.2}, beyond {})",
+                ev.statistic, ev.value, ev.threshold
+            )
+        }
     }
 }
 
