@@ -77,6 +77,31 @@ impl NoiseSpectrum {
     }
 }
 
+/// Half the mean square first difference of the samples that `gyro`'s coloured processes (a Gauss-Markov
+/// process and a resonance, through its bandwidth) contribute at `rate_hz`: `integral S(f) 2 sin^2(pi f / fs) df`
+/// over (-fs/2, fs/2), by the midpoint rule on 4096 bins. White noise N contributes `N^2 fs` to the same
+/// statistic, the per-sample variance; this is what a white level read from first differences must not count.
+pub(crate) fn coloured_half_difference(gyro: &GyroSim, rate_hz: f64) -> f64 {
+    if gyro.gauss_markov.is_none() && gyro.resonance.is_none() {
+        return 0.0;
+    }
+    let coloured = GyroSim {
+        gauss_markov: gyro.gauss_markov,
+        resonance: gyro.resonance,
+        bandwidth_hz: gyro.bandwidth_hz,
+        ..GyroSim::default()
+    };
+    let s = NoiseSpectrum::of(&coloured, rate_hz);
+    const BINS: usize = 4096;
+    let df = 0.5 * rate_hz / BINS as f64;
+    2.0 * (0..BINS)
+        .map(|i| {
+            let f = (i as f64 + 0.5) * df;
+            s.at(f) * 2.0 * (std::f64::consts::PI * f / rate_hz).sin().powi(2) * df
+        })
+        .sum::<f64>()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -107,6 +132,24 @@ mod tests {
         let a = (-2.0 * std::f64::consts::PI * 2.0 / fs).exp();
         let expected = 1e-4 * fs * (1.0 - a) / (1.0 + a);
         assert!((integral(&filtered) / expected - 1.0).abs() < 1e-4, "{} {expected}", integral(&filtered));
+    }
+
+    /// A Gauss-Markov process's half mean square first difference is `var (1 - a)`, `a` its lag-one correlation;
+    /// white noise adds nothing to the coloured part.
+    #[test]
+    fn the_coloured_half_difference_of_a_gauss_markov_process_is_its_closed_form() {
+        let fs = 6.0;
+        let (sigma, t_s) = (0.05, 1.2);
+        let g = GyroSim {
+            n_deg_per_rt_s: 0.01,
+            gauss_markov: Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t_s }),
+            ..Default::default()
+        };
+        let a = (-1.0 / (fs * t_s)).exp();
+        let expected = sigma * sigma * (1.0 - a);
+        let got = coloured_half_difference(&g, fs);
+        assert!((got / expected - 1.0).abs() < 1e-4, "{got} against {expected}");
+        assert_eq!(coloured_half_difference(&GyroSim { n_deg_per_rt_s: 0.01, ..Default::default() }, fs), 0.0);
     }
 
     /// Q's differenced white angle has the per-sample variance `2 Q^2 fs^2` (and its block means `2 Q^2 fb^2` at

@@ -85,38 +85,114 @@ fn median_small(v: &mut [f64]) -> f64 {
 /// Each sample less the median of its [`HALF_WINDOW`] neighbours each side, leaving out the neighbours marked in
 /// `skip` (spikes flagged by a first pass) while at least half of them remain; NaN at the ends and where the
 /// window touches a sample in `gap` (true: missing or masked).
+///
+/// Where the level steps between the two sides (the medians of the left and right neighbours differ by more than
+/// [`STEP_SIGMAS`] residual sds: a bias jump, a bistable bias's flip), the sample belongs to one side's level, and
+/// its residual is the smaller of the two one-sided ones: against both sides at once, every sample at a jump
+/// would stand half a step out and read as a spike.
 fn residuals(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Vec<f64> {
     let n = x.len();
     let h = HALF_WINDOW;
     let mut r = vec![f64::NAN; n];
+    let mut sides = vec![(f64::NAN, f64::NAN); n];
     let mut prefix = vec![0usize; n + 1];
     for i in 0..n {
         prefix[i + 1] = prefix[i] + usize::from(gap[i]);
     }
+    // The median of the neighbours in `range`, without the skipped ones where enough remain.
+    let median_of = |range: std::ops::Range<usize>, least: usize, w: &mut [f64]| -> f64 {
+        let mut k = 0;
+        if let Some(skip) = skip {
+            for j in range.clone().filter(|&j| !skip[j]) {
+                w[k] = x[j];
+                k += 1;
+            }
+        }
+        if k < least {
+            k = 0;
+            for j in range {
+                w[k] = x[j];
+                k += 1;
+            }
+        }
+        median_small(&mut w[..k])
+    };
     let mut w = [0.0; 2 * HALF_WINDOW];
+    let mut both = [0.0; 2 * HALF_WINDOW];
     for i in h..n.saturating_sub(h) {
         if prefix[i + h + 1] - prefix[i - h] > 0 {
             continue;
         }
-        let neighbours = (i - h..i).chain(i + 1..=i + h);
         let mut k = 0;
         if let Some(skip) = skip {
-            for j in neighbours.clone().filter(|&j| !skip[j]) {
-                w[k] = x[j];
+            for j in (i - h..i).chain(i + 1..=i + h).filter(|&j| !skip[j]) {
+                both[k] = x[j];
                 k += 1;
             }
         }
         if k < h {
             k = 0;
-            for j in neighbours {
-                w[k] = x[j];
+            for j in (i - h..i).chain(i + 1..=i + h) {
+                both[k] = x[j];
                 k += 1;
             }
         }
-        r[i] = x[i] - median_small(&mut w[..k]);
+        r[i] = x[i] - median_small(&mut both[..k]);
+        let left = median_of(i - h..i, h / 2, &mut w);
+        let right = median_of(i + 1..i + h + 1, h / 2, &mut w);
+        sides[i] = (x[i] - left, x[i] - right);
+    }
+    let mut valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+    if valid.is_empty() {
+        return r;
+    }
+    let k = valid.len() / 2;
+    let med = *valid.select_nth_unstable_by(k, f64::total_cmp).1;
+    let mut dev: Vec<f64> = valid.iter().map(|v| (v - med).abs()).collect();
+    let k = dev.len() / 2;
+    let scale = 1.4826 * *dev.select_nth_unstable_by(k, f64::total_cmp).1;
+    if !(scale > 0.0) {
+        return r;
+    }
+    for (ri, &(l, rt)) in r.iter_mut().zip(&sides) {
+        if ri.is_finite() && (l - rt).abs() > STEP_SIGMAS * scale {
+            *ri = if l.abs() < rt.abs() { l } else { rt };
+        }
     }
     r
 }
+
+/// Spikes whose fitted magnitude law starts this many core sds out stand clear of the core: every one of them is
+/// flagged.
+const CLEAR_SIGMAS: f64 = 10.0;
+
+/// Fewest flagged spikes whose quartiles give the magnitude law ([`clear_law`]).
+const QUARTILE_SPIKES: usize = 8;
+
+/// The magnitude law of spikes that stand clear of the core, from the quartiles of the flagged magnitudes: where
+/// the fitted law's lower edge is [`CLEAR_SIGMAS`] core sds out, the flagged spikes are the whole sample of it,
+/// and a uniform law on `centre +- spread` has its quartiles at `centre +- spread / 2`. The likelihood's uniform
+/// support must cover every flagged magnitude, so one stray spike at half the others' size (a spike on a bias
+/// flip) stretches it to twice the width, and the simulated spikes lose a third of their fourth moment; the
+/// quartiles do not move. Elsewhere (spikes buried in the core, or too few) the likelihood's law stands.
+fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)]) -> mixture::Mixture {
+    if flagged.len() < QUARTILE_SPIKES || m.centre - m.spread < CLEAR_SIGMAS * m.sigma {
+        return m;
+    }
+    let mut mags: Vec<f64> = flagged.iter().map(|f| f.1.abs()).collect();
+    mags.sort_by(f64::total_cmp);
+    let quantile = |p: f64| {
+        let at = p * (mags.len() - 1) as f64;
+        let (i, frac) = (at.floor() as usize, at.fract());
+        mags[i] + frac * (mags[(i + 1).min(mags.len() - 1)] - mags[i])
+    };
+    let (q1, q3) = (quantile(0.25), quantile(0.75));
+    mixture::Mixture { centre: 0.5 * (q1 + q3), spread: q3 - q1, ..m }
+}
+
+/// How far apart, in residual sds, the medians of a sample's left and right neighbours must be for the level to
+/// have stepped between them: their difference has an sd of about one residual sd on noise alone.
+const STEP_SIGMAS: f64 = 6.0;
 
 /// What the estimator reads off a record: the fitted mixture, the spikes it flags, the run law.
 #[derive(Clone, Debug)]
@@ -243,7 +319,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     if !c.is_process(n) {
         return None;
     }
-    let m = c.mix;
+    let m = clear_law(c.mix, &c.flagged);
     let run_mean = c.run_mean();
     let spikes = Outliers {
         per_sample: m.eps,

@@ -6,6 +6,7 @@ use octavar_shared::sensor::{Adc, Channel, FrontEnd, GyroModel, GENERIC};
 use octavar_shared::sim::GyroSim;
 
 use super::common::*;
+use super::noise_spectrum::coloured_half_difference;
 use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// The lattice `offset + k q` the sample values sit on: `(q, a lattice point)`, or `None`.
@@ -99,7 +100,8 @@ impl EffectKind for Kind {
 /// Method: the distinct sample values of (up to 200 000 of) the samples; when they are few, the step is the
 /// common smallest gap between them, and the lattice `offset + k q` is confirmed on 99% of the samples (robust
 /// to a few off-lattice ones). It counts when the quantisation noise is not negligible, `q > 0.1 sigma` (sigma the
-/// per-sample sd of the white noise, half the mean square first difference). That white noise contains the
+/// per-sample sd of the white noise, half the mean square first difference, less what the model's Gauss-Markov
+/// process or resonance puts there, [`coloured_half_difference`]). That white noise contains the
 /// quantisation noise; the analog N is recovered by inverting the variance of a quantised Gaussian with a uniformly wandering
 /// offset (Sheppard's `sigma^2 + q^2/12` when sigma > 2q, computed exactly below).
 pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
@@ -112,7 +114,10 @@ pub(super) fn quantization(d: &TrainingData) -> Option<EffectFit> {
     // white at longer tau, so N from the Allan curve would not do.
     let kept = outside_gaps(d.rate_dps, d.gaps);
     let x: &[f64] = &kept;
-    let v_white = x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (x.len() - 1) as f64);
+    // A Gauss-Markov process or a resonance the model already has swells the first differences too: their share
+    // is taken off.
+    let v_diff = x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (x.len() - 1) as f64);
+    let v_white = v_diff - coloured_half_difference(d.base, rate_hz).min(0.9 * v_diff);
     if !(q > 0.1 * v_white.sqrt()) {
         return None;
     }
