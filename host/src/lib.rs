@@ -17,6 +17,7 @@
 //! | 3   | `fit`      | the noise terms N, B, K, R, Q from an Allan deviation                                |
 //! | 3   | `io`       | opening files and reading every format into samples (CSV, TDMS, bags, captures)      |
 //! | 4   | `stats`    | the Allan deviation family with intervals, noise identification, small numerics      |
+//! | 4   | `quantity` | what a channel measures (gyro or accelerometer) and its base unit                    |
 
 // `!(x > 0.0)` is how this crate rejects NaN along with the non-positive values; clippy's rewrite (`x <= 0.0`)
 // would let NaN through, so its lints against the form are off. Numeric kernels index several arrays in step,
@@ -30,6 +31,7 @@ pub mod fit;
 pub mod gap;
 pub mod io;
 pub mod plot;
+pub mod quantity;
 pub mod simulate;
 pub mod stats;
 

@@ -2,9 +2,10 @@
 //! NaN written as null) and its noise-term fit (each term with its interval and second unit, the fit's quality
 //! and the classic readouts), or why there is no fit.
 //!
-//! `{"channels": [{"name", "unit", "tau0_s", "n_samples", "n_gaps", "stats": {"<stat>": [{"m", "tau_s", "n",
-//! "dev", "lo", "hi", "alpha", "edf"}]}, "fit": {"N": {"value", "lo", "hi", "unit", "identifiable", "alt":
-//! {"unit", "value"}}, ..., "chi2", "dof", "confidence", "tau_range_s", "classic"} or {"error"}}]}`.
+//! `{"channels": [{"name", "kind" (gyro or accel), "unit", "tau0_s", "n_samples", "n_gaps", "bias", "stats":
+//! {"<stat>": [{"m", "tau_s", "n", "dev", "lo", "hi", "alpha", "edf"}]}, "fit": {"N": {"value", "lo", "hi", "unit",
+//! "identifiable", "alt": {"unit", "value"}}, ..., "chi2", "dof", "confidence", "tau_range_s", "classic"} or
+//! {"error"}}]}`.
 
 use std::collections::BTreeMap;
 
@@ -12,6 +13,7 @@ use serde::Serialize;
 
 use super::ChannelAnalysis;
 use crate::fit::{ClassicReadouts, NoiseFit, Term};
+use crate::quantity::Quantity;
 use crate::stats::DevPoint;
 
 /// The whole document.
@@ -25,10 +27,14 @@ pub struct Document<'a> {
 #[derive(Debug, Serialize)]
 pub struct ChannelDoc<'a> {
     pub name: &'a str,
+    /// `gyro` or `accel`.
+    pub kind: &'static str,
     pub unit: &'a str,
     pub tau0_s: f64,
     pub n_samples: usize,
     pub n_gaps: usize,
+    /// The static bias (the channel's mean, gravity included on an accelerometer), in `unit`; null if unknown.
+    pub bias: Option<f64>,
     /// By the statistic's lower-case name (`oadev`, `mdev`, ...).
     pub stats: BTreeMap<String, Vec<PointDoc>>,
     pub fit: FitDoc<'a>,
@@ -101,15 +107,17 @@ pub fn to_json(channels: &[ChannelAnalysis]) -> Document<'_> {
 fn channel(c: &ChannelAnalysis) -> ChannelDoc<'_> {
     let stats = c.stats.iter().map(|(s, pts)| (s.name().to_ascii_lowercase(), pts.iter().map(point).collect()));
     let fit = match &c.fit {
-        Ok(f) => FitDoc::Fit(Box::new(terms(f))),
+        Ok(f) => FitDoc::Fit(Box::new(terms(f, c.quantity))),
         Err(e) => FitDoc::Error { error: e.to_string() },
     };
     ChannelDoc {
         name: &c.name,
+        kind: c.quantity.kind(),
         unit: &c.unit,
         tau0_s: c.tau0_s,
         n_samples: c.n_samples,
         n_gaps: c.n_gaps,
+        bias: c.mean,
         stats: stats.collect(),
         fit,
     }
@@ -128,10 +136,10 @@ fn point(p: &DevPoint) -> PointDoc {
     }
 }
 
-fn terms(f: &NoiseFit) -> FitTerms<'_> {
+fn terms(f: &NoiseFit, q: Quantity) -> FitTerms<'_> {
     let term = |t: Term| {
         let e = f.term(t);
-        let (unit, k) = t.alt_unit();
+        let (unit, k) = t.alt_unit_of(q);
         TermDoc {
             value: e.value,
             lo: e.lo,

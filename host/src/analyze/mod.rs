@@ -24,6 +24,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::fit::{fit_deviations, octave_oadev, FitError, FitOptions, NoiseFit};
+use crate::quantity::Quantity;
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
 
 /// What went wrong.
@@ -63,6 +64,8 @@ impl Default for AnalyzeOptions {
 pub struct ChannelAnalysis {
     /// Channel (column) name.
     pub name: String,
+    /// What the channel measures.
+    pub quantity: Quantity,
     /// Unit of the deviations.
     pub unit: String,
     /// Sample period, s.
@@ -71,6 +74,8 @@ pub struct ChannelAnalysis {
     pub n_samples: usize,
     /// Samples that are gaps (NaN).
     pub n_gaps: usize,
+    /// The channel's mean, its static bias (gravity's share included on an accelerometer), where known.
+    pub mean: Option<f64>,
     /// Each statistic's points.
     pub stats: Vec<(Statistic, Vec<DevPoint>)>,
     /// The OADEV octave points the fit used.
@@ -107,7 +112,13 @@ pub fn analyze_channel(
     };
     let counts =
         Counts { tau0_s: 1.0 / rate_hz, n_samples: data.len(), n_gaps: data.par_iter().filter(|v| v.is_nan()).count() };
-    Ok(ChannelAnalysis::fitted(name, counts, stats, fit_points, opts.fit.as_ref()))
+    let (sum, kept) = data
+        .par_iter()
+        .filter(|v| v.is_finite())
+        .map(|&v| (v, 1usize))
+        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    let mean = (kept > 0).then(|| sum / kept as f64);
+    Ok(ChannelAnalysis { mean, ..ChannelAnalysis::fitted(name, counts, stats, fit_points, opts.fit.as_ref()) })
 }
 
 /// The sample period and counts of a channel.
@@ -133,14 +144,27 @@ impl ChannelAnalysis {
     ) -> Self {
         ChannelAnalysis {
             name: name.to_string(),
-            unit: "deg/s".to_string(),
+            quantity: Quantity::AngularRate,
+            unit: Quantity::AngularRate.unit().to_string(),
             tau0_s: counts.tau0_s,
             n_samples: counts.n_samples,
             n_gaps: counts.n_gaps,
+            mean: None,
             fit: fit_deviations(&fit_points, fit),
             stats,
             fit_points,
         }
+    }
+}
+
+impl ChannelAnalysis {
+    /// This analysis as one of a channel of `q` (a series in its base unit): the units of the deviations and of
+    /// the fit's terms named for it.
+    pub fn with_quantity(mut self, q: Quantity) -> Self {
+        self.quantity = q;
+        self.unit = q.unit().to_string();
+        self.fit = self.fit.map(|f| f.in_units_of(q));
+        self
     }
 }
 
@@ -185,7 +209,10 @@ mod tests {
         };
         let ch = &j["channels"][0];
         assert_eq!(keys(&j), ["channels"]);
-        assert_eq!(keys(ch), ["fit", "n_gaps", "n_samples", "name", "stats", "tau0_s", "unit"]);
+        assert_eq!(keys(ch), ["bias", "fit", "kind", "n_gaps", "n_samples", "name", "stats", "tau0_s", "unit"]);
+        let mean = data.iter().sum::<f64>() / data.len() as f64;
+        assert!((ch["bias"].as_f64().unwrap() - mean).abs() < 1e-12, "{}", ch["bias"]);
+        assert_eq!(ch["kind"], "gyro");
         assert_eq!(keys(&ch["stats"]), ["adev", "oadev"]);
         assert_eq!(keys(&ch["stats"]["oadev"][0]), ["alpha", "dev", "edf", "hi", "lo", "m", "n", "tau_s"]);
         assert_eq!(keys(&ch["fit"]), ["B", "K", "N", "Q", "R", "chi2", "classic", "confidence", "dof", "tau_range_s"]);

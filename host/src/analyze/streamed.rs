@@ -267,7 +267,8 @@ pub fn analyze_csv(
     opts: &StreamOptions,
     progress: Progress<'_>,
 ) -> Result<StreamAnalysis, StreamError> {
-    let n = csv.columns.len();
+    let n = csv.columns.len() + csv.accel_columns.len();
+    let quantities = csv.quantities();
     let mut accs: Vec<StreamOadev> = (0..n).map(|_| StreamOadev::new(opts.stride)).collect::<Result<_, _>>()?;
     let mut cols: Vec<Vec<f64>> = vec![Vec::with_capacity(1 << 16); n];
     let mut rows: u64 = 0;
@@ -291,7 +292,7 @@ pub fn analyze_csv(
     let mut out = Vec::new();
     for (c, acc) in accs.into_iter().enumerate() {
         let totals = acc.finish();
-        out.push(channel_result(&info.columns[c], &totals, tau0, 1.0, opts, name)?);
+        out.push(channel_result(&info.columns[c], &totals, tau0, 1.0, opts, name)?.with_quantity(quantities[c]));
     }
     Ok(StreamAnalysis {
         source: name.into(),

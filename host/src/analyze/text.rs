@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 
 use super::ChannelAnalysis;
 use crate::fit::{NoiseFit, Term};
+use crate::quantity::Quantity;
 use crate::stats::{DevPoint, Statistic};
 
 /// The whole report: a line naming the source, then each channel's tables and fit (or why it has none).
@@ -12,12 +13,27 @@ pub fn report(source: &str, samples: u64, rate_hz: f64, channels: &[ChannelAnaly
     let mut s = String::new();
     let _ = writeln!(s, "# {source}: {samples} samples at {rate_hz} Hz");
     for c in channels {
-        let _ = writeln!(s, "\n== {} ({}; {} samples, {} gaps)", c.name, c.unit, c.n_samples, c.n_gaps);
+        let _ = writeln!(
+            s,
+            "\n== {} ({}, {}; {} samples, {} gaps)",
+            c.name,
+            c.quantity.kind(),
+            c.unit,
+            c.n_samples,
+            c.n_gaps
+        );
+        if let Some(m) = c.mean {
+            let extra = match c.quantity {
+                Quantity::Acceleration => format!(" = {:.4} mg", m / crate::quantity::STANDARD_GRAVITY * 1000.0),
+                Quantity::AngularRate => format!(" = {:.4e} deg/h", m * 3600.0),
+            };
+            let _ = writeln!(s, "bias (the static mean) {m:.6e} {}{extra}", c.unit);
+        }
         for (stat, pts) in &c.stats {
             s.push_str(&table(*stat, pts));
         }
         match &c.fit {
-            Ok(f) => s.push_str(&fit_report(f)),
+            Ok(f) => s.push_str(&fit_report(f, c.quantity)),
             Err(e) => {
                 let _ = writeln!(s, "no fit: {e}");
             }
@@ -51,8 +67,8 @@ pub fn table(stat: Statistic, points: &[DevPoint]) -> String {
     s
 }
 
-/// The fit as text: each term with its interval and second unit, then the classic readouts.
-pub fn fit_report(f: &NoiseFit) -> String {
+/// The fit of a channel of `q` as text: each term with its interval and second unit, then the classic readouts.
+pub fn fit_report(f: &NoiseFit, q: Quantity) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -64,7 +80,7 @@ pub fn fit_report(f: &NoiseFit) -> String {
     );
     for t in Term::ALL {
         let e = f.term(t);
-        let (alt_unit, k) = t.alt_unit();
+        let (alt_unit, k) = t.alt_unit_of(q);
         let line = match (e.value, e.lo, e.hi) {
             (Some(v), Some(lo), Some(hi)) => {
                 format!("{:>3} = {v:.4e} {} ({lo:.3e} .. {hi:.3e})   = {:.4e} {alt_unit}", t.name(), e.unit, v * k)
@@ -78,10 +94,13 @@ pub fn fit_report(f: &NoiseFit) -> String {
     let show = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.4e}"));
     let _ = writeln!(
         s,
-        "classic readouts: N (-1/2 line at 1 s) {} deg/sqrt(s), B (floor/0.6643) {} deg/s, K (+1/2 line at 3 s) {} deg/s/sqrt(s)",
+        "classic readouts: N (-1/2 line at 1 s) {} {}, B (floor/0.6643) {} {}, K (+1/2 line at 3 s) {} {}",
         show(c.n),
+        Term::N.unit_of(q),
         show(c.b),
-        show(c.k)
+        Term::B.unit_of(q),
+        show(c.k),
+        Term::K.unit_of(q),
     );
     s
 }

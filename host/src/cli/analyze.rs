@@ -25,6 +25,10 @@ pub struct Args {
     /// x, y or z of a bag's angular velocity, all three by default; names the channels of a binary input).
     #[arg(long = "column", value_name = "NAME")]
     pub columns: Vec<String>,
+    /// An accelerometer column (repeat for x, y, z in order; in --accel-unit); ax, ay or az of a bag's linear
+    /// acceleration, which is read beside its angular velocity when no column is named.
+    #[arg(long = "accel-column", value_name = "NAME")]
+    pub accel_columns: Vec<String>,
     /// How to read a CSV recording.
     #[command(flatten)]
     pub reading: CsvArgs,
@@ -126,9 +130,14 @@ impl Args {
         })
     }
 
+    /// The rate columns and the accelerometer columns of the flags.
+    fn column_lists(&self) -> (Vec<String>, Vec<String>) {
+        (self.columns.clone(), self.accel_columns.clone())
+    }
+
     /// How to read the CSV: the columns, rate or time column, unit, skipped rows and filters of the flags.
     fn csv_options(&self) -> anyhow::Result<CsvOptions> {
-        self.reading.options(self.columns.clone(), None, &self.reading.filters)
+        self.reading.options(self.column_lists(), None, &self.reading.filters)
     }
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
@@ -136,18 +145,18 @@ impl Args {
             return self.run_stream(kind);
         }
         let format = RecordingFormat::of(&self.input, self.format.as_deref()).unwrap_or(RecordingFormat::Csv);
-        if self.columns.is_empty() && format != RecordingFormat::Mcap {
+        if self.columns.is_empty() && self.accel_columns.is_empty() && format != RecordingFormat::Mcap {
             let what = if format == RecordingFormat::Tdms { "'GROUP/CHANNEL' for a TDMS" } else { "NAME for a CSV" };
             bail!("--column {what} input is required (repeat it for several channels)");
         }
         let stats = parse_stats(&self.stats)?;
         let taus = parse_taus(&self.taus)?;
-        let read = self.reading.read_options(self.columns.clone(), None, &self.reading.filters, self.channels)?;
+        let read = self.reading.read_options(self.column_lists(), None, &self.reading.filters, self.channels)?;
         let rec = formats::read_recording(&self.input, format, &read)?;
         let opts = AnalyzeOptions { stats, taus, confidence: self.confidence, fit: self.fit_options() };
         let mut results: Vec<ChannelAnalysis> = Vec::new();
-        for (name, data) in rec.names.iter().zip(&rec.channels) {
-            results.push(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?);
+        for (i, (name, data)) in rec.names.iter().zip(&rec.channels).enumerate() {
+            results.push(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?.with_quantity(rec.quantity(i)));
         }
         // The largest |rate| sets the simulated ADC's range of a model written with --model-out.
         let range = || {
@@ -198,6 +207,7 @@ impl Args {
                     name: c.name.clone(),
                     points: c.fit_points.clone(),
                     fit: c.fit.clone().ok(),
+                    quantity: c.quantity,
                 })
                 .collect();
             let title = format!("Overlapping Allan deviation: {source}");
@@ -273,7 +283,7 @@ impl Args {
             }
             StreamKind::Capture => st::analyze_capture(octavar::io::decode::open(&self.input)?, &opts, &progress)?,
             StreamKind::Csv => {
-                if self.columns.is_empty() {
+                if self.columns.is_empty() && self.accel_columns.is_empty() {
                     bail!("--column NAME is required for a CSV input (repeat it for several channels)");
                 }
                 let csv_opts = self.csv_options()?;

@@ -4,7 +4,7 @@
 use octavar::io::csv::rows::Delimiter;
 use octavar::io::csv::{CsvOptions, RowFilter};
 use octavar::io::formats::ReadOptions;
-use octavar::io::recording::RateUnit;
+use octavar::io::recording::{AccelUnit, RateUnit};
 
 /// How to read a rate recording.
 #[derive(Debug, clap::Args)]
@@ -18,6 +18,9 @@ pub struct CsvArgs {
     /// Unit of the rate columns: deg/s, rad/s, mrad/s, deg/h.
     #[arg(long, default_value = "deg/s")]
     pub unit: String,
+    /// Unit of the accelerometer columns: m/s^2, g, mg.
+    #[arg(long, default_value = "m/s^2", value_name = "UNIT")]
+    pub accel_unit: String,
     /// Lines to skip before the header.
     #[arg(long, default_value_t = 0)]
     pub skip_rows: usize,
@@ -44,16 +47,18 @@ impl CsvArgs {
         Ok(RateUnit::parse(&self.unit)?)
     }
 
-    /// The CSV options for `columns` (and a temperature column), with `filters` as the row filters (the
-    /// `--where` flags, or another set such as gap's `--holdout-where`).
+    /// The CSV options for the rate `columns` and the accelerometer columns `accel` (and a temperature column),
+    /// with `filters` as the row filters (the `--where` flags, or another set such as gap's `--holdout-where`).
     pub fn options(
         &self,
-        columns: Vec<String>,
+        (columns, accel): (Vec<String>, Vec<String>),
         temp_column: Option<String>,
         filters: &[String],
     ) -> anyhow::Result<CsvOptions> {
         Ok(CsvOptions {
             columns,
+            accel_columns: accel,
+            accel_unit: AccelUnit::parse(&self.accel_unit)?,
             temp_column,
             rate_hz: self.rate,
             time_column: self.time_column.clone(),
@@ -70,7 +75,7 @@ impl CsvArgs {
     /// input's channel count.
     pub fn read_options(
         &self,
-        columns: Vec<String>,
+        columns: (Vec<String>, Vec<String>),
         temp_column: Option<String>,
         filters: &[String],
         channels: usize,

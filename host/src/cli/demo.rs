@@ -98,6 +98,7 @@ impl Args {
                 name: r.paper.label.to_string(),
                 points: r.points.clone(),
                 fit: Some(r.fit.clone()),
+                quantity: Default::default(),
             })
             .collect();
         let opts = plot::PlotOptions {

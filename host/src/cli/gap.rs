@@ -27,8 +27,11 @@ pub struct Args {
     /// capture (its raw samples), or raw samples (--format).
     pub input: PathBuf,
     /// The rate column to diagnose (`group/channel` in a TDMS file; x, y or z of a bag's angular velocity).
+    #[arg(long, value_name = "NAME", required_unless_present = "accel_column", conflicts_with = "accel_column")]
+    pub column: Option<String>,
+    /// An accelerometer column to diagnose instead (in --accel-unit; ax, ay or az of a bag's linear acceleration).
     #[arg(long, value_name = "NAME")]
-    pub column: String,
+    pub accel_column: Option<String>,
     /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap), capture (default for
     /// .cap/.capture: the raw samples, --column a channel's name), or one channel of raw little-endian samples
     /// f64le, f32le, i16le, u16le (with --rate).
@@ -84,11 +87,17 @@ pub struct Args {
 }
 
 impl Args {
+    /// The column diagnosed: the rate column or the accelerometer column.
+    fn column_name(&self) -> &str {
+        self.column.as_deref().or(self.accel_column.as_deref()).unwrap_or_default()
+    }
+
     fn read(&self, path: &Path, filters: &[String]) -> anyhow::Result<Recording> {
         let format = RecordingFormat::of(path, self.format.as_deref()).with_context(|| {
             format!("--format {:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le", self.format)
         })?;
-        let opts = self.reading.read_options(vec![self.column.clone()], self.temp_column.clone(), filters, 1)?;
+        let columns = (self.column.iter().cloned().collect(), self.accel_column.iter().cloned().collect());
+        let opts = self.reading.read_options(columns, self.temp_column.clone(), filters, 1)?;
         Ok(formats::read_recording(path, format, &opts)?)
     }
 
@@ -132,7 +141,13 @@ impl Args {
             b.finish();
         }
         let mut out = std::io::stdout().lock();
-        writeln!(out, "# {}, column {}: diagnosed in {:.1} s", rec.source, self.column, t0.elapsed().as_secs_f64())?;
+        writeln!(
+            out,
+            "# {}, column {}: diagnosed in {:.1} s",
+            rec.source,
+            self.column_name(),
+            t0.elapsed().as_secs_f64()
+        )?;
         write!(out, "{}", report.text())?;
         if let Some(path) = &self.json {
             std::fs::write(path, serde_json::to_string_pretty(&report.to_json())?)
@@ -154,7 +169,7 @@ impl Args {
         }
         if let Some(path) = &self.plot {
             let name = Path::new(&rec.source).file_name().map_or(rec.source.clone(), |n| n.to_string_lossy().into());
-            let title = format!("Sim-to-real gap: {name} {} ({})", self.column, effects_text(&report));
+            let title = format!("Sim-to-real gap: {name} {} ({})", self.column_name(), effects_text(&report));
             let figure = plot::GapFigure::new(&report, &input);
             plot::gap_plot(&figure, &plot::PlotOptions::gap_figure(title), path)
                 .with_context(|| format!("drawing {}", path.display()))?;

@@ -34,6 +34,7 @@ use serde::Serialize;
 pub use covariance::{avar_covariance, CovarianceBasis, EstimatorShape};
 pub use deviations::{fit_deviations, octave_oadev};
 
+use crate::quantity::Quantity;
 use crate::stats::DevPoint;
 
 /// (2 ln 2 / pi): the flicker floor of the Allan variance is this times B^2.
@@ -82,23 +83,45 @@ impl Term {
 
     /// The unit of the coefficient, for rate data in deg/s.
     pub fn unit(self) -> &'static str {
-        match self {
-            Term::Q => "deg",
-            Term::N => "deg/sqrt(s)",
-            Term::B => "deg/s",
-            Term::K => "deg/s/sqrt(s)",
-            Term::R => "deg/s^2",
+        self.unit_of(Quantity::AngularRate)
+    }
+
+    /// The unit of the coefficient for a series of `q` in its base unit (deg/s or m/s^2).
+    pub fn unit_of(self, q: Quantity) -> &'static str {
+        match (q, self) {
+            (Quantity::AngularRate, Term::Q) => "deg",
+            (Quantity::AngularRate, Term::N) => "deg/sqrt(s)",
+            (Quantity::AngularRate, Term::B) => "deg/s",
+            (Quantity::AngularRate, Term::K) => "deg/s/sqrt(s)",
+            (Quantity::AngularRate, Term::R) => "deg/s^2",
+            (Quantity::Acceleration, Term::Q) => "m/s",
+            (Quantity::Acceleration, Term::N) => "m/s/sqrt(s)",
+            (Quantity::Acceleration, Term::B) => "m/s^2",
+            (Quantity::Acceleration, Term::K) => "m/s^2/sqrt(s)",
+            (Quantity::Acceleration, Term::R) => "m/s^3",
         }
     }
 
-    /// The customary second unit and the factor to it (deg/sqrt(h), deg/h, ...).
+    /// The customary second unit and the factor to it (deg/sqrt(h), deg/h, ...), for a gyro.
     pub fn alt_unit(self) -> (&'static str, f64) {
-        match self {
-            Term::Q => ("arcsec", 3600.0),
-            Term::N => ("deg/sqrt(h)", 60.0),
-            Term::B => ("deg/h", 3600.0),
-            Term::K => ("deg/h/sqrt(h)", 3600.0 * 60.0),
-            Term::R => ("deg/h^2", 3600.0 * 3600.0),
+        self.alt_unit_of(Quantity::AngularRate)
+    }
+
+    /// The customary second unit of the coefficient for a series of `q`, and the factor to it: deg/sqrt(h) and
+    /// deg/h for a gyro's N and B, m/s/sqrt(h) and mg for an accelerometer's.
+    pub fn alt_unit_of(self, q: Quantity) -> (&'static str, f64) {
+        let mg = 1000.0 / crate::quantity::STANDARD_GRAVITY;
+        match (q, self) {
+            (Quantity::AngularRate, Term::Q) => ("arcsec", 3600.0),
+            (Quantity::AngularRate, Term::N) => ("deg/sqrt(h)", 60.0),
+            (Quantity::AngularRate, Term::B) => ("deg/h", 3600.0),
+            (Quantity::AngularRate, Term::K) => ("deg/h/sqrt(h)", 3600.0 * 60.0),
+            (Quantity::AngularRate, Term::R) => ("deg/h^2", 3600.0 * 3600.0),
+            (Quantity::Acceleration, Term::Q) => ("mm/s", 1000.0),
+            (Quantity::Acceleration, Term::N) => ("m/s/sqrt(h)", 60.0),
+            (Quantity::Acceleration, Term::B) => ("mg", mg),
+            (Quantity::Acceleration, Term::K) => ("mg/sqrt(h)", mg * 60.0),
+            (Quantity::Acceleration, Term::R) => ("mg/h", mg * 3600.0),
         }
     }
 
@@ -292,6 +315,24 @@ impl NoiseFit {
             k_dps_per_rt_s: v(Term::K),
             r_dps_per_s: v(Term::R),
             ..gyro
+        }
+    }
+
+    /// This fit with every term's unit named for a series of `q` (the fit itself is the same for any unit).
+    pub fn in_units_of(mut self, q: Quantity) -> Self {
+        for t in Term::ALL {
+            self.term_mut(t).unit = t.unit_of(q);
+        }
+        self
+    }
+
+    fn term_mut(&mut self, t: Term) -> &mut TermEstimate {
+        match t {
+            Term::Q => &mut self.q,
+            Term::N => &mut self.n,
+            Term::B => &mut self.b,
+            Term::K => &mut self.k,
+            Term::R => &mut self.r,
         }
     }
 

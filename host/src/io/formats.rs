@@ -79,9 +79,9 @@ pub enum ReadError {
     /// An option that this format does not take.
     #[error("{path}: {option} applies to CSV recordings only, not to {format}")]
     CsvOnly { path: String, option: &'static str, format: &'static str },
-    /// A bag's channel that is not x, y or z.
-    #[error("{path}: no channel {column:?} in the IMU topic (its channels are x, y, z)")]
-    NoSuchAxis { path: String, column: String },
+    /// A bag's channel that is not one of its axes.
+    #[error("{path}: no channel {column:?} in the IMU topic (its channels are {axes})")]
+    NoSuchAxis { path: String, column: String, axes: &'static str },
     /// A raw input needs the rate.
     #[error("{path}: --rate HZ is required for a raw binary input")]
     NoRate { path: String },
@@ -141,20 +141,8 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
             }
             let bag = ros2_bag::read_imu_bag(path, opts.topic.as_deref(), csv.rate_hz)?;
             let mut rec = bag.recording;
-            if !csv.columns.is_empty() {
-                let mut picked = Vec::new();
-                for c in &csv.columns {
-                    let i = rec
-                        .names
-                        .iter()
-                        .position(|n| n == c)
-                        .ok_or_else(|| ReadError::NoSuchAxis { path: name.clone(), column: c.clone() })?;
-                    picked.push(i);
-                }
-                rec.channels = picked.iter().map(|&i| rec.channels[i].clone()).collect();
-                rec.names = csv.columns.clone();
-                rec.info.columns = csv.columns.clone();
-                rec.info.gaps = rec.channels.iter().flatten().filter(|v| v.is_nan()).count() as u64;
+            if !csv.columns.is_empty() || !csv.accel_columns.is_empty() {
+                pick_bag_channels(&mut rec, csv, &name)?;
             }
             rec.source = format!("{} ({})", rec.source, bag.topic);
             Ok(rec)
@@ -162,6 +150,31 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
         RecordingFormat::Binary(format) => read_binary(path, format, opts),
         RecordingFormat::Capture => read_capture(path, csv),
     }
+}
+
+/// Keep the channels of a bag's recording that the options name: `--column` x, y, z of the angular velocity and
+/// `--accel-column` of the linear acceleration (ax, ay, az, or x, y, z of it), in that order.
+fn pick_bag_channels(rec: &mut Recording, csv: &CsvOptions, path: &str) -> Result<(), ReadError> {
+    let no_axis = |column: &str, accel: bool| ReadError::NoSuchAxis {
+        path: path.to_string(),
+        column: column.to_string(),
+        axes: if accel { "ax, ay, az (or x, y, z)" } else { "x, y, z" },
+    };
+    let mut picked = Vec::new();
+    for c in &csv.columns {
+        picked.push(rec.names.iter().take(3).position(|n| n == c).ok_or_else(|| no_axis(c, false))?);
+    }
+    for c in &csv.accel_columns {
+        let axis = if c.len() == 1 { format!("a{c}") } else { c.clone() };
+        let i = rec.names.iter().skip(3).position(|n| *n == axis).ok_or_else(|| no_axis(c, true))?;
+        picked.push(3 + i);
+    }
+    rec.channels = picked.iter().map(|&i| rec.channels[i].clone()).collect();
+    rec.quantities = picked.iter().map(|&i| rec.quantity(i)).collect();
+    rec.names = picked.iter().map(|&i| rec.names[i].clone()).collect();
+    rec.info.columns = rec.names.clone();
+    rec.info.gaps = rec.channels.iter().flatten().filter(|v| v.is_nan()).count() as u64;
+    Ok(())
 }
 
 /// The raw sample frames of a device capture in memory: each named channel in deg/s through its part's bench
@@ -236,6 +249,7 @@ fn read_capture(path: &Path, csv: &CsvOptions) -> Result<Recording, ReadError> {
         source: name,
         names: csv.columns.clone(),
         channels,
+        quantities: Vec::new(),
         temp_c,
         rate_hz: rate,
         info: StreamInfo { columns: csv.columns.clone(), rate_hz: rate, samples: len as u64, gaps, filtered_out: 0 },
@@ -276,6 +290,7 @@ fn read_binary(path: &Path, format: BinaryFormat, opts: &ReadOptions) -> Result<
         source: input.name,
         names: names.clone(),
         channels: series,
+        quantities: Vec::new(),
         temp_c: None,
         rate_hz: rate,
         info: StreamInfo { columns: names, rate_hz: rate, samples, gaps, filtered_out: 0 },

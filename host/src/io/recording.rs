@@ -3,6 +3,8 @@
 
 use serde::Serialize;
 
+use crate::quantity::Quantity;
+
 /// A unit octavar does not know.
 #[derive(Debug, thiserror::Error)]
 #[error("unknown unit {unit:?}: octavar knows {known}")]
@@ -62,21 +64,66 @@ impl RateUnit {
     }
 }
 
-/// A recording in memory: one series per column, in deg/s, NaN for gaps.
+/// Units an accelerometer column may be in; everything is converted to m/s^2.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum AccelUnit {
+    /// m/s^2.
+    MPerS2,
+    /// Standard gravities (9.80665 m/s^2).
+    G,
+    /// Thousandths of a standard gravity.
+    Mg,
+}
+
+impl AccelUnit {
+    /// Parse a unit name: `m/s^2` (also `m/s2`, `mps2`), `g`, `mg`.
+    ///
+    /// # Errors
+    /// [`UnknownUnit`] listing the known names.
+    pub fn parse(name: &str) -> Result<AccelUnit, UnknownUnit> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "m/s^2" | "m/s2" | "m/s/s" | "mps2" => Ok(AccelUnit::MPerS2),
+            "g" => Ok(AccelUnit::G),
+            "mg" => Ok(AccelUnit::Mg),
+            _ => Err(UnknownUnit { unit: name.to_string(), known: "m/s^2 (m/s2), g, mg".to_string() }),
+        }
+    }
+
+    /// Multiply a value in this unit by this to get m/s^2.
+    pub fn to_m_per_s2(self) -> f64 {
+        match self {
+            AccelUnit::MPerS2 => 1.0,
+            AccelUnit::G => crate::quantity::STANDARD_GRAVITY,
+            AccelUnit::Mg => crate::quantity::STANDARD_GRAVITY / 1000.0,
+        }
+    }
+}
+
+/// A recording in memory: one series per column, in its quantity's unit (deg/s for a gyro, m/s^2 for an
+/// accelerometer), NaN for gaps.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Recording {
     /// Where it came from.
     pub source: String,
     /// Column names.
     pub names: Vec<String>,
-    /// One series per column, deg/s.
+    /// One series per column, deg/s or m/s^2.
     pub channels: Vec<Vec<f64>>,
+    /// What each column measures, where it is not a gyro: a column past the end of this list is a gyro.
+    pub quantities: Vec<Quantity>,
     /// The temperature column, degC, if asked for.
     pub temp_c: Option<Vec<f64>>,
     /// Sample rate, Hz.
     pub rate_hz: f64,
     /// Counters of the read.
     pub info: StreamInfo,
+}
+
+impl Recording {
+    /// What column `i` measures.
+    pub fn quantity(&self, i: usize) -> Quantity {
+        self.quantities.get(i).copied().unwrap_or_default()
+    }
 }
 
 /// What a streamed read found.

@@ -14,6 +14,7 @@ use super::legend::{frame, marker_polygon, Entry, Legend, Sample};
 use super::{check_size, colour, err, format_of, lighter, positive, title, Look, PlotError, PlotOptions};
 use super::{GREY, INK};
 use crate::fit::{NoiseFit, Term};
+use crate::quantity::Quantity;
 use crate::stats::DevPoint;
 
 /// One channel of an Allan deviation plot.
@@ -25,6 +26,8 @@ pub struct AdevSeries {
     pub points: Vec<DevPoint>,
     /// The IEEE 952 fit, drawn as a solid line with its identifiable terms dashed.
     pub fit: Option<NoiseFit>,
+    /// What the channel measures: gyros and accelerometers are drawn in panels of their own.
+    pub quantity: Quantity,
 }
 
 /// Draw an Allan deviation plot of `series` into `path` (`.png` or `.svg`).
@@ -35,21 +38,46 @@ pub struct AdevSeries {
 pub fn adev_plot(series: &[AdevSeries], opts: &PlotOptions, path: &Path) -> Result<(), PlotError> {
     let format = format_of(path)?;
     check_size(opts)?;
-    let prepared: Vec<Prepared> = series.iter().map(Prepared::new).collect();
-    let mut ext = Extent::default();
-    for p in &prepared {
-        for m in &p.marks {
-            ext.add(m.tau, m.dev);
-            if let Some((lo, hi)) = m.bar {
-                ext.add_y(lo);
-                ext.add_y(hi);
+    // One panel per quantity, gyros first; each with its own axes, unit and legend.
+    let mut panels: Vec<Panel> = Vec::new();
+    for q in [Quantity::AngularRate, Quantity::Acceleration] {
+        let prepared: Vec<Prepared> = series.iter().filter(|s| s.quantity == q).map(Prepared::new).collect();
+        let mut ext = Extent::default();
+        for p in &prepared {
+            for m in &p.marks {
+                ext.add(m.tau, m.dev);
+                if let Some((lo, hi)) = m.bar {
+                    ext.add_y(lo);
+                    ext.add_y(hi);
+                }
             }
         }
+        if !ext.is_empty() {
+            // A panel of gyros alone keeps the caller's unit (a plot of counts, say); otherwise the quantity's.
+            let unit = if q == Quantity::AngularRate && series.iter().all(|s| s.quantity == q) {
+                opts.unit.clone()
+            } else {
+                q.unit().to_string()
+            };
+            panels.push(Panel { series: prepared, ext, unit });
+        }
     }
-    if ext.is_empty() {
+    if panels.is_empty() {
         return Err(PlotError::Empty);
     }
-    render!(format, path, opts, |root| draw_adev(root, &prepared, &ext, opts))
+    let mut opts = opts.clone();
+    if panels.len() > 1 {
+        opts.height = opts.height * 8 / 5;
+    }
+    let opts = &opts;
+    render!(format, path, opts, |root| draw_adev(root, &panels, opts))
+}
+
+/// One panel of the figure: the channels of one quantity, their extent and the unit of its y axis.
+struct Panel<'a> {
+    series: Vec<Prepared<'a>>,
+    ext: Extent,
+    unit: String,
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -157,6 +185,16 @@ fn term_unit(term: Term, unit: &str) -> String {
             Term::B => "deg/s",
             Term::K => "deg/s/√s",
             Term::R => "deg/s²",
+        }
+        .to_string();
+    }
+    if unit == "m/s^2" {
+        return match term {
+            Term::Q => "m/s",
+            Term::N => "m/s/√s",
+            Term::B => "m/s²",
+            Term::K => "m/s²/√s",
+            Term::R => "m/s³",
         }
         .to_string();
     }
@@ -280,19 +318,31 @@ const TERM_SHARE: f64 = 0.25;
 
 fn draw_adev<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    series: &[Prepared<'_>],
-    ext: &Extent,
+    panels: &[Panel<'_>],
     opts: &PlotOptions,
 ) -> Result<(), String> {
     let look = Look::new(opts);
     root.fill(&WHITE).map_err(err)?;
-    let (xa, ya) = ext.axes();
     let body = title(root, &opts.title, &look)?;
-    let mut legend = adev_legend(series, opts);
-    let (plot_area, legend_area) = frame(&body, &mut legend, &look)?;
-    let mut chart = axes(&plot_area, &xa, &ya, &opts.unit, &look)?;
-    let (bx, by) = ((xa.lo, xa.hi), (ya.lo, ya.hi));
+    let areas = body.split_evenly((panels.len(), 1));
+    for (panel, area) in panels.iter().zip(&areas) {
+        draw_panel(area, panel, opts, &look)?;
+    }
+    Ok(())
+}
 
+fn draw_panel<DB: DrawingBackend>(
+    body: &DrawingArea<DB, Shift>,
+    panel: &Panel<'_>,
+    opts: &PlotOptions,
+    look: &Look,
+) -> Result<(), String> {
+    let (series, look) = (&panel.series[..], *look);
+    let (xa, ya) = panel.ext.axes();
+    let mut legend = adev_legend(series, opts, &panel.unit);
+    let (plot_area, legend_area) = frame(body, &mut legend, &look)?;
+    let mut chart = axes(&plot_area, &xa, &ya, &panel.unit, &look)?;
+    let (bx, by) = ((xa.lo, xa.hi), (ya.lo, ya.hi));
     if opts.terms {
         for (i, p) in series.iter().enumerate() {
             let (Some(fit), Some((t0, t1))) = (p.fit, p.model_span()) else { continue };
@@ -328,7 +378,7 @@ fn draw_adev<DB: DrawingBackend>(
     legend.draw(&legend_area, 0, look.px(8.0), &look)
 }
 
-fn adev_legend(series: &[Prepared<'_>], opts: &PlotOptions) -> Legend {
+fn adev_legend(series: &[Prepared<'_>], opts: &PlotOptions, unit: &str) -> Legend {
     let mut entries = Vec::new();
     let mut any_fit = false;
     let mut drawn_terms: Vec<Term> = Vec::new();
@@ -344,7 +394,7 @@ fn adev_legend(series: &[Prepared<'_>], opts: &PlotOptions) -> Legend {
                             "{} = {} {}",
                             t.name(),
                             value_label(v),
-                            term_unit(t, &opts.unit)
+                            term_unit(t, unit)
                         )));
                     }
                 }
@@ -409,7 +459,7 @@ mod tests {
             m *= 2;
         }
         let fit = fit_deviations(&points, Some(&FitOptions::default())).ok();
-        AdevSeries { name: name.to_string(), points, fit }
+        AdevSeries { name: name.to_string(), points, fit, quantity: Quantity::AngularRate }
     }
 
     /// The paper's four gyros (Table 1's N and B), 72 h.

@@ -24,7 +24,7 @@
 //! ```no_run
 //! use octavar::plot::{adev_plot, AdevSeries, PlotOptions};
 //! # let points = Vec::new();
-//! let series = vec![AdevSeries { name: "ENV-05H".into(), points, fit: None }];
+//! let series = vec![AdevSeries { name: "ENV-05H".into(), points, fit: None, quantity: Default::default() }];
 //! let opts = PlotOptions { title: "Allan deviation, 72 h at 2 kS/s".into(), ..Default::default() };
 //! adev_plot(&series, &opts, std::path::Path::new("figure5.png"))?;
 //! # Ok::<(), octavar::plot::PlotError>(())

@@ -55,7 +55,8 @@ pub(super) struct LineParser<'a> {
     pub(super) temp: Option<(usize, &'a str)>,
     pub(super) time: Option<(usize, &'a str)>,
     pub(super) filters: Vec<(usize, &'a RowFilter)>,
-    pub(super) scale: f64,
+    /// Per column of `cols`, the factor to its quantity's unit (deg/s or m/s^2).
+    pub(super) scales: Vec<f64>,
     /// Per header field, whether a row reads it: the plan of [`LineParser::plain_row`], `None` where a filter
     /// asks for the careful path on every line.
     pub(super) roles: Option<Vec<bool>>,
@@ -188,8 +189,8 @@ impl LineParser<'_> {
             Some(b'\r') if bytes.get(p + 1) == Some(&b'\n') => p + 2,
             _ => return None,
         };
-        for &c in &self.cols {
-            out.values.push(fields[c] * self.scale);
+        for (&c, &k) in self.cols.iter().zip(&self.scales) {
+            out.values.push(fields[c] * k);
         }
         if let Some((i, _)) = self.temp {
             out.temps.push(fields[i]);
@@ -269,9 +270,9 @@ impl LineParser<'_> {
             line,
             message: format!("{} fields, column {name:?} is field {}", cells.len(), c + 1),
         };
-        for (&c, name) in self.cols.iter().zip(self.names) {
+        for ((&c, name), &k) in self.cols.iter().zip(self.names).zip(&self.scales) {
             let cell = cells.get(c).ok_or_else(|| missing(name, c))?;
-            out.values.push(self.cell(cell, line, name)? * self.scale);
+            out.values.push(self.cell(cell, line, name)? * k);
         }
         if let Some((i, name)) = self.temp {
             out.temps.push(self.cell(cells.get(i).copied().unwrap_or(""), line, name)?);

@@ -15,7 +15,8 @@ mod tests;
 
 use std::io::BufRead;
 
-use crate::io::recording::{RateUnit, Recording, StreamInfo, UnknownUnit};
+use crate::io::recording::{AccelUnit, RateUnit, Recording, StreamInfo, UnknownUnit};
+use crate::quantity::Quantity;
 use lines::{task_ranges, Block, LineParser, Parsed, Skip};
 use rows::{clean_header, split, Delimiter, Dialect};
 use timed::{Timed, TimedRow};
@@ -126,8 +127,12 @@ impl RowFilter {
 /// How to read a CSV recording.
 #[derive(Clone, Debug)]
 pub struct CsvOptions {
-    /// Rate columns to read (at least one).
+    /// Rate columns to read (at least one of these or of `accel_columns`).
     pub columns: Vec<String>,
+    /// Accelerometer columns to read after the rate columns (x, y, z in order), in `accel_unit`.
+    pub accel_columns: Vec<String>,
+    /// Unit of the accelerometer columns.
+    pub accel_unit: AccelUnit,
     /// A temperature column to carry along (degC), if any.
     pub temp_column: Option<String>,
     /// Fixed sample rate, Hz (or use `time_column`).
@@ -153,6 +158,8 @@ impl Default for CsvOptions {
     fn default() -> Self {
         CsvOptions {
             columns: Vec::new(),
+            accel_columns: Vec::new(),
+            accel_unit: AccelUnit::MPerS2,
             temp_column: None,
             rate_hz: None,
             time_column: None,
@@ -163,6 +170,25 @@ impl Default for CsvOptions {
             decimal_comma: None,
             flexible: false,
         }
+    }
+}
+
+impl CsvOptions {
+    /// Every column read, in the order of the samples' values: the rate columns, then the accelerometer columns.
+    pub fn read_columns(&self) -> Vec<String> {
+        self.columns.iter().chain(&self.accel_columns).cloned().collect()
+    }
+
+    /// What each column of [`CsvOptions::read_columns`] measures.
+    pub fn quantities(&self) -> Vec<Quantity> {
+        let accel = std::iter::repeat_n(Quantity::Acceleration, self.accel_columns.len());
+        std::iter::repeat_n(Quantity::AngularRate, self.columns.len()).chain(accel).collect()
+    }
+
+    /// The factor from each column's unit to its quantity's (deg/s, m/s^2).
+    fn scales(&self) -> Vec<f64> {
+        let accel = std::iter::repeat_n(self.accel_unit.to_m_per_s2(), self.accel_columns.len());
+        std::iter::repeat_n(self.unit.to_dps(), self.columns.len()).chain(accel).collect()
     }
 }
 
@@ -185,7 +211,7 @@ pub fn read_csv_sized<R: BufRead + Send>(
     opts: &CsvOptions,
     input_bytes: Option<u64>,
 ) -> Result<Recording, RecordingError> {
-    let n = opts.columns.len();
+    let n = opts.columns.len() + opts.accel_columns.len();
     let mut channels: Vec<Vec<f64>> = vec![Vec::new(); n];
     let mut temps: Vec<f64> = Vec::new();
     let info = read_csv_rows(reader, path, opts, input_bytes, |rows, temp, expected_rows| {
@@ -214,6 +240,7 @@ pub fn read_csv_sized<R: BufRead + Send>(
         source: path.to_string(),
         names: info.columns.clone(),
         channels,
+        quantities: opts.quantities(),
         temp_c: opts.temp_column.as_ref().map(|_| temps),
         rate_hz: info.rate_hz,
         info,
@@ -244,7 +271,7 @@ pub fn read_csv_stream<R: BufRead + Send>(
     opts: &CsvOptions,
     mut sink: impl FnMut(&[f64], Option<f64>),
 ) -> Result<StreamInfo, RecordingError> {
-    let n = opts.columns.len();
+    let n = opts.columns.len() + opts.accel_columns.len();
     read_csv_rows(reader, path, opts, None, |rows, temps, _| {
         for (k, row) in rows.chunks_exact(n).enumerate() {
             sink(row, temps.map(|t| t[k]));
@@ -343,7 +370,8 @@ fn read_csv_rows<R: BufRead + Send>(
             available: format!("{}; split at {delimiter}", headers.join(", ")),
         })
     };
-    let cols: Vec<usize> = opts.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
+    let columns = opts.read_columns();
+    let cols: Vec<usize> = columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
     let temp_col = opts.temp_column.as_deref().map(find).transpose()?;
     let time_col = opts.time_column.as_deref().map(find).transpose()?;
     let filters: Vec<(usize, &RowFilter)> =
@@ -357,15 +385,15 @@ fn read_csv_rows<R: BufRead + Send>(
         header_fields: headers.len(),
         flexible: opts.flexible,
         cols,
-        names: &opts.columns,
+        names: &columns,
         temp: temp_col.zip(opts.temp_column.as_deref()),
         time: time_col.zip(opts.time_column.as_deref()),
         roles: None,
         filters,
-        scale: opts.unit.to_dps(),
+        scales: opts.scales(),
     };
     let parser = LineParser { roles: parser.plain_roles(), ..parser };
-    let mut info = StreamInfo { columns: opts.columns.clone(), ..Default::default() };
+    let mut info = StreamInfo { columns: columns.clone(), ..Default::default() };
     let ncols = parser.cols.len();
     let with_temp = parser.temp.is_some();
     // Without a time column the rows go on in batches; with one, row by row, with NaN rows for the samples

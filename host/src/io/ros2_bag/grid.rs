@@ -1,10 +1,13 @@
 //! From one topic's messages to samples on a regular grid: times from `header.stamp` (or the log time where no
 //! stamp was set), sorted and de-duplicated, the rate from the median step where none is given, each message
-//! placed by [`grid_positions`] and the positions between them left NaN, clock jumps refused.
+//! placed by [`grid_positions`] and the positions between them left NaN, clock jumps refused. The angular velocity
+//! becomes channels `x`, `y`, `z` in deg/s and the linear acceleration `ax`, `ay`, `az` in m/s^2 (where the
+//! messages give it).
 
 use super::scan::Topic;
 use super::{BagError, ImuBag, TimeSource};
 use crate::io::recording::{RateUnit, Recording, StreamInfo};
+use crate::quantity::Quantity;
 
 /// Place samples on a sample grid from their timestamps: the position of each sample, the first at 0.
 ///
@@ -96,17 +99,27 @@ pub(super) fn build(path: String, t: Topic, rate_hz: Option<f64>) -> Result<ImuB
     }
 
     let k = RateUnit::RadPerS.to_dps();
-    let mut channels = vec![vec![f64::NAN; len as usize]; 3];
+    // The acceleration is read where some message gives it: a gyro-only driver leaves it zero or marks it -1.
+    let accel = samples.iter().any(|s| s.a_given && s.a.iter().any(|v| *v != 0.0));
+    let mut channels = vec![vec![f64::NAN; len as usize]; if accel { 6 } else { 3 }];
     for (s, &p) in samples.iter().zip(&positions) {
         for (c, w) in channels.iter_mut().zip(s.w) {
             c[p as usize] = w * k;
         }
+        if accel && s.a_given {
+            for (c, a) in channels[3..].iter_mut().zip(s.a) {
+                c[p as usize] = a;
+            }
+        }
     }
     let gaps = channels.iter().flatten().filter(|v| v.is_nan()).count() as u64;
-    let names: Vec<String> = ["x", "y", "z"].iter().map(|s| s.to_string()).collect();
+    let axes: &[&str] = if accel { &["x", "y", "z", "ax", "ay", "az"] } else { &["x", "y", "z"] };
+    let names: Vec<String> = axes.iter().map(|s| s.to_string()).collect();
+    let quantities =
+        names.iter().map(|n| if n.starts_with('a') { Quantity::Acceleration } else { Quantity::AngularRate }).collect();
     let info = StreamInfo { columns: names.clone(), rate_hz, samples: len, gaps, filtered_out: 0 };
     Ok(ImuBag {
-        recording: Recording { source: path, names, channels, temp_c: None, rate_hz, info },
+        recording: Recording { source: path, names, channels, quantities, temp_c: None, rate_hz, info },
         topic: t.name,
         frame_id: t.frame_id.unwrap_or_default(),
         time_source,

@@ -22,12 +22,15 @@ pub(super) enum Want {
     Topic(String),
 }
 
-/// One message kept: its times and angular velocity (rad/s).
+/// One message kept: its times, angular velocity (rad/s) and linear acceleration (m/s^2).
 #[derive(Clone, Copy)]
 pub(super) struct Sample {
     pub(super) stamp_ns: i64,
     pub(super) log_time: u64,
     pub(super) w: [f64; 3],
+    pub(super) a: [f64; 3],
+    /// Whether the message gives its acceleration: REP 145 marks one it does not with a covariance of -1.
+    pub(super) a_given: bool,
 }
 
 /// One topic of the bag.
@@ -248,14 +251,14 @@ impl Scan {
             }
         };
         let w = [m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z];
-        if let Some(axis) = (0..3).find(|&a| w[a].is_infinite()) {
-            let err = BagError::NotFinite {
-                path: self.path.clone(),
-                topic: t.name.clone(),
-                index,
-                axis: ["x", "y", "z"][axis],
-                value: w[axis],
-            };
+        let a = [m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z];
+        let a_given = m.linear_acceleration_covariance[0] != -1.0;
+        let infinite = (0..3)
+            .find(|&i| w[i].is_infinite())
+            .map(|i| (["x", "y", "z"][i], w[i]))
+            .or_else(|| (0..3).find(|&i| a_given && a[i].is_infinite()).map(|i| (["ax", "ay", "az"][i], a[i])));
+        if let Some((axis, value)) = infinite {
+            let err = BagError::NotFinite { path: self.path.clone(), topic: t.name.clone(), index, axis, value };
             t.error = Some(err);
             return Ok(());
         }
@@ -263,7 +266,7 @@ impl Scan {
             t.frame_id = Some(m.header.frame_id);
         }
         let stamp_ns = i64::from(m.header.stamp.sec) * 1_000_000_000 + i64::from(m.header.stamp.nanosec);
-        t.samples.push(Sample { stamp_ns, log_time, w });
+        t.samples.push(Sample { stamp_ns, log_time, w, a, a_given });
         Ok(())
     }
 }

@@ -64,7 +64,13 @@ fn topic(stamps: &[i64]) -> Topic {
     let samples = stamps
         .iter()
         .enumerate()
-        .map(|(i, &t)| Sample { stamp_ns: t, log_time: 1000 + i as u64 * 10, w: [i as f64, 0.0, -1.0] })
+        .map(|(i, &t)| Sample {
+            stamp_ns: t,
+            log_time: 1000 + i as u64 * 10,
+            w: [i as f64, 0.0, -1.0],
+            a: [0.0; 3],
+            a_given: false,
+        })
         .collect::<Vec<_>>();
     Topic { name: "/imu".into(), imu: true, messages: stamps.len() as u64, samples, ..Topic::default() }
 }

@@ -264,7 +264,15 @@ fn read_bytes(
         channels.push(values);
     }
     let info = StreamInfo { columns: columns.to_vec(), rate_hz: rate, samples: len as u64, gaps, filtered_out: 0 };
-    Ok(Recording { source: source.to_string(), names: columns.to_vec(), channels, temp_c: None, rate_hz: rate, info })
+    Ok(Recording {
+        source: source.to_string(),
+        names: columns.to_vec(),
+        channels,
+        quantities: Vec::new(),
+        temp_c: None,
+        rate_hz: rate,
+        info,
+    })
 }
 
 /// Apply `f` to each value in place: the NaNs among the results, and whether one is infinite.
