@@ -27,12 +27,14 @@
 
 mod covariance;
 mod deviations;
+mod gauss_markov;
 mod intervals;
 
 use serde::Serialize;
 
 pub use covariance::{avar_covariance, CovarianceBasis, EstimatorShape};
 pub use deviations::{fit_deviations, octave_oadev};
+pub use gauss_markov::{fit_gauss_markov, gauss_markov_avar, GaussMarkovFit};
 
 use crate::quantity::Quantity;
 use crate::stats::DevPoint;
