@@ -10,6 +10,7 @@
 //! |-----|------------|--------------------------------------------------------------------------------------|
 //! | 1   | `demo`     | the paper's experiment on the virtual bench: Table 1, figures, gap diagnoses         |
 //! | 1   | `plot`     | ADEV and gap figures (PNG, SVG)                                                      |
+//! | 1   | `export`   | IMU noise configs for state estimators and simulators (Kalibr, VINS, GTSAM, ...)     |
 //! | 2   | `gap`      | where a fitted model's simulation and a recording part, and why                      |
 //! | 2   | `analyze`  | one channel's statistics and fit, its text/JSON/CSV writers, the streamed path       |
 //! | 2   | `device`   | recording a device, verifying captures, the code accumulator, a simulated device     |
@@ -30,6 +31,7 @@ pub mod device;
 pub mod fit;
 pub mod gap;
 pub mod io;
+pub mod export;
 pub mod plot;
 pub mod quantity;
 pub mod simulate;

@@ -5,14 +5,14 @@
 //! `{"channels": [{"name", "kind" (gyro or accel), "unit", "tau0_s", "n_samples", "n_gaps", "bias", "stats":
 //! {"<stat>": [{"m", "tau_s", "n", "dev", "lo", "hi", "alpha", "edf"}]}, "fit": {"N": {"value", "lo", "hi", "unit",
 //! "identifiable", "alt": {"unit", "value"}}, ..., "chi2", "dof", "confidence", "tau_range_s", "classic"} or
-//! {"error"}}]}`.
+//! {"error"}, "bias_model": {"sigma", "tau_c_s", "tau_range_s", "points", "max_misfit", "chi2_per_dof"} or null}]}`.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 
 use super::ChannelAnalysis;
-use crate::fit::{ClassicReadouts, NoiseFit, Term};
+use crate::fit::{ClassicReadouts, GaussMarkovFit, NoiseFit, Term};
 use crate::quantity::Quantity;
 use crate::stats::DevPoint;
 
@@ -38,6 +38,8 @@ pub struct ChannelDoc<'a> {
     /// By the statistic's lower-case name (`oadev`, `mdev`, ...).
     pub stats: BTreeMap<String, Vec<PointDoc>>,
     pub fit: FitDoc<'a>,
+    /// The first-order Gauss-Markov bias model, or null.
+    pub bias_model: Option<&'a GaussMarkovFit>,
 }
 
 /// One row of a statistic; the bounds and EDF are null where they were not computed.
@@ -120,6 +122,7 @@ fn channel(c: &ChannelAnalysis) -> ChannelDoc<'_> {
         bias: c.mean,
         stats: stats.collect(),
         fit,
+        bias_model: c.bias_model.as_ref(),
     }
 }
 

@@ -4,26 +4,24 @@
 //! each with its chi-square interval (Greenhall's EDF, noise identified per tau), and the noise-term fit on the
 //! overlapping Allan variance at octave tau. The writers are modules of their own, one per output, apart from the
 //! computation: [`text`] (the Stable32-style tables and the fit), [`json`], [`csv`] (every point), [`model`]
-//! (a `model.toml` for `simulate` and `gap`) and [`kalibr`] (a Kalibr `imu.yaml`). [`streamed`] gives the same
+//! (a `model.toml` for `simulate` and `gap`); `crate::export` writes the estimators' configs from them. [`streamed`] gives the same
 //! analysis of inputs too large for memory.
 
 pub mod csv;
 pub mod json;
-pub mod kalibr;
 pub mod model;
 pub mod streamed;
 pub mod text;
 
 pub use csv::{points_csv, to_csv};
 pub use json::{to_json, Document};
-pub use kalibr::kalibr_yaml;
 pub use model::{fine_channel, model_from_fits};
 pub use text::{fit_report, report, table};
 
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::fit::{fit_deviations, octave_oadev, FitError, FitOptions, NoiseFit};
+use crate::fit::{fit_deviations, fit_gauss_markov, octave_oadev, FitError, FitOptions, GaussMarkovFit, NoiseFit};
 use crate::quantity::Quantity;
 use crate::stats::{analyze_series, DataKind, DevPoint, Options, Series, Statistic, StatsError, TauSpec};
 
@@ -82,6 +80,8 @@ pub struct ChannelAnalysis {
     pub fit_points: Vec<DevPoint>,
     /// The fit, or why there is none.
     pub fit: Result<NoiseFit, FitError>,
+    /// The first-order Gauss-Markov bias matched to the fit's bias region (a Kalman filter's bias model).
+    pub bias_model: Option<GaussMarkovFit>,
 }
 
 /// Analyse one channel of rate data (deg/s, NaN for gaps) sampled at `rate_hz`.
@@ -142,6 +142,8 @@ impl ChannelAnalysis {
         fit_points: Vec<DevPoint>,
         fit: Option<&FitOptions>,
     ) -> Self {
+        let fit = fit_deviations(&fit_points, fit);
+        let bias_model = fit.as_ref().ok().and_then(|f| fit_gauss_markov(&fit_points, f));
         ChannelAnalysis {
             name: name.to_string(),
             quantity: Quantity::AngularRate,
@@ -150,7 +152,8 @@ impl ChannelAnalysis {
             n_samples: counts.n_samples,
             n_gaps: counts.n_gaps,
             mean: None,
-            fit: fit_deviations(&fit_points, fit),
+            fit,
+            bias_model,
             stats,
             fit_points,
         }
@@ -209,7 +212,10 @@ mod tests {
         };
         let ch = &j["channels"][0];
         assert_eq!(keys(&j), ["channels"]);
-        assert_eq!(keys(ch), ["bias", "fit", "kind", "n_gaps", "n_samples", "name", "stats", "tau0_s", "unit"]);
+        assert_eq!(
+            keys(ch),
+            ["bias", "bias_model", "fit", "kind", "n_gaps", "n_samples", "name", "stats", "tau0_s", "unit"]
+        );
         let mean = data.iter().sum::<f64>() / data.len() as f64;
         assert!((ch["bias"].as_f64().unwrap() - mean).abs() < 1e-12, "{}", ch["bias"]);
         assert_eq!(ch["kind"], "gyro");
@@ -225,9 +231,6 @@ mod tests {
         let j = serde_json::to_value(to_json(std::slice::from_ref(&unfitted))).unwrap();
         assert_eq!(keys(&j["channels"][0]["fit"]), ["error"]);
         assert_eq!(ch["fit"]["N"]["unit"], "deg/sqrt(s)");
-        let y = kalibr_yaml(&a, rate_hz).unwrap();
-        let gnd: f64 = y.lines().find_map(|l| l.strip_prefix("gyroscope_noise_density: ")).unwrap().parse().unwrap();
-        assert!((gnd / (n * std::f64::consts::PI / 180.0) - 1.0).abs() < 1e-5);
         // The CSV of every point: its header, and one row per point of each statistic, in order.
         let csv = to_csv(std::slice::from_ref(&a));
         let mut lines = csv.lines();

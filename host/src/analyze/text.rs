@@ -33,7 +33,10 @@ pub fn report(source: &str, samples: u64, rate_hz: f64, channels: &[ChannelAnaly
             s.push_str(&table(*stat, pts));
         }
         match &c.fit {
-            Ok(f) => s.push_str(&fit_report(f, c.quantity)),
+            Ok(f) => {
+                s.push_str(&fit_report(f, c.quantity));
+                s.push_str(&bias_model_line(c));
+            }
             Err(e) => {
                 let _ = writeln!(s, "no fit: {e}");
             }
@@ -103,4 +106,23 @@ pub fn fit_report(f: &NoiseFit, q: Quantity) -> String {
         Term::K.unit_of(q),
     );
     s
+}
+
+/// The Gauss-Markov bias model of a channel, for a Kalman filter, with its match's quality.
+pub fn bias_model_line(c: &ChannelAnalysis) -> String {
+    match &c.bias_model {
+        Some(gm) => format!(
+            "bias model for a filter (first-order Gauss-Markov): sigma {:.4e} {}, correlation time {:.4e} s; matched \
+             over tau {:.3e}..{:.3e} s ({} points, within {:.0}% where precise, chi2/dof {:.2})\n",
+            gm.sigma,
+            c.unit,
+            gm.tau_c_s,
+            gm.tau_range_s[0],
+            gm.tau_range_s[1],
+            gm.points,
+            gm.max_misfit * 100.0,
+            gm.chi2_per_dof
+        ),
+        None => "bias model for a filter: none (the curve has no bias region of three points)\n".to_string(),
+    }
 }

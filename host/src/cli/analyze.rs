@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use octavar::analyze::{self, AnalyzeOptions, ChannelAnalysis};
+use octavar::export::{ExportFormat, ExportRequest, ImuNoise};
 use octavar::fit::FitOptions;
 use octavar::io::csv::CsvOptions;
 use octavar::io::formats::{self, RecordingFormat};
@@ -51,7 +52,7 @@ pub struct Args {
     #[arg(long, value_name = "HZ")]
     pub bandwidth: Option<f64>,
     /// Skip the noise-term fit: the statistics only.
-    #[arg(long, conflicts_with_all = ["model_out", "kalibr"])]
+    #[arg(long, conflicts_with_all = ["model_out", "kalibr", "exports"])]
     pub no_fit: bool,
     /// Write the JSON document here.
     #[arg(long, value_name = "FILE")]
@@ -65,9 +66,17 @@ pub struct Args {
     /// Write the fitted model as a model.toml (for simulate and gap).
     #[arg(long, value_name = "FILE")]
     pub model_out: Option<PathBuf>,
-    /// Write a Kalibr imu.yaml (gyroscope_noise_density and gyroscope_random_walk) for the first channel.
+    /// Write a Kalibr imu.yaml: the same as --export kalibr=FILE.
     #[arg(long, value_name = "FILE")]
     pub kalibr: Option<PathBuf>,
+    /// Write the noise figures for a state estimator or simulator, FORMAT=FILE (repeatable): kalibr, openvins,
+    /// vins, orbslam3, gtsam, kfgins, gz, matlab. Each file opens with where every number came from.
+    #[arg(long = "export", value_name = "FORMAT=FILE")]
+    pub exports: Vec<String>,
+    /// Multiply every noise figure of the exports by X (a margin for motion, vibration and temperature that a
+    /// still bench does not see; the files say so).
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    pub inflate: f64,
     /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap: a ROS 2 bag), capture
     /// (default for .cap/.capture files), or raw little-endian samples f64le, f32le, i16le, u16le (streamed: OADEV
     /// at octave tau and the fit, any length in bounded memory).
@@ -193,12 +202,24 @@ impl Args {
             std::fs::write(path, octavar::simulate::model_to_toml(&model))
                 .with_context(|| format!("writing {}", path.display()))?;
         }
+        let mut exports: Vec<ExportRequest> =
+            self.exports.iter().map(|e| ExportRequest::parse(e)).collect::<Result<_, _>>()?;
         if let Some(path) = &self.kalibr {
-            let yaml = results
-                .first()
-                .and_then(|c| analyze::kalibr_yaml(c, rate_hz))
-                .context("no fit to write a Kalibr file from")?;
-            std::fs::write(path, yaml).with_context(|| format!("writing {}", path.display()))?;
+            exports.push(ExportRequest { format: ExportFormat::Kalibr, path: path.clone() });
+        }
+        if !exports.is_empty() {
+            if !(self.inflate.is_finite() && self.inflate > 0.0) {
+                bail!("--inflate {}: give a positive factor", self.inflate);
+            }
+            if results.iter().all(|c| c.fit.is_err()) {
+                bail!("no channel has a fit to export from");
+            }
+            let topic = self.reading.topic.clone().unwrap_or_else(|| "/imu0".to_string());
+            let noise = ImuNoise::from_channels(results, source, rate_hz, &topic, self.inflate);
+            for e in &exports {
+                std::fs::write(&e.path, e.format.render(&noise))
+                    .with_context(|| format!("writing the {} export {}", e.format.name(), e.path.display()))?;
+            }
         }
         if let Some(path) = &self.plot {
             let series: Vec<plot::AdevSeries> = results
