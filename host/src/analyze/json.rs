@@ -5,14 +5,15 @@
 //! `{"channels": [{"name", "kind" (gyro or accel), "unit", "tau0_s", "n_samples", "n_gaps", "bias", "stats":
 //! {"<stat>": [{"m", "tau_s", "n", "dev", "lo", "hi", "alpha", "edf"}]}, "fit": {"N": {"value", "lo", "hi", "unit",
 //! "identifiable", "alt": {"unit", "value"}}, ..., "chi2", "dof", "confidence", "tau_range_s", "classic"} or
-//! {"error"}, "bias_model": {"sigma", "tau_c_s", "tau_range_s", "points", "max_misfit", "chi2_per_dof"} or null}]}`.
+//! {"error"}, "bias_model": {"sigma", "tau_c_s", "tau_range_s", "points", "max_misfit", "chi2_per_dof"} or null,
+//! "record_length": [{"term", "identifiable", "precision", "target", "needed_s", "note"}] or null}]}`.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 
 use super::ChannelAnalysis;
-use crate::fit::{ClassicReadouts, GaussMarkovFit, NoiseFit, Term};
+use crate::fit::{record_length, ClassicReadouts, GaussMarkovFit, NoiseFit, Term, TermPrecision};
 use crate::quantity::Quantity;
 use crate::stats::DevPoint;
 
@@ -38,6 +39,8 @@ pub struct ChannelDoc<'a> {
     /// By the statistic's lower-case name (`oadev`, `mdev`, ...).
     pub stats: BTreeMap<String, Vec<PointDoc>>,
     pub fit: FitDoc<'a>,
+    /// Per term, the precision reached and the record length that reaches its target; null without a fit.
+    pub record_length: Option<Vec<TermPrecision>>,
     /// The first-order Gauss-Markov bias model, or null.
     pub bias_model: Option<&'a GaussMarkovFit>,
 }
@@ -123,6 +126,7 @@ fn channel(c: &ChannelAnalysis) -> ChannelDoc<'_> {
         stats: stats.collect(),
         fit,
         bias_model: c.bias_model.as_ref(),
+        record_length: c.fit.as_ref().ok().map(|f| record_length(f, c.n_samples as f64 * c.tau0_s)),
     }
 }
 

@@ -214,8 +214,21 @@ mod tests {
         assert_eq!(keys(&j), ["channels"]);
         assert_eq!(
             keys(ch),
-            ["bias", "bias_model", "fit", "kind", "n_gaps", "n_samples", "name", "stats", "tau0_s", "unit"]
+            [
+                "bias",
+                "bias_model",
+                "fit",
+                "kind",
+                "n_gaps",
+                "n_samples",
+                "name",
+                "record_length",
+                "stats",
+                "tau0_s",
+                "unit"
+            ]
         );
+        assert_eq!(keys(&ch["record_length"][0]), ["identifiable", "needed_s", "note", "precision", "target", "term"]);
         let mean = data.iter().sum::<f64>() / data.len() as f64;
         assert!((ch["bias"].as_f64().unwrap() - mean).abs() < 1e-12, "{}", ch["bias"]);
         assert_eq!(ch["kind"], "gyro");

@@ -36,6 +36,7 @@ pub fn report(source: &str, samples: u64, rate_hz: f64, channels: &[ChannelAnaly
             Ok(f) => {
                 s.push_str(&fit_report(f, c.quantity));
                 s.push_str(&bias_model_line(c));
+                s.push_str(&record_length_lines(f, c.n_samples as f64 * c.tau0_s));
             }
             Err(e) => {
                 let _ = writeln!(s, "no fit: {e}");
@@ -125,4 +126,13 @@ pub fn bias_model_line(c: &ChannelAnalysis) -> String {
         ),
         None => "bias model for a filter: none (the curve has no bias region of three points)\n".to_string(),
     }
+}
+
+/// How long to record: each term's precision and the record that reaches its target, or shows it.
+pub fn record_length_lines(f: &NoiseFit, record_s: f64) -> String {
+    let mut s = format!("how long to record (this record: {}):\n", crate::fit::duration(record_s));
+    for p in crate::fit::record_length(f, record_s) {
+        let _ = writeln!(s, "{:>3}   {}", p.term, p.note);
+    }
+    s
 }

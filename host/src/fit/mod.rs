@@ -29,12 +29,14 @@ mod covariance;
 mod deviations;
 mod gauss_markov;
 mod intervals;
+mod record_length;
 
 use serde::Serialize;
 
 pub use covariance::{avar_covariance, CovarianceBasis, EstimatorShape};
 pub use deviations::{fit_deviations, octave_oadev};
 pub use gauss_markov::{fit_gauss_markov, gauss_markov_avar, GaussMarkovFit};
+pub use record_length::{duration, record_length, target_precision, TermPrecision, TAUS_PER_RECORD};
 
 use crate::quantity::Quantity;
 use crate::stats::DevPoint;
