@@ -36,16 +36,17 @@ fn truth(bag: &Path, j: usize) -> Vec<(usize, [f64; 3])> {
     v.chunks_exact(4).map(|r| (r[0] as usize, [r[1], r[2], r[3]])).collect()
 }
 
-/// The recording holds exactly the truth in deg/s at its indices, NaN everywhere else.
+/// The recording holds exactly the truth in deg/s at its indices, NaN everywhere else; the writer's linear
+/// accelerations (given in every message) are channels ax, ay, az with the same gaps.
 fn assert_matches(rec: &Recording, truth: &[(usize, [f64; 3])]) {
     let len = truth.last().unwrap().0 + 1;
     assert_eq!(truth[0].0, 0);
-    assert_eq!(rec.names, ["x", "y", "z"]);
-    assert_eq!(rec.info.columns, ["x", "y", "z"]);
-    assert_eq!(rec.channels.len(), 3);
+    assert_eq!(rec.names, ["x", "y", "z", "ax", "ay", "az"]);
+    assert_eq!(rec.info.columns, rec.names);
+    assert_eq!(rec.channels.len(), 6);
     assert!(rec.temp_c.is_none());
     assert_eq!(rec.info.samples, len as u64);
-    assert_eq!(rec.info.gaps, 3 * (len - truth.len()) as u64);
+    assert_eq!(rec.info.gaps, 6 * (len - truth.len()) as u64);
     assert_eq!(rec.info.rate_hz, rec.rate_hz);
     let mut expected = vec![[f64::NAN; 3]; len];
     for &(k, w) in truth {
@@ -54,6 +55,10 @@ fn assert_matches(rec: &Recording, truth: &[(usize, [f64; 3])]) {
     for (c, ch) in rec.channels.iter().enumerate() {
         assert_eq!(ch.len(), len, "channel {c}");
         for (k, (&got, want)) in ch.iter().zip(&expected).enumerate() {
+            if c >= 3 {
+                assert_eq!(got.is_nan(), want[0].is_nan(), "channel {c} sample {k}: {got}");
+                continue;
+            }
             let want = want[c] * 180.0 / std::f64::consts::PI;
             if want.is_nan() {
                 assert!(got.is_nan(), "channel {c} sample {k}: {got}, expected a gap");
@@ -101,7 +106,7 @@ fn ros2_bag_dropped_messages_are_nan_gaps() {
     assert_eq!(truth.len(), 2000 - 105);
     assert_matches(&b.recording, &truth);
     assert_eq!(b.recording.info.samples, 2000);
-    assert_eq!(b.recording.info.gaps, 3 * 105);
+    assert_eq!(b.recording.info.gaps, 6 * 105);
     assert_eq!(b.recording.rate_hz, 200.0);
     assert_eq!(b.messages, 1895);
 }
@@ -122,7 +127,7 @@ fn ros2_bag_jittered_stamps_stay_gap_free() {
     // Jitter on top of gaps: each gap still counts its missing samples exactly.
     let d = read_imu_bag(&bag, Some("/imu/dropped"), None).unwrap();
     assert_matches(&d.recording, &truth(&bag, 1));
-    assert_eq!(d.recording.info.gaps, 3 * 6);
+    assert_eq!(d.recording.info.gaps, 6 * 6);
 }
 
 #[test]
@@ -202,7 +207,7 @@ fn ros2_bag_compressions_and_chunking() {
         let Some(bag) = write_bag(&dir, name, spec) else { return };
         let b = read_imu_bag(&bag, None, None).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_matches(&b.recording, &truth(&bag, 0));
-        assert_eq!(b.recording.info.gaps, 3 * 3, "{name}");
+        assert_eq!(b.recording.info.gaps, 6 * 3, "{name}");
         assert_eq!(b.messages, 2997, "{name}");
         sizes.push(std::fs::metadata(&bag).unwrap().len());
     }
@@ -221,7 +226,7 @@ fn ros2_bag_zero_stamps_use_log_time() {
     assert_eq!(b.time_source, TimeSource::LogTime);
     assert_eq!(b.time_source.as_str(), "log_time");
     assert_matches(&b.recording, &truth(&bag, 0));
-    assert_eq!(b.recording.info.gaps, 3 * 2);
+    assert_eq!(b.recording.info.gaps, 6 * 2);
     assert_eq!(b.recording.rate_hz, 400.0);
     assert_eq!(b.start_ns, T0_NS);
 }
@@ -315,7 +320,7 @@ fn the_command_s_read_path_takes_a_bag_by_extension_and_picks_axes() {
     let Some(bag) = write_bag(&dir, "axes", json!({"topics": [imu("/imu/data", 500, 100.0)]})) else { return };
     assert_eq!(RecordingFormat::of(&bag, None), Some(RecordingFormat::Mcap));
     let all = read_recording(&bag, RecordingFormat::Mcap, &ReadOptions::default()).unwrap();
-    assert_eq!(all.names, ["x", "y", "z"]);
+    assert_eq!(all.names, ["x", "y", "z", "ax", "ay", "az"]);
     let csv = CsvOptions { columns: vec!["z".into(), "x".into()], ..Default::default() };
     let opts = ReadOptions { csv, topic: Some("/imu/data".into()), channels: 1 };
     let picked = read_recording(&bag, RecordingFormat::Mcap, &opts).unwrap();

@@ -9,6 +9,7 @@ pub mod capture;
 pub mod csv;
 pub mod decode;
 pub mod formats;
+pub mod imu_topic;
 pub mod input;
 pub mod recording;
 pub mod ros2_bag;

@@ -19,7 +19,7 @@ impl Scan {
         data: &[u8],
     ) -> Result<(), BagError> {
         let path = self.path.clone();
-        let corrupt = |what: String| BagError::Corrupt { path: path.clone(), offset, what };
+        let corrupt = |what: String| BagError::Corrupt { path: path.clone(), format: "MCAP", offset, what };
         let size = header.uncompressed_size;
         let compression = header.compression.as_str();
         if size > MAX_CHUNK_BYTES {
@@ -53,6 +53,7 @@ impl Scan {
                     path: self.path.clone(),
                     offset,
                     compression: compression.to_string(),
+                    reads: "zstd, lz4 and uncompressed chunks",
                 })
             }
         };
@@ -73,6 +74,7 @@ impl Scan {
             WalkError::Stop(err) => err,
             WalkError::Mcap { offset: inner, err } => BagError::Corrupt {
                 path: self.path.clone(),
+                format: "MCAP",
                 offset,
                 what: format!("in the chunk, at byte {inner} of its {size} uncompressed bytes: {err}"),
             },

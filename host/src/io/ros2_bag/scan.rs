@@ -11,42 +11,11 @@ use mcap::McapError;
 
 use super::imu::decode_imu;
 use super::{BagError, IMU_TYPE};
+use crate::io::imu_topic::{Message, Topics, Want};
 
-/// Which messages a scan decodes.
-pub(super) enum Want {
-    /// None: count them.
-    Nothing,
-    /// Those of every Imu topic.
-    AllImu,
-    /// Those of one topic.
-    Topic(String),
-}
-
-/// One message kept: its times, angular velocity (rad/s) and linear acceleration (m/s^2).
-#[derive(Clone, Copy)]
-pub(super) struct Sample {
-    pub(super) stamp_ns: i64,
-    pub(super) log_time: u64,
-    pub(super) w: [f64; 3],
-    pub(super) a: [f64; 3],
-    /// Whether the message gives its acceleration: REP 145 marks one it does not with a covariance of -1.
-    pub(super) a_given: bool,
-}
-
-/// One topic of the bag.
-#[derive(Default)]
-pub(super) struct Topic {
-    pub(super) name: String,
-    /// Whether some channel of it is an Imu channel octavar reads.
-    pub(super) imu: bool,
-    /// What a channel of it that is not such carries (for errors).
-    pub(super) other: Option<String>,
-    pub(super) messages: u64,
-    pub(super) samples: Vec<Sample>,
-    pub(super) frame_id: Option<String>,
-    /// The first message that failed to decode.
-    pub(super) error: Option<BagError>,
-}
+/// What a cut-off MCAP file's error suggests.
+const TRUNCATED_HINT: &str =
+    " (a recording that was cut off? the mcap CLI's `mcap recover` rescues the complete chunks)";
 
 struct Channel {
     topic: usize,
@@ -64,7 +33,7 @@ pub(super) struct Scan {
     want: Want,
     schemas: HashMap<u16, Schema>,
     channels: HashMap<u16, Channel>,
-    pub(super) topics: Vec<Topic>,
+    pub(super) topics: Topics,
     pub(super) zstd: Option<ruzstd::decoding::FrameDecoder>,
     /// Decompressed chunk content, reused.
     pub(super) scratch: Vec<u8>,
@@ -133,11 +102,11 @@ pub(super) fn scan(path: &Path, want: Want) -> Result<Scan, BagError> {
         return Err(BagError::NotMcap { path: name, hint });
     }
     let mut scan = Scan {
+        topics: Topics::new(name.clone(), IMU_TYPE),
         path: name,
         want,
         schemas: HashMap::new(),
         channels: HashMap::new(),
-        topics: Vec::new(),
         zstd: None,
         scratch: Vec::new(),
     };
@@ -154,13 +123,13 @@ impl Scan {
     fn mcap_error(&self, offset: u64, len: u64, err: McapError) -> BagError {
         let path = self.path.clone();
         match err {
-            McapError::UnexpectedEof => BagError::Truncated { path, offset, len },
+            McapError::UnexpectedEof => BagError::Truncated { path, offset, len, hint: TRUNCATED_HINT },
             McapError::RecordTooLarge { len: record, .. } | McapError::ChunkTooLarge(record)
                 if offset.saturating_add(9).saturating_add(record) > len =>
             {
-                BagError::Truncated { path, offset, len }
+                BagError::Truncated { path, offset, len, hint: TRUNCATED_HINT }
             }
-            err => BagError::Corrupt { path, offset, what: err.to_string() },
+            err => BagError::Corrupt { path, format: "MCAP", offset, what: err.to_string() },
         }
     }
 
@@ -175,7 +144,7 @@ impl Scan {
             // Chunks hold schemas, channels and messages only; one inside another is damage (and would recurse).
             Record::Chunk { .. } if in_chunk => {
                 let what = "a chunk inside the chunk".to_string();
-                return Err(BagError::Corrupt { path: self.path.clone(), offset, what });
+                return Err(BagError::Corrupt { path: self.path.clone(), format: "MCAP", offset, what });
             }
             Record::Chunk { header, data } => self.chunk(offset, &header, &data)?,
             _ => {}
@@ -191,6 +160,7 @@ impl Scan {
             0 => None,
             id => Some(self.schemas.get(&id).ok_or_else(|| BagError::Corrupt {
                 path: self.path.clone(),
+                format: "MCAP",
                 offset,
                 what: format!(
                     "channel {} ({:?}) refers to schema {id}, which no record before it defines",
@@ -200,25 +170,14 @@ impl Scan {
         };
         let imu = schema.is_some_and(|s| s.name == IMU_TYPE && matches!(s.encoding.as_str(), "ros2msg" | "ros2idl"))
             && c.message_encoding == "cdr";
-        let topic = match self.topics.iter().position(|t| t.name == c.topic) {
-            Some(i) => i,
-            None => {
-                self.topics.push(Topic { name: c.topic.clone(), ..Topic::default() });
-                self.topics.len() - 1
+        let topic = self.topics.index(&c.topic);
+        self.topics.connection(topic, imu, || match schema {
+            None => format!("schemaless {:?}", c.message_encoding),
+            Some(s) if s.name == IMU_TYPE => {
+                format!("{IMU_TYPE} with a {:?} schema in {:?}", s.encoding, c.message_encoding)
             }
-        };
-        let t = &mut self.topics[topic];
-        if imu {
-            t.imu = true;
-        } else if t.other.is_none() {
-            t.other = Some(match schema {
-                None => format!("schemaless {:?}", c.message_encoding),
-                Some(s) if s.name == IMU_TYPE => {
-                    format!("{IMU_TYPE} with a {:?} schema in {:?}", s.encoding, c.message_encoding)
-                }
-                Some(s) => format!("{} ({:?})", s.name, c.message_encoding),
-            });
-        }
+            Some(s) => format!("{} ({:?})", s.name, c.message_encoding),
+        });
         self.channels.insert(c.id, Channel { topic, imu });
         Ok(())
     }
@@ -227,46 +186,25 @@ impl Scan {
         let Some(c) = self.channels.get(&channel) else {
             return Err(BagError::Corrupt {
                 path: self.path.clone(),
+                format: "MCAP",
                 offset,
                 what: format!("a message on channel {channel}, which no record before it defines"),
             });
         };
-        let (imu, t) = (c.imu, &mut self.topics[c.topic]);
-        t.messages += 1;
-        let wanted = match &self.want {
-            Want::Nothing => false,
-            Want::AllImu => imu,
-            Want::Topic(name) => imu && *name == t.name,
-        };
-        if !wanted || t.error.is_some() {
+        let t = &mut self.topics.list[c.topic];
+        if !t.count(&self.want, c.imu) {
             return Ok(());
         }
-        let index = t.messages;
-        let fail = |what: String| BagError::Decode { path: self.path.clone(), topic: t.name.clone(), index, what };
-        let m = match decode_imu(data) {
-            Ok(m) => m,
-            Err(what) => {
-                t.error = Some(fail(what));
-                return Ok(());
-            }
-        };
-        let w = [m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z];
-        let a = [m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z];
-        let a_given = m.linear_acceleration_covariance[0] != -1.0;
-        let infinite = (0..3)
-            .find(|&i| w[i].is_infinite())
-            .map(|i| (["x", "y", "z"][i], w[i]))
-            .or_else(|| (0..3).find(|&i| a_given && a[i].is_infinite()).map(|i| (["ax", "ay", "az"][i], a[i])));
-        if let Some((axis, value)) = infinite {
-            let err = BagError::NotFinite { path: self.path.clone(), topic: t.name.clone(), index, axis, value };
-            t.error = Some(err);
-            return Ok(());
-        }
-        if t.frame_id.is_none() {
-            t.frame_id = Some(m.header.frame_id);
-        }
-        let stamp_ns = i64::from(m.header.stamp.sec) * 1_000_000_000 + i64::from(m.header.stamp.nanosec);
-        t.samples.push(Sample { stamp_ns, log_time, w, a, a_given });
+        let decoded = decode_imu(data);
+        let decoded = decoded.as_ref().map(|m| Message {
+            stamp_ns: i64::from(m.header.stamp.sec) * 1_000_000_000 + i64::from(m.header.stamp.nanosec),
+            log_time,
+            frame_id: &m.header.frame_id,
+            w: [m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z],
+            a: [m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z],
+            a_cov0: m.linear_acceleration_covariance[0],
+        });
+        t.take(&self.path, IMU_TYPE, String::new, decoded.map_err(Clone::clone));
         Ok(())
     }
 }

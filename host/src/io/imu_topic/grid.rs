@@ -4,7 +4,7 @@
 //! becomes channels `x`, `y`, `z` in deg/s and the linear acceleration `ax`, `ay`, `az` in m/s^2 (where the
 //! messages give it).
 
-use super::scan::Topic;
+use super::topics::Topic;
 use super::{BagError, ImuBag, TimeSource};
 use crate::io::recording::{RateUnit, Recording, StreamInfo};
 use crate::quantity::Quantity;
@@ -30,7 +30,7 @@ pub fn grid_positions(stamps_ns: &[i64], rate_hz: f64) -> Vec<u64> {
 }
 
 /// The recording of one topic's samples: sorted, de-duplicated, placed on the grid.
-pub(super) fn build(path: String, t: Topic, rate_hz: Option<f64>) -> Result<ImuBag, BagError> {
+pub(crate) fn build(path: String, t: Topic, rate_hz: Option<f64>) -> Result<ImuBag, BagError> {
     let mut samples = t.samples;
     let too_few =
         |hint| BagError::TooFewMessages { path: path.clone(), topic: t.name.clone(), messages: t.messages, hint };
