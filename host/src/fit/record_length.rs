@@ -54,6 +54,7 @@ pub fn record_length(fit: &NoiseFit, record_s: f64) -> Vec<TermPrecision> {
 
 fn one(fit: &NoiseFit, t: Term, record_s: f64) -> TermPrecision {
     let e = fit.term(t);
+    let unit = e.unit;
     let target = target_precision(t);
     let base = TermPrecision {
         term: t.name(),
@@ -79,7 +80,7 @@ fn one(fit: &NoiseFit, t: Term, record_s: f64) -> TermPrecision {
     match t {
         Term::Q | Term::N => TermPrecision {
             note: format!(
-                "not identifiable (at most {bound:.3e}): it lives at the shortest taus, so a longer record does not \
+                "not identifiable (at most {bound:.3e} {unit}): it lives at the shortest taus, so a longer record does not \
                  show it; a higher sample rate would"
             ),
             ..base
@@ -95,7 +96,7 @@ fn one(fit: &NoiseFit, t: Term, record_s: f64) -> TermPrecision {
                 return TermPrecision {
                     needed_s: Some(needed),
                     note: format!(
-                        "not identifiable (at most {bound:.3e}): if it is as large as the fit's {:.3e}, a record of \
+                        "not identifiable (at most {bound:.3e} {unit}): if it is as large as the fit's {:.3e}, a record of \
                          about {} would identify it",
                         theta.sqrt(),
                         duration(needed)
@@ -118,7 +119,7 @@ fn one(fit: &NoiseFit, t: Term, record_s: f64) -> TermPrecision {
                     TermPrecision {
                         needed_s: Some(needed),
                         note: format!(
-                            "not identifiable (at most {bound:.3e}): one a tenth as large would show in a record of \
+                            "not identifiable (at most {bound:.3e} {unit}): one a tenth as large would show in a record of \
                              about {}",
                             duration(needed)
                         ),
@@ -127,7 +128,7 @@ fn one(fit: &NoiseFit, t: Term, record_s: f64) -> TermPrecision {
                 }
                 None => TermPrecision {
                     note: format!(
-                        "not identifiable (at most {bound:.3e}): one a tenth as large stays under the other terms \
+                        "not identifiable (at most {bound:.3e} {unit}): one a tenth as large stays under the other terms \
                          at every tau"
                     ),
                     ..base
