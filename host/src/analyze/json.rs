@@ -6,13 +6,16 @@
 //! {"<stat>": [{"m", "tau_s", "n", "dev", "lo", "hi", "alpha", "edf"}]}, "fit": {"N": {"value", "lo", "hi", "unit",
 //! "identifiable", "alt": {"unit", "value"}}, ..., "chi2", "dof", "confidence", "tau_range_s", "classic"} or
 //! {"error"}, "bias_model": {"sigma", "tau_c_s", "tau_range_s", "points", "max_misfit", "chi2_per_dof"} or null,
-//! "record_length": [{"term", "identifiable", "precision", "target", "needed_s", "note"}] or null}]}`.
+//! "record_length": [{"term", "identifiable", "precision", "target", "needed_s", "note"}] or null, and with
+//! `--datasheet` "datasheet": [{"term", "datasheet", "written", "measured", "ratio", "ratio_lo", "ratio_hi",
+//! "verdict"}]}]}`.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 
 use super::ChannelAnalysis;
+use crate::datasheet::{compare, Comparison, Datasheet};
 use crate::fit::{record_length, ClassicReadouts, GaussMarkovFit, NoiseFit, Term, TermPrecision};
 use crate::quantity::Quantity;
 use crate::stats::DevPoint;
@@ -39,6 +42,9 @@ pub struct ChannelDoc<'a> {
     /// By the statistic's lower-case name (`oadev`, `mdev`, ...).
     pub stats: BTreeMap<String, Vec<PointDoc>>,
     pub fit: FitDoc<'a>,
+    /// Each term the datasheet gives against the fit, where `--datasheet` was given; absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub datasheet: Option<Vec<Comparison>>,
     /// Per term, the precision reached and the record length that reaches its target; null without a fit.
     pub record_length: Option<Vec<TermPrecision>>,
     /// The first-order Gauss-Markov bias model, or null.
@@ -106,10 +112,15 @@ pub struct AltDoc {
 
 /// The document of `channels`.
 pub fn to_json(channels: &[ChannelAnalysis]) -> Document<'_> {
-    Document { channels: channels.iter().map(channel).collect() }
+    to_json_with(channels, None)
 }
 
-fn channel(c: &ChannelAnalysis) -> ChannelDoc<'_> {
+/// The document of `channels`, each fit compared with `sheet` where given.
+pub fn to_json_with<'a>(channels: &'a [ChannelAnalysis], sheet: Option<&Datasheet>) -> Document<'a> {
+    Document { channels: channels.iter().map(|c| channel(c, sheet)).collect() }
+}
+
+fn channel<'a>(c: &'a ChannelAnalysis, sheet: Option<&Datasheet>) -> ChannelDoc<'a> {
     let stats = c.stats.iter().map(|(s, pts)| (s.name().to_ascii_lowercase(), pts.iter().map(point).collect()));
     let fit = match &c.fit {
         Ok(f) => FitDoc::Fit(Box::new(terms(f, c.quantity))),
@@ -127,6 +138,7 @@ fn channel(c: &ChannelAnalysis) -> ChannelDoc<'_> {
         fit,
         bias_model: c.bias_model.as_ref(),
         record_length: c.fit.as_ref().ok().map(|f| record_length(f, c.n_samples as f64 * c.tau0_s)),
+        datasheet: c.fit.as_ref().ok().zip(sheet.and_then(|d| d.sensor(c.quantity))).map(|(f, s)| compare(f, s)),
     }
 }
 

@@ -14,7 +14,7 @@ pub mod streamed;
 pub mod text;
 
 pub use csv::{points_csv, to_csv};
-pub use json::{to_json, Document};
+pub use json::{to_json, to_json_with, Document};
 pub use model::{fine_channel, model_from_fits};
 pub use text::{fit_report, report, table};
 

@@ -4,12 +4,20 @@
 use std::fmt::Write as _;
 
 use super::ChannelAnalysis;
+use crate::datasheet::Datasheet;
 use crate::fit::{NoiseFit, Term};
 use crate::quantity::Quantity;
 use crate::stats::{DevPoint, Statistic};
 
-/// The whole report: a line naming the source, then each channel's tables and fit (or why it has none).
-pub fn report(source: &str, samples: u64, rate_hz: f64, channels: &[ChannelAnalysis]) -> String {
+/// The whole report: a line naming the source, then each channel's tables and fit (or why it has none), and
+/// the fit against `sheet` where a datasheet was given.
+pub fn report(
+    source: &str,
+    samples: u64,
+    rate_hz: f64,
+    channels: &[ChannelAnalysis],
+    sheet: Option<&Datasheet>,
+) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# {source}: {samples} samples at {rate_hz} Hz");
     for c in channels {
@@ -37,6 +45,9 @@ pub fn report(source: &str, samples: u64, rate_hz: f64, channels: &[ChannelAnaly
                 s.push_str(&fit_report(f, c.quantity));
                 s.push_str(&bias_model_line(c));
                 s.push_str(&record_length_lines(f, c.n_samples as f64 * c.tau0_s));
+                if let Some(sensor) = sheet.and_then(|d| d.sensor(c.quantity)) {
+                    s.push_str(&crate::datasheet::comparison_text(&crate::datasheet::compare(f, sensor), c.quantity));
+                }
             }
             Err(e) => {
                 let _ = writeln!(s, "no fit: {e}");

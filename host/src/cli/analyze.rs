@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use octavar::analyze::{self, AnalyzeOptions, ChannelAnalysis};
+use octavar::datasheet::Datasheet;
 use octavar::export::{ExportFormat, ExportRequest, ImuNoise};
 use octavar::fit::FitOptions;
 use octavar::io::csv::CsvOptions;
@@ -73,6 +74,10 @@ pub struct Args {
     /// vins, orbslam3, gtsam, kfgins, gz, matlab. Each file opens with where every number came from.
     #[arg(long = "export", value_name = "FORMAT=FILE")]
     pub exports: Vec<String>,
+    /// A datasheet (TOML, figures in any customary unit; docs/exports.md): each fitted term against it, measured /
+    /// datasheet with the interval, in the report and the JSON.
+    #[arg(long, value_name = "FILE.toml")]
+    pub datasheet: Option<PathBuf>,
     /// Multiply every noise figure of the exports by X (a margin for motion, vibration and temperature that a
     /// still bench does not see; the files say so).
     #[arg(long, value_name = "X", default_value_t = 1.0)]
@@ -188,9 +193,11 @@ impl Args {
         range: impl FnOnce() -> f64,
         results: &[ChannelAnalysis],
     ) -> anyhow::Result<ExitCode> {
-        std::io::stdout().lock().write_all(analyze::report(source, samples, rate_hz, results).as_bytes())?;
+        let sheet = self.datasheet.as_deref().map(Datasheet::read).transpose()?;
+        let report = analyze::report(source, samples, rate_hz, results, sheet.as_ref());
+        std::io::stdout().lock().write_all(report.as_bytes())?;
         if let Some(path) = &self.json {
-            let doc = analyze::to_json(results);
+            let doc = analyze::to_json_with(results, sheet.as_ref());
             std::fs::write(path, serde_json::to_string_pretty(&doc)?)
                 .with_context(|| format!("writing {}", path.display()))?;
         }

@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 pub mod accumulate;
 pub mod analyze;
 pub mod csv_args;
+pub mod datasheet;
 pub mod decode;
 pub mod demo;
 pub mod gap;
@@ -31,6 +32,8 @@ pub enum Command {
     Accumulate(accumulate::Args),
     /// Analyse a rate recording: the Allan deviation family with confidence intervals, the IEEE 952 noise terms.
     Analyze(analyze::Args),
+    /// Turn datasheet figures in any unit into octavar's units and the estimators' configs (--export).
+    Datasheet(datasheet::Args),
     /// Simulate a gyro bench from a model (flags or model.toml): CSV of rates in deg/s, or raw ADC codes.
     Simulate(simulate::Args),
     /// Record a device's frames (serial port, file or stdin) into a capture file, with live counts; survives unplugging.
@@ -49,6 +52,7 @@ impl Command {
             Command::Demo(a) => a.run(),
             Command::Accumulate(a) => a.run(),
             Command::Analyze(a) => a.run(),
+            Command::Datasheet(a) => a.run(),
             Command::Simulate(a) => a.run(),
             Command::Record(a) => a.run(),
             Command::Decode(a) => a.run(),

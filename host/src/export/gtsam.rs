@@ -31,7 +31,7 @@ pub(super) fn render(n: &ImuNoise) -> String {
     let mut fields: Vec<(String, String, String)> = rows
         .iter()
         .map(|(k, f, q)| {
-            let (name, value, how) = field(k, *f, no_sensor(*q));
+            let (name, value, how) = field(k, *f, no_sensor(n, *q));
             match f {
                 Some(f) => (name, format!("{} I", sci(f.value * f.value)), format!("the square of {how}")),
                 None => (name, value, how),

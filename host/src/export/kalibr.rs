@@ -24,8 +24,8 @@ pub(super) fn fields(n: &ImuNoise) -> Vec<(&'static str, Option<f64>, (String, S
             Quantity::AngularRate => ("gyroscope_noise_density", "gyroscope_random_walk"),
             Quantity::Acceleration => ("accelerometer_noise_density", "accelerometer_random_walk"),
         };
-        out.push((dn, density.map(|f| f.value), field(dn, density, no_sensor(q))));
-        out.push((wn, walk.map(|f| f.value), field(wn, walk, no_sensor(q))));
+        out.push((dn, density.map(|f| f.value), field(dn, density, no_sensor(n, q))));
+        out.push((wn, walk.map(|f| f.value), field(wn, walk, no_sensor(n, q))));
     }
     out
 }

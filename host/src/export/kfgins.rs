@@ -31,7 +31,7 @@ pub(super) fn render(n: &ImuNoise) -> String {
     let corr = gb.or(ab).map(|m| m.tau_c_s / 3600.0);
     let line = |name: &str, v: &Option<(f64, String)>, unit: &str, conv: &str, q: Quantity| match v {
         Some((x, how)) => (name.to_string(), format!("{x:.6} {unit}"), format!("{how}, {conv}")),
-        None => (name.to_string(), "(not written)".to_string(), no_sensor(q).to_string()),
+        None => (name.to_string(), "(not written)".to_string(), no_sensor(n, q).to_string()),
     };
     let mut fields = vec![
         line("arw", &arw, "deg/sqrt(h)", "x 180/pi x 60", Quantity::AngularRate),

@@ -17,13 +17,13 @@ pub(super) fn render(n: &ImuNoise) -> String {
     for (q, var, s) in
         [(Quantity::AngularRate, "gyro", n.gyro.as_ref()), (Quantity::Acceleration, "accel", n.accel.as_ref())]
     {
-        fields.push(field(&format!("{var}.NoiseDensity"), s.and_then(|s| s.density.as_ref()), no_sensor(q)));
+        fields.push(field(&format!("{var}.NoiseDensity"), s.and_then(|s| s.density.as_ref()), no_sensor(n, q)));
         fields.push(field(
             &format!("{var}.BiasInstability"),
             s.and_then(|s| s.bias_instability.as_ref()),
-            no_sensor(q),
+            no_sensor(n, q),
         ));
-        fields.push(field(&format!("{var}.RandomWalk"), s.and_then(|s| s.random_walk.as_ref()), no_sensor(q)));
+        fields.push(field(&format!("{var}.RandomWalk"), s.and_then(|s| s.random_walk.as_ref()), no_sensor(n, q)));
     }
     let mut s = provenance("%", n, "MATLAB imuSensor parameters", CONVENTION, &fields);
     let mut parts = Vec::new();

@@ -153,7 +153,7 @@ pub(crate) fn provenance(
     fields: &[(String, String, String)],
 ) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "{comment} {format}, written by octavar analyze from {} at {} Hz.", n.source, real(n.rate_hz));
+    let _ = writeln!(s, "{comment} {format}, written by octavar from {} at {} Hz.", n.source, real(n.rate_hz));
     for line in wrap(convention, 100) {
         let _ = writeln!(s, "{comment} {line}");
     }
@@ -197,10 +197,16 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
 }
 
 /// Why a sensor's figure is missing.
-pub(crate) fn no_sensor(q: crate::quantity::Quantity) -> &'static str {
-    match q {
-        crate::quantity::Quantity::AngularRate => "no gyro channel was analysed (--column): add your gyro's figure",
-        crate::quantity::Quantity::Acceleration => {
+pub(crate) fn no_sensor(n: &ImuNoise, q: crate::quantity::Quantity) -> &'static str {
+    use crate::quantity::Quantity;
+    let given = match q {
+        Quantity::AngularRate => n.gyro.is_some(),
+        Quantity::Acceleration => n.accel.is_some(),
+    };
+    match (given, q) {
+        (true, _) => "the source gives no figure for it",
+        (false, Quantity::AngularRate) => "no gyro channel was analysed (--column): add your gyro's figure",
+        (false, Quantity::Acceleration) => {
             "no accelerometer channel was analysed (--accel-column): add your accelerometer's figure"
         }
     }

@@ -7,6 +7,7 @@
 //! the user's `inflate` factor, never silently.
 
 use crate::analyze::ChannelAnalysis;
+use crate::datasheet::{Datasheet, SensorSheet};
 use crate::fit::{Term, FLICKER_AVAR_FACTOR};
 use crate::quantity::Quantity;
 
@@ -83,6 +84,19 @@ impl ImuNoise {
             let axes: Vec<&ChannelAnalysis> = channels.iter().filter(|c| c.quantity == q).collect();
             (!axes.is_empty()).then(|| SensorNoise::of(q, &axes, inflate))
         };
+        ImuNoise {
+            source: source.to_string(),
+            rate_hz,
+            topic: topic.to_string(),
+            inflate,
+            gyro: sensor(Quantity::AngularRate),
+            accel: sensor(Quantity::Acceleration),
+        }
+    }
+
+    /// The figures of a datasheet for a config at `rate_hz`.
+    pub fn from_datasheet(sheet: &Datasheet, source: &str, rate_hz: f64, topic: &str, inflate: f64) -> Self {
+        let sensor = |q: Quantity| sheet.sensor(q).map(|s| SensorNoise::of_sheet(q, s, inflate));
         ImuNoise {
             source: source.to_string(),
             rate_hz,
@@ -195,6 +209,50 @@ impl SensorNoise {
         let bias_model = bias_model(q, axes, inflate, &of_axes, &conv, &inflated);
         let means = axes.iter().map(|c| c.mean.unwrap_or(f64::NAN) * si).collect();
         SensorNoise { quantity: q, axes: names, density, random_walk, bias_instability, bias_model, means }
+    }
+}
+
+impl SensorNoise {
+    fn of_sheet(q: Quantity, sheet: &SensorSheet, inflate: f64) -> Self {
+        let si = q.to_si();
+        let inflated = if inflate != 1.0 { format!(" x {inflate} (--inflate)") } else { String::new() };
+        let conv = if si != 1.0 { " x pi/180" } else { "" };
+        let figure = |t: Term, unit: &'static str| {
+            let v = sheet.get(t)?;
+            let written = sheet.written.get(t.name()).cloned().unwrap_or_default();
+            Some(Figure {
+                value: v * si * inflate,
+                lo: None,
+                hi: None,
+                unit,
+                how: format!("the datasheet's {} = \"{written}\" = {v:.4e} {}{conv}{inflated}", t.name(), t.unit_of(q)),
+            })
+        };
+        let bias_model = match (sheet.get(Term::B), sheet.bias_correlation_time_s) {
+            (Some(b), Some(tc)) => {
+                let sigma = FLICKER_AVAR_FACTOR.sqrt() * b / GM_PEAK_ADEV;
+                Some(BiasModel {
+                    sigma: sigma * si * inflate,
+                    tau_c_s: tc,
+                    how: format!(
+                        "the Gauss-Markov process whose ADEV peak (0.618 sigma) sits on the datasheet's flicker floor \
+                         (B = {b:.4e} {}), with its bias_correlation_time: sigma = {sigma:.4e} {}{conv}{inflated}",
+                        Term::B.unit_of(q),
+                        q.unit()
+                    ),
+                })
+            }
+            _ => None,
+        };
+        SensorNoise {
+            quantity: q,
+            axes: Vec::new(),
+            density: figure(Term::N, density_unit(q)),
+            random_walk: figure(Term::K, walk_unit(q)),
+            bias_instability: figure(Term::B, q.si_unit()),
+            bias_model,
+            means: Vec::new(),
+        }
     }
 }
 

@@ -21,7 +21,7 @@ pub(super) fn render(n: &ImuNoise) -> String {
         ("IMU.GyroWalk", g.and_then(|s| s.random_walk.as_ref()), Quantity::AngularRate),
         ("IMU.AccWalk", a.and_then(|s| s.random_walk.as_ref()), Quantity::Acceleration),
     ];
-    let fields: Vec<(String, String, String)> = rows.iter().map(|(k, f, q)| field(k, *f, no_sensor(*q))).collect();
+    let fields: Vec<(String, String, String)> = rows.iter().map(|(k, f, q)| field(k, *f, no_sensor(n, *q))).collect();
     let mut s = String::from("%YAML:1.0\n");
     s += &provenance("#", n, "ORB-SLAM3 IMU settings", CONVENTION, &fields);
     for (k, f, _) in rows {

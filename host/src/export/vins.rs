@@ -24,7 +24,8 @@ pub(super) fn render(n: &ImuNoise) -> String {
         ("acc_w", a.and_then(|s| s.random_walk.as_ref()), Quantity::Acceleration),
         ("gyr_w", g.and_then(|s| s.random_walk.as_ref()), Quantity::AngularRate),
     ];
-    let mut fields: Vec<(String, String, String)> = rows.iter().map(|(k, f, q)| field(k, *f, no_sensor(*q))).collect();
+    let mut fields: Vec<(String, String, String)> =
+        rows.iter().map(|(k, f, q)| field(k, *f, no_sensor(n, *q))).collect();
     let gravity = n.gravity();
     let g_norm = gravity.unwrap_or(STANDARD_GRAVITY);
     fields.push((
