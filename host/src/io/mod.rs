@@ -12,5 +12,6 @@ pub mod formats;
 pub mod imu_topic;
 pub mod input;
 pub mod recording;
+pub mod ros1_bag;
 pub mod ros2_bag;
 pub mod tdms;
