@@ -3,6 +3,7 @@
 mod acc_allantools;
 mod corruption;
 mod demo_bench;
+mod exports;
 mod fft_gyro;
 mod fit_coverage;
 mod gap_evidence;
