@@ -21,7 +21,8 @@ use super::csv_args::CsvArgs;
 /// with intervals, and the files to go on with.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, .mcap (ROS 2 bag), a capture.
+    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, a ROS bag (.mcap or .db3, a
+    /// rosbag2 directory of .db3 files, a ROS 1 .bag), a capture.
     pub input: PathBuf,
     /// A rate column to analyse (repeat for several channels; required for CSV; `group/channel` in a TDMS file;
     /// x, y or z of a bag's angular velocity, all three by default; names the channels of a binary input).
@@ -82,7 +83,8 @@ pub struct Args {
     /// still bench does not see; the files say so).
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub inflate: f64,
-    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap: a ROS 2 bag), capture
+    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap: a ROS 2 bag), db3 (default
+    /// for .db3 and a rosbag2 directory: a ROS 2 bag in SQLite), bag (default for .bag: a ROS 1 bag), capture
     /// (default for .cap/.capture files), or raw little-endian samples f64le, f32le, i16le, u16le (streamed: OADEV
     /// at octave tau and the fit, any length in bounded memory).
     #[arg(long, value_name = "FORMAT")]
@@ -262,13 +264,13 @@ impl Args {
         let ext = self.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         let kind = match self.format.as_deref().map(|f| f.trim().to_ascii_lowercase()) {
             Some(f) if f == "csv" => None,
-            Some(f) if f == "tdms" || f == "mcap" => return Ok(None),
+            Some(f) if matches!(f.as_str(), "tdms" | "mcap" | "bag" | "db3") => return Ok(None),
             Some(f) if f == "capture" => Some(StreamKind::Capture),
             Some(f) => Some(StreamKind::Binary(octavar::io::binary::BinaryFormat::parse(&f).with_context(|| {
-                format!("--format {f:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le")
+                format!("--format {f:?}: use csv, tdms, mcap, db3, bag, capture, f64le, f32le, i16le or u16le")
             })?)),
             None if ext == "cap" || ext == "capture" => Some(StreamKind::Capture),
-            None if ext == "tdms" || ext == "mcap" => return Ok(None),
+            None if matches!(ext.as_str(), "tdms" | "mcap" | "bag" | "db3") => return Ok(None),
             None => None,
         };
         let size = std::fs::metadata(&self.input).map(|m| m.len()).unwrap_or(0);
