@@ -105,6 +105,7 @@ impl Args {
     pub fn run(self) -> anyhow::Result<ExitCode> {
         let mut rec = self.read(&self.input, &self.reading.filters)?;
         let rate_hz = rec.rate_hz;
+        let quantity = rec.quantity(0);
         let separate = self.holdout.is_some() || !self.holdout_filters.is_empty();
         let input = if separate {
             let path = self.holdout.clone().unwrap_or_else(|| self.input.clone());
@@ -128,6 +129,7 @@ impl Args {
             oversample: self.oversample as usize,
             holdout_check: self.holdout_check.into(),
             keep_transients: self.keep_transients,
+            quantity,
             ..Default::default()
         };
         let bar = Mutex::new(None::<Progress>);

@@ -85,6 +85,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, report_progress: &ProgressF
     progress.expect("done", 0);
     let summary = report::InputSummary {
         rate_hz,
+        quantity: opts.quantity,
         n_train,
         n_holdout: n_hold,
         missing,

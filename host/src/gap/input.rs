@@ -7,6 +7,7 @@ use serde::Serialize;
 use super::effects::Effect;
 use super::error::GapError;
 use crate::fit::{FitOptions, NoiseFit};
+use crate::quantity::Quantity;
 
 /// Fewest samples a part may have.
 pub const MIN_PART: usize = 256;
@@ -131,6 +132,8 @@ pub struct GapOptions {
     /// Leave transient disturbances in the record (`--keep-transients`); by default they are found in both parts
     /// and masked as gaps before anything else is done ([`super::transients`]).
     pub keep_transients: bool,
+    /// What the record measures: the report names its units (deg/s for a gyro, m/s^2 for an accelerometer).
+    pub quantity: Quantity,
 }
 
 impl Default for GapOptions {
@@ -145,6 +148,7 @@ impl Default for GapOptions {
             oversample: 1,
             holdout_check: HoldoutCheck::Plain,
             keep_transients: false,
+            quantity: Quantity::AngularRate,
         }
     }
 }

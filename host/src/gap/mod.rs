@@ -163,8 +163,10 @@ mod tests {
             k.sort_unstable();
             k
         };
-        let input = ["channel", "fs_hz", "has_temperature", "missing_samples", "n_holdout", "n_train", "seeds"];
-        assert_eq!(section_keys("input"), [&input[..], &["transients"]].concat());
+        let input =
+            ["channel", "fs_hz", "has_temperature", "kind", "missing_samples", "n_holdout", "n_train", "seeds", "unit"];
+        assert_eq!(section_keys("input"), [&input[..8], &["transients"], &input[8..]].concat());
+        assert_eq!((doc["input"]["kind"].as_str(), doc["input"]["unit"].as_str()), (Some("gyro"), Some("deg/s")));
         let base = ["band_s", "fit", "fit_strain", "model", "sign", "significant", "size", "total", "view", "worst"];
         assert_eq!(section_keys("base"), base);
         let chain = ["effects", "model", "model_channel", "total", "unexplained", "verdict", "worst"];

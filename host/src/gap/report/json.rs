@@ -90,6 +90,8 @@ impl GapReport {
         Document {
             input: InputDoc {
                 fs_hz: self.input.rate_hz,
+                kind: self.input.quantity.kind(),
+                unit: self.input.quantity.unit(),
                 n_train: self.input.n_train,
                 n_holdout: self.input.n_holdout,
                 missing_samples,
@@ -392,6 +394,10 @@ impl BeforeAfter {
 #[derive(Debug, Serialize)]
 struct InputDoc<'a> {
     fs_hz: f64,
+    /// `gyro` or `accel`: an accelerometer's figures (the keys named `_dps` included) are in m/s^2.
+    kind: &'static str,
+    /// The unit of the record and of every figure named `_dps`.
+    unit: &'static str,
     n_train: usize,
     n_holdout: usize,
     missing_samples: Missing,

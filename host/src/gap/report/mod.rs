@@ -44,6 +44,7 @@ use super::judge::Evaluated;
 use super::rank::{self, CandidateResult, Location, PartGap};
 use super::transients::{self, Masked};
 use crate::fit::NoiseFit;
+use crate::quantity::Quantity;
 use crate::stats::DevPoint;
 
 /// The base fit's reduced chi-square above which the report says the IEEE five-term model cannot follow the
@@ -76,6 +77,9 @@ pub struct GapReport {
 pub struct InputSummary {
     /// Sample rate, Hz.
     pub rate_hz: f64,
+    /// What the record measures: a gyro's figures are in deg/s, an accelerometer's in m/s^2 (the diagnosis is the
+    /// same; the names of the units differ).
+    pub quantity: Quantity,
     /// Training samples.
     pub n_train: usize,
     /// Held-out samples.

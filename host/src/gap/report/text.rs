@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 use serde_json::Value;
 
 use super::{GapReport, Verdict};
+use crate::fit::Term;
 use crate::gap::chain::{NamedBy, Step};
 use crate::gap::compare::ViewGap;
 use crate::gap::effects::{Effect, EffectParams};
@@ -50,18 +51,29 @@ impl GapReport {
         for t in &self.input.transients {
             let _ = writeln!(
                 s,
-                "  transient in the {} part at {:.1} s for {:.1} s, peak {:.3e} deg/s: masked as a gap",
+                "  transient in the {} part at {:.1} s for {:.1} s, peak {:.3e} {}: masked as a gap",
                 t.part.name(),
                 t.start_s,
                 t.duration_s,
-                t.peak_dps
+                t.peak_dps,
+                self.input.quantity.unit()
             );
         }
         let b = &self.base;
+        let q = self.input.quantity;
         let _ = writeln!(
             s,
-            "base model (IEEE 952 fit on training): N {:.3e} deg/sqrt(s), B {:.3e} deg/s, K {:.3e} deg/s/sqrt(s), R {:.3e} deg/s^2, bias {:.4e} deg/s",
-            b.gyro.n_deg_per_rt_s, b.gyro.b_dps, b.gyro.k_dps_per_rt_s, b.gyro.r_dps_per_s, b.gyro.bias_dps
+            "base model (IEEE 952 fit on training): N {:.3e} {}, B {:.3e} {}, K {:.3e} {}, R {:.3e} {}, bias {:.4e} {}",
+            b.gyro.n_deg_per_rt_s,
+            Term::N.unit_of(q),
+            b.gyro.b_dps,
+            Term::B.unit_of(q),
+            b.gyro.k_dps_per_rt_s,
+            Term::K.unit_of(q),
+            b.gyro.r_dps_per_s,
+            Term::R.unit_of(q),
+            b.gyro.bias_dps,
+            q.unit()
         );
         if let Some(r) = self.fit_strain() {
             let _ = writeln!(
