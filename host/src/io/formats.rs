@@ -1,16 +1,19 @@
 //! Which reader a recording goes through, and the recording in memory whatever the format: CSV (also gzipped,
-//! or stdin), NI TDMS ([`crate::io::tdms`]), a ROS 2 bag in MCAP ([`crate::io::ros2_bag`]), raw little-endian samples,
-//! or the raw samples of a device capture. `analyze` and `gap` read through here, so both take every format. The format is the `--format` flag,
-//! or else the file's extension (`.tdms`, `.mcap`), or else CSV.
-
+//! or stdin), NI TDMS ([`crate::io::tdms`]), ROS bags of `sensor_msgs` Imu messages (ROS 2 in MCAP,
+//! [`crate::io::ros2_bag`]; ROS 2 in rosbag2's SQLite storage, a `.db3` file or a bag directory,
+//! [`crate::io::ros2_db3`]; ROS 1, [`crate::io::ros1_bag`]), raw little-endian samples, or the raw samples of a
+//! device capture. `analyze` and `gap` read through here, so both take every format. The format is the `--format`
+//! flag, or else the file's extension (`.tdms`, `.mcap`, `.bag`, `.db3`; a directory with `metadata.yaml` and
+//! `.db3` files is a rosbag2 bag), or else CSV.
 use std::io::Read;
 use std::path::Path;
 
 use crate::io::binary::BinaryFormat;
 use crate::io::csv::{CsvOptions, RecordingError};
+use crate::io::imu_topic::{BagError, ImuBag};
 use crate::io::recording::{RateUnit, Recording, StreamInfo};
-use crate::io::ros2_bag::{self, BagError};
 use crate::io::tdms::{self, TdmsError};
+use crate::io::{ros1_bag, ros2_bag, ros2_db3};
 
 /// A recording's file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,8 +22,12 @@ pub enum RecordingFormat {
     Csv,
     /// National Instruments TDMS; columns are `group/channel`.
     Tdms,
-    /// A ROS 2 bag in MCAP with `sensor_msgs/msg/Imu` messages; channels `x`, `y`, `z`.
+    /// A ROS 2 bag in MCAP with `sensor_msgs/msg/Imu` messages; channels `x`, `y`, `z` (and `ax`, `ay`, `az`).
     Mcap,
+    /// A ROS 2 bag in rosbag2's SQLite storage (a `.db3` file or a bag directory), channels as [`Self::Mcap`].
+    Db3,
+    /// A ROS 1 bag with `sensor_msgs/Imu` messages, channels as [`Self::Mcap`].
+    Ros1Bag,
     /// Raw interleaved little-endian samples.
     Binary(BinaryFormat),
     /// A device capture's raw sample frames; columns are the hello's channel names.
@@ -28,22 +35,28 @@ pub enum RecordingFormat {
 }
 
 impl RecordingFormat {
-    /// The format named by `flag` (csv, tdms, mcap, f64le, f32le, i16le, u16le), or else the one `path`'s
-    /// extension says, or else CSV. `None` for a flag naming no format read here.
+    /// The format named by `flag` (csv, tdms, mcap, db3, bag, capture, f64le, f32le, i16le, u16le), or else the
+    /// one `path`'s extension says (a rosbag2 directory of `.db3` files is [`Self::Db3`]), or else CSV. `None` for
+    /// a flag naming no format read here.
     pub fn of(path: &Path, flag: Option<&str>) -> Option<RecordingFormat> {
         match flag.map(|f| f.trim().to_ascii_lowercase()) {
             Some(f) => match f.as_str() {
                 "csv" => Some(RecordingFormat::Csv),
                 "tdms" => Some(RecordingFormat::Tdms),
                 "mcap" => Some(RecordingFormat::Mcap),
+                "db3" => Some(RecordingFormat::Db3),
+                "bag" => Some(RecordingFormat::Ros1Bag),
                 "capture" => Some(RecordingFormat::Capture),
                 _ => BinaryFormat::parse(&f).map(RecordingFormat::Binary),
             },
+            None if ros2_db3::is_db3_dir(path) => Some(RecordingFormat::Db3),
             None => {
                 let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
                 Some(match ext.as_str() {
                     "tdms" => RecordingFormat::Tdms,
                     "mcap" => RecordingFormat::Mcap,
+                    "db3" => RecordingFormat::Db3,
+                    "bag" => RecordingFormat::Ros1Bag,
                     "cap" | "capture" => RecordingFormat::Capture,
                     _ => RecordingFormat::Csv,
                 })
@@ -108,7 +121,8 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
     if format != RecordingFormat::Csv {
         let label = match format {
             RecordingFormat::Tdms => "TDMS",
-            RecordingFormat::Mcap => "a ROS 2 bag",
+            RecordingFormat::Mcap | RecordingFormat::Db3 => "a ROS 2 bag",
+            RecordingFormat::Ros1Bag => "a ROS 1 bag",
             RecordingFormat::Capture => "a capture",
             _ => "raw samples",
         };
@@ -135,11 +149,17 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
             }
             Ok(rec)
         }
-        RecordingFormat::Mcap => {
+        RecordingFormat::Mcap | RecordingFormat::Db3 | RecordingFormat::Ros1Bag => {
+            type Reader = fn(&Path, Option<&str>, Option<f64>) -> Result<ImuBag, BagError>;
+            let (read, label): (Reader, _) = match format {
+                RecordingFormat::Mcap => (ros2_bag::read_imu_bag, "a ROS 2 bag"),
+                RecordingFormat::Db3 => (ros2_db3::read_imu_bag, "a ROS 2 bag"),
+                _ => (ros1_bag::read_imu_bag, "a ROS 1 bag"),
+            };
             if csv.temp_column.is_some() {
-                return Err(csv_only("--temp-column", "a ROS 2 bag"));
+                return Err(csv_only("--temp-column", label));
             }
-            let bag = ros2_bag::read_imu_bag(path, opts.topic.as_deref(), csv.rate_hz)?;
+            let bag = read(path, opts.topic.as_deref(), csv.rate_hz)?;
             let mut rec = bag.recording;
             if !csv.columns.is_empty() || !csv.accel_columns.is_empty() {
                 pick_bag_channels(&mut rec, csv, &name)?;

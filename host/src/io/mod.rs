@@ -14,4 +14,5 @@ pub mod input;
 pub mod recording;
 pub mod ros1_bag;
 pub mod ros2_bag;
+pub mod ros2_db3;
 pub mod tdms;

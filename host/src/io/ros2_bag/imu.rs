@@ -3,6 +3,8 @@
 
 use byteorder::{BigEndian, LittleEndian};
 
+use crate::io::imu_topic::Message;
+
 /// `sensor_msgs/msg/Imu` and the types it contains, as serde structs in CDR field order.
 pub mod msg {
     use serde::Deserialize;
@@ -75,4 +77,16 @@ pub fn decode_imu(data: &[u8]) -> Result<msg::Imu, String> {
         return Err(format!("{left} bytes left over after the message (a different message layout?)"));
     }
     Ok(imu)
+}
+
+/// The fields octavar keeps of a decoded message that the recorder logged at `log_time` (ns).
+pub(crate) fn kept(m: &msg::Imu, log_time: u64) -> Message<'_> {
+    Message {
+        stamp_ns: i64::from(m.header.stamp.sec) * 1_000_000_000 + i64::from(m.header.stamp.nanosec),
+        log_time,
+        frame_id: &m.header.frame_id,
+        w: [m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z],
+        a: [m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z],
+        a_cov0: m.linear_acceleration_covariance[0],
+    }
 }

@@ -1,4 +1,5 @@
-//! Reading ROS 2 bags in MCAP format: one `sensor_msgs/msg/Imu` topic as a [`Recording`](crate::io::recording::Recording).
+//! Reading ROS 2 bags in MCAP format: one `sensor_msgs/msg/Imu` topic as a
+//! [`Recording`](crate::io::recording::Recording).
 //!
 //! Reads MCAP files (rosbag2's default storage, and what the `mcap` writers make), with chunks uncompressed,
 //! zstd or lz4 (decompressed in pure Rust and checked against their CRC), or no chunks at all. Of each message
@@ -22,6 +23,7 @@ use std::path::Path;
 
 use crate::io::imu_topic::{self, Want};
 pub use crate::io::imu_topic::{grid_positions, BagError, ImuBag, TimeSource};
+pub(crate) use imu::kept;
 pub use imu::{decode_imu, msg};
 use scan::scan;
 

@@ -9,9 +9,9 @@ use mcap::records::{op, Record};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::McapError;
 
-use super::imu::decode_imu;
+use super::imu::{decode_imu, kept};
 use super::{BagError, IMU_TYPE};
-use crate::io::imu_topic::{Message, Topics, Want};
+use crate::io::imu_topic::{Topics, Want};
 
 /// What a cut-off MCAP file's error suggests.
 const TRUNCATED_HINT: &str =
@@ -196,14 +196,7 @@ impl Scan {
             return Ok(());
         }
         let decoded = decode_imu(data);
-        let decoded = decoded.as_ref().map(|m| Message {
-            stamp_ns: i64::from(m.header.stamp.sec) * 1_000_000_000 + i64::from(m.header.stamp.nanosec),
-            log_time,
-            frame_id: &m.header.frame_id,
-            w: [m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z],
-            a: [m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z],
-            a_cov0: m.linear_acceleration_covariance[0],
-        });
+        let decoded = decoded.as_ref().map(|m| kept(m, log_time));
         t.take(&self.path, IMU_TYPE, String::new, decoded.map_err(Clone::clone));
         Ok(())
     }
