@@ -15,6 +15,14 @@ pub fn median_in_place(v: &mut [f64]) -> f64 {
     *m
 }
 
+/// The Gaussian-consistent robust scale of `v`, 1.4826 times its median absolute deviation, and its median
+/// (reordering `v`); NaN when `v` is empty.
+pub fn mad_scale_in_place(v: &mut [f64]) -> (f64, f64) {
+    let med = median_in_place(v);
+    let mut dev: Vec<f64> = v.iter().map(|x| (x - med).abs()).collect();
+    (med, 1.4826 * median_in_place(&mut dev))
+}
+
 /// The `p` quantile of `v` (the element of rank round((n - 1) p)), reordering it; NaN when `v` is empty.
 pub fn quantile_in_place(v: &mut [f64], p: f64) -> f64 {
     if v.is_empty() {

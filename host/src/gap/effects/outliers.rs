@@ -38,6 +38,7 @@ use super::common::*;
 use super::curve::{ar1_avar, refit_base_terms};
 use super::params::OutliersParams;
 use super::{Effect, EffectFit, EffectKind, TrainingData};
+use crate::stats::robust::mad_scale_in_place;
 
 mod mixture;
 #[cfg(test)]
@@ -99,58 +100,39 @@ fn residuals(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Vec<f64> {
     for i in 0..n {
         prefix[i + 1] = prefix[i] + usize::from(gap[i]);
     }
-    // The median of the neighbours in `range`, without the skipped ones where enough remain.
-    let median_of = |range: std::ops::Range<usize>, least: usize, w: &mut [f64]| -> f64 {
-        let mut k = 0;
-        if let Some(skip) = skip {
-            for j in range.clone().filter(|&j| !skip[j]) {
+    // The median of the neighbours at `at`, without the skipped ones where at least `least` remain.
+    let median_of = |at: &mut dyn Iterator<Item = usize>, least: usize, w: &mut [f64]| -> f64 {
+        let (mut k, mut all) = (0, 0);
+        for j in at {
+            if skip.is_none_or(|s| !s[j]) {
                 w[k] = x[j];
                 k += 1;
             }
+            // The whole window, kept past the unskipped ones for the case too few remain.
+            w[2 * HALF_WINDOW + all] = x[j];
+            all += 1;
         }
         if k < least {
-            k = 0;
-            for j in range {
-                w[k] = x[j];
-                k += 1;
-            }
+            w.copy_within(2 * HALF_WINDOW..2 * HALF_WINDOW + all, 0);
+            k = all;
         }
         median_small(&mut w[..k])
     };
-    let mut w = [0.0; 2 * HALF_WINDOW];
-    let mut both = [0.0; 2 * HALF_WINDOW];
+    let mut w = [0.0; 4 * HALF_WINDOW];
     for i in h..n.saturating_sub(h) {
         if prefix[i + h + 1] - prefix[i - h] > 0 {
             continue;
         }
-        let mut k = 0;
-        if let Some(skip) = skip {
-            for j in (i - h..i).chain(i + 1..=i + h).filter(|&j| !skip[j]) {
-                both[k] = x[j];
-                k += 1;
-            }
-        }
-        if k < h {
-            k = 0;
-            for j in (i - h..i).chain(i + 1..=i + h) {
-                both[k] = x[j];
-                k += 1;
-            }
-        }
-        r[i] = x[i] - median_small(&mut both[..k]);
-        let left = median_of(i - h..i, h / 2, &mut w);
-        let right = median_of(i + 1..i + h + 1, h / 2, &mut w);
+        r[i] = x[i] - median_of(&mut (i - h..i).chain(i + 1..=i + h), h, &mut w);
+        let left = median_of(&mut (i - h..i), h / 2, &mut w);
+        let right = median_of(&mut (i + 1..i + h + 1), h / 2, &mut w);
         sides[i] = (x[i] - left, x[i] - right);
     }
     let mut valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
     if valid.is_empty() {
         return r;
     }
-    let k = valid.len() / 2;
-    let med = *valid.select_nth_unstable_by(k, f64::total_cmp).1;
-    let mut dev: Vec<f64> = valid.iter().map(|v| (v - med).abs()).collect();
-    let k = dev.len() / 2;
-    let scale = 1.4826 * *dev.select_nth_unstable_by(k, f64::total_cmp).1;
+    let (_, scale) = mad_scale_in_place(&mut valid);
     if !(scale > 0.0) {
         return r;
     }
