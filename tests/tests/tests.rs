@@ -10,6 +10,7 @@ mod gap_evidence;
 mod gap_real;
 mod gap_sweep;
 mod gap_withheld;
+mod imu_bags;
 mod indep_gyro;
 mod interval_coverage;
 mod pipeline;
