@@ -118,9 +118,14 @@ fn compare(dir: &Path, formats: &[&str], n_tol: f64, check_b: bool) {
             let fit = &c["fit"];
             let n = fit["N"]["value"].as_f64().unwrap();
             let n_true = truth["accel"]["N"].as_f64().unwrap();
+            let b = fit["B"]["value"].as_f64().unwrap();
+            println!(
+                "{name} {}: N {n:.4e} (truth {n_true:.4e}), B {b:.4e} (truth {:.4e})",
+                c["name"],
+                truth["accel"]["B"].as_f64().unwrap()
+            );
             assert!((n / n_true - 1.0).abs() < n_tol, "{name} {}: N {n} vs truth {n_true}", c["name"]);
             if check_b {
-                let b = fit["B"]["value"].as_f64().unwrap();
                 let b_true = truth["accel"]["B"].as_f64().unwrap();
                 assert!((b / b_true - 1.0).abs() < 0.10, "{name} {}: B {b} vs truth {b_true}", c["name"]);
             }
