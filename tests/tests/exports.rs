@@ -87,11 +87,21 @@ fn every_export_loads_in_its_targets_loader_with_the_numbers_its_convention_give
     for (fmt, keys) in [
         (
             "kalibr",
-            ["gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density", "accelerometer_random_walk"],
+            [
+                "gyroscope_noise_density",
+                "gyroscope_random_walk",
+                "accelerometer_noise_density",
+                "accelerometer_random_walk",
+            ],
         ),
         (
             "openvins",
-            ["gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density", "accelerometer_random_walk"],
+            [
+                "gyroscope_noise_density",
+                "gyroscope_random_walk",
+                "accelerometer_noise_density",
+                "accelerometer_random_walk",
+            ],
         ),
         ("vins", ["gyr_n", "gyr_w", "acc_n", "acc_w"]),
         ("orbslam3", ["IMU.NoiseGyro", "IMU.GyroWalk", "IMU.NoiseAcc", "IMU.AccWalk"]),

@@ -4,10 +4,10 @@
 //! `octavar analyze`'s path (the format from the file, the recording read, each channel analysed and the JSON
 //! document made, as the command does) and must give the CSV's overlapping Allan deviations within 1e-9 relative
 //! on all six channels, with `"kind": "accel"` for ax, ay, az; the accelerometer's fitted N and B must match the
-//! generator's truth. A 15-minute record runs always; the 8-hour record at 100 Hz (2.88 million samples per
-//! channel, where B is measured to 10%) runs where CI is set. And the error paths with bags from the same writer:
-//! a cut bag, a damaged bz2 chunk, a SQLite bag without an Imu topic, two Imu topics and no --topic, stamps out of
-//! order and repeated.
+//! generator's truth. A 15-minute record runs always, a 2-hour record (where B is measured to 10%) where CI is
+//! set, and the issue's 8-hour record at 100 Hz in every container by hand (`--ignored`). And the error paths
+//! with bags from the same writer: a cut bag, a damaged bz2 chunk, a SQLite bag without an Imu topic, two Imu
+//! topics and no --topic, stamps out of order and repeated.
 
 use std::path::{Path, PathBuf};
 
@@ -144,19 +144,33 @@ fn imu_bags_of_every_container_give_the_csv_s_deviations() {
     let _ = std::fs::remove_dir_all(dir.parent().unwrap());
 }
 
-/// The 8-hour record of the issue: 2.88 million samples per channel, B to 10%. Minutes (the Python writer is the
-/// slow part), so CI only; the short test above covers every container on every run.
+/// A 2-hour record, where the accelerometer's flicker floor is measured: B to 10% through a ROS 1 lz4 bag. About
+/// a minute (the Python writer is the slow part), so CI only; the short test above covers every container on
+/// every run.
 #[test]
-fn imu_bags_eight_hours_measure_the_accelerometer_terms() {
+fn imu_bags_two_hours_measure_the_accelerometer_terms() {
     if std::env::var_os("CI").is_none() {
-        println!("skipped: the 8-hour bag record is a CI-only run (set CI=1)");
+        println!("skipped: the 2-hour bag record is a CI-only run (set CI=1)");
         return;
     }
-    let dir = util::temp_dir("imu-bags-8h").join("rec");
-    let spec = json!({"mode": "record", "hours": 8.0, "rate": 100.0, "seed": 3, "formats": ["lz4", "db3"]});
+    let dir = util::temp_dir("imu-bags-2h").join("rec");
+    let spec = json!({"mode": "record", "hours": 2.0, "rate": 100.0, "seed": 3, "formats": ["lz4"]});
     let Some(dir) = write(&dir, spec) else { return };
-    compare(&dir, &["lz4", "db3"], 0.03, true);
-    let _ = std::fs::remove_dir_all(dir.parent().unwrap()); // 1.7 GB
+    compare(&dir, &["lz4"], 0.03, true);
+    let _ = std::fs::remove_dir_all(dir.parent().unwrap());
+}
+
+/// The issue's 8-hour record at 100 Hz (2.88 million samples per channel) in every container: about 10 minutes,
+/// most of it the Python writer, so a benchmark run by hand (`cargo test -p octavar-tests imu_bags -- --ignored`).
+#[test]
+#[ignore = "the 8-hour record in every container, about 10 minutes: run with --ignored"]
+fn imu_bags_eight_hours_in_every_container() {
+    let dir = util::temp_dir("imu-bags-8h").join("rec");
+    let spec = json!({"mode": "record", "hours": 8.0, "rate": 100.0, "seed": 3,
+                      "formats": ["none", "bz2", "lz4", "db3", "mcap"]});
+    let Some(dir) = write(&dir, spec) else { return };
+    compare(&dir, &["none", "bz2", "lz4", "db3", "db3-file", "mcap"], 0.03, true);
+    let _ = std::fs::remove_dir_all(dir.parent().unwrap()); // several GB
 }
 
 #[test]

@@ -161,7 +161,8 @@ impl Args {
             return self.run_stream(kind);
         }
         let format = RecordingFormat::of(&self.input, self.format.as_deref()).unwrap_or(RecordingFormat::Csv);
-        if self.columns.is_empty() && self.accel_columns.is_empty() && format != RecordingFormat::Mcap {
+        let bag = matches!(format, RecordingFormat::Mcap | RecordingFormat::Db3 | RecordingFormat::Ros1Bag);
+        if self.columns.is_empty() && self.accel_columns.is_empty() && !bag {
             let what = if format == RecordingFormat::Tdms { "'GROUP/CHANNEL' for a TDMS" } else { "NAME for a CSV" };
             bail!("--column {what} input is required (repeat it for several channels)");
         }

@@ -95,7 +95,7 @@ impl Args {
 
     fn read(&self, path: &Path, filters: &[String]) -> anyhow::Result<Recording> {
         let format = RecordingFormat::of(path, self.format.as_deref()).with_context(|| {
-            format!("--format {:?}: use csv, tdms, mcap, capture, f64le, f32le, i16le or u16le", self.format)
+            format!("--format {:?}: use csv, tdms, mcap, bag, db3, capture, f64le, f32le, i16le or u16le", self.format)
         })?;
         let columns = (self.column.iter().cloned().collect(), self.accel_column.iter().cloned().collect());
         let opts = self.reading.read_options(columns, self.temp_column.clone(), filters, 1)?;
