@@ -49,7 +49,7 @@ impl Args {
         let Some(rate) = self.rate.or(sheet.rate_hz) else {
             bail!("the configs need the update rate: give --rate HZ or rate_hz in {}", self.sheet.display());
         };
-        if !(rate.is_finite() && rate > 0.0) || !(self.inflate.is_finite() && self.inflate > 0.0) {
+        if !(rate.is_finite() && rate > 0.0 && self.inflate.is_finite() && self.inflate > 0.0) {
             bail!("--rate and --inflate must be positive numbers");
         }
         let topic = self.topic.clone().or(sheet.topic.clone()).unwrap_or_else(|| "/imu0".to_string());

@@ -66,7 +66,7 @@ pub enum DatasheetError {
     #[error("{path}: {err}")]
     Toml { path: String, err: String },
     #[error("{path}: [{section}] {key}: {err}")]
-    Figure { path: String, section: String, key: String, err: UnitError },
+    Figure { path: String, section: String, key: String, err: Box<UnitError> },
     #[error("{path}: [{section}] {key}: {why}")]
     Key { path: String, section: String, key: String, why: String },
     #[error("{path}: no [gyro] or [accel] section")]
@@ -160,7 +160,7 @@ fn sensor(t: &toml::Table, q: Quantity, section: &str, name: &str) -> Result<Sen
             path: name.to_string(),
             section: section.to_string(),
             key: key.clone(),
-            err,
+            err: Box::new(err),
         };
         if key == "bias_correlation_time" {
             let (v, u) = units::value_and_unit(text).map_err(fig_err)?;

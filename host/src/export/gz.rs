@@ -22,7 +22,7 @@ pub(super) fn render(n: &ImuNoise) -> String {
     for (q, s) in [(Quantity::AngularRate, n.gyro.as_ref()), (Quantity::Acceleration, n.accel.as_ref())] {
         let tag = element(q);
         match s {
-            None => fields.push((format!("{tag}"), "(not written)".to_string(), no_sensor(n, q).to_string())),
+            None => fields.push((tag.to_string(), "(not written)".to_string(), no_sensor(n, q).to_string())),
             Some(s) => {
                 if let Some(d) = &s.density {
                     fields.push((

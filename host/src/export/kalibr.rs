@@ -14,8 +14,11 @@ pub(super) const CONVENTION: &str = "Continuous-time densities in SI units (Kali
     bias drift, so where the record shows none the figure below is a bound or a stand-in, as it says. \
     https://github.com/ethz-asl/kalibr/wiki/IMU-Noise-Model";
 
+/// A field's name, its value where there is one, and its provenance line (name, value as written, source).
+pub(super) type Field = (&'static str, Option<f64>, (String, String, String));
+
 /// The four noise fields of Kalibr's model, with their provenance, in Kalibr's order.
-pub(super) fn fields(n: &ImuNoise) -> Vec<(&'static str, Option<f64>, (String, String, String))> {
+pub(super) fn fields(n: &ImuNoise) -> Vec<Field> {
     let mut out = Vec::new();
     for q in [Quantity::Acceleration, Quantity::AngularRate] {
         let s = if q == Quantity::AngularRate { n.gyro.as_ref() } else { n.accel.as_ref() };
