@@ -3,7 +3,7 @@
 # bags), rosbags (writes ROS 1 bags and rosbag2 SQLite and MCAP bags), pandas (the CSV reader the ingest bench races), and the loaders the IMU noise exports must parse in:
 # PyYAML (Kalibr, KF-GINS), OpenCV's FileStorage (OpenVINS, VINS, ORB-SLAM3) and GTSAM. Sourced by .ci/run and the bench scripts from the
 # repository root; made or completed here when a package is missing; sets PY to its python.
-REF_PACKAGES="allantools==2024.6 numpy nptdms==1.13.0 mcap==1.6.0 mcap-ros2-support==0.6.0 rosbags==0.11.9 pandas pyyaml opencv-python-headless gtsam==5.0.0"
+REF_PACKAGES="allantools==2024.6 numpy nptdms==1.13.0 mcap==1.6.0 mcap-ros2-support==0.6.0 rosbags==0.11.9 pandas gtsam==4.3.0 opencv-python-headless==5.0.0.93 pyyaml==6.0.4"
 if [ ! -x .venv-ref/bin/python ]; then
     python3 -m venv .venv-ref
 fi

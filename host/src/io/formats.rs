@@ -159,17 +159,34 @@ pub fn read_recording(path: &Path, format: RecordingFormat, opts: &ReadOptions) 
             if csv.temp_column.is_some() {
                 return Err(csv_only("--temp-column", label));
             }
-            let bag = read(path, opts.topic.as_deref(), csv.rate_hz)?;
-            let mut rec = bag.recording;
+            let mut bag = read(path, opts.topic.as_deref(), csv.rate_hz)?;
+            let notes = stamp_notes(&bag);
+            let mut rec = std::mem::take(&mut bag.recording);
             if !csv.columns.is_empty() || !csv.accel_columns.is_empty() {
                 pick_bag_channels(&mut rec, csv, &name)?;
             }
-            rec.source = format!("{} ({})", rec.source, bag.topic);
+            rec.source = format!("{} ({}{notes})", rec.source, bag.topic);
             Ok(rec)
         }
         RecordingFormat::Binary(format) => read_binary(path, format, opts),
         RecordingFormat::Capture => read_capture(path, csv),
     }
+}
+
+/// What the reader did with a bag's stamps, for the report's source line: the time source where it is not the
+/// header stamps, the messages sorted into place and the repeated stamps dropped (empty where none).
+fn stamp_notes(bag: &ImuBag) -> String {
+    let mut notes = Vec::new();
+    if bag.time_source != crate::io::imu_topic::TimeSource::HeaderStamp {
+        notes.push(format!("times from {}, every header stamp being zero", bag.time_source.as_str()));
+    }
+    if bag.out_of_order > 0 {
+        notes.push(format!("{} message(s) out of order, sorted by stamp", bag.out_of_order));
+    }
+    if bag.duplicates > 0 {
+        notes.push(format!("{} repeated stamp(s), the later message(s) dropped", bag.duplicates));
+    }
+    notes.iter().map(|n| format!("; {n}")).collect()
 }
 
 /// Keep the channels of a bag's recording that the options name: `--column` x, y, z of the angular velocity and
