@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use super::{field, no_sensor, provenance, real, sci, ImuNoise};
+use super::{field, no_sensor, provenance, real, value_line, ImuNoise};
 use crate::quantity::Quantity;
 
 /// The convention, for the file's comment.
@@ -39,14 +39,7 @@ pub(super) fn render(n: &ImuNoise) -> String {
     let _ = writeln!(s, "rostopic: {}", n.topic);
     let _ = writeln!(s, "update_rate: {}", real(n.rate_hz));
     for (name, value, _) in &f {
-        match value {
-            Some(v) => {
-                let _ = writeln!(s, "{name}: {}", sci(*v));
-            }
-            None => {
-                let _ = writeln!(s, "# {name}: (missing: see above)");
-            }
-        }
+        value_line(&mut s, "", name, *value);
     }
     s
 }

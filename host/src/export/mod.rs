@@ -169,6 +169,19 @@ pub(crate) fn provenance(
     s
 }
 
+/// A `key: value` line at `indent`, or where there is no value the key commented out, pointing to the comment
+/// at the top that says why.
+pub(crate) fn value_line(s: &mut String, indent: &str, key: &str, value: Option<f64>) {
+    match value {
+        Some(v) => {
+            let _ = writeln!(s, "{indent}{key}: {}", sci(v));
+        }
+        None => {
+            let _ = writeln!(s, "{indent}# {key}: (missing: see above)");
+        }
+    }
+}
+
 /// The provenance line of a figure, or the reason it is missing.
 pub(crate) fn field(name: &str, f: Option<&Figure>, missing: &str) -> (String, String, String) {
     match f {

@@ -168,13 +168,7 @@ impl SensorNoise {
                     ),
                 });
             }
-            let (axis, b, tau) = axes
-                .iter()
-                .filter_map(|c| {
-                    let f = c.fit.as_ref().ok()?;
-                    Some((c.name.as_str(), f.b.value.or(f.classic.b)?, f.classic.b_tau_s?))
-                })
-                .max_by(|a, b| a.1.total_cmp(&b.1))?;
+            let (axis, b, tau) = flicker_floor(axes)?;
             let k = FLICKER_AVAR_FACTOR.sqrt() * b * (3.0 / tau).sqrt();
             Some(Figure {
                 value: k * si * inflate,
@@ -289,13 +283,7 @@ fn bias_model(
             ),
         });
     }
-    let (axis, b, tau) = axes
-        .iter()
-        .filter_map(|c| {
-            let f = c.fit.as_ref().ok()?;
-            Some((c.name.as_str(), f.b.value.or(f.classic.b)?, f.classic.b_tau_s?))
-        })
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (axis, b, tau) = flicker_floor(axes)?;
     let sigma = FLICKER_AVAR_FACTOR.sqrt() * b / GM_PEAK_ADEV;
     Some(BiasModel {
         sigma: sigma * si * inflate,
@@ -307,6 +295,17 @@ fn bias_model(
             q.unit()
         ),
     })
+}
+
+/// The axis with the largest flicker floor: its name, its B (the fit's, or else the classic readout) and the tau
+/// of its ADEV floor, in the series' units; the stand-ins for K and for the Gauss-Markov bias are read from it.
+fn flicker_floor<'a>(axes: &[&'a ChannelAnalysis]) -> Option<(&'a str, f64, f64)> {
+    axes.iter()
+        .filter_map(|c| {
+            let f = c.fit.as_ref().ok()?;
+            Some((c.name.as_str(), f.b.value.or(f.classic.b)?, f.classic.b_tau_s?))
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 /// ` (95%: lo .. hi)` of an interval, or nothing.

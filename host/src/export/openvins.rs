@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use super::{kalibr, provenance, real, sci, ImuNoise};
+use super::{kalibr, provenance, real, value_line, ImuNoise};
 
 const CONVENTION: &str = "OpenVINS takes Kalibr's continuous-time densities (its propagation divides them by \
     sqrt(dt) itself): *_noise_density the white noise N, *_random_walk the bias random walk K, in SI. The \
@@ -35,14 +35,7 @@ pub(super) fn render(n: &ImuNoise) -> String {
     s += "imu0:\n  T_i_b:\n";
     s += &eye(4);
     for (name, value, _) in &f {
-        match value {
-            Some(v) => {
-                let _ = writeln!(s, "  {name}: {}", sci(*v));
-            }
-            None => {
-                let _ = writeln!(s, "  # {name}: (missing: see above)");
-            }
-        }
+        value_line(&mut s, "  ", name, *value);
     }
     let _ = writeln!(s, "  rostopic: {}", n.topic);
     s += "  time_offset: 0.0\n";

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use super::{field, no_sensor, provenance, real, sci, ImuNoise};
+use super::{field, no_sensor, provenance, real, value_line, ImuNoise};
 use crate::quantity::Quantity;
 
 const CONVENTION: &str = "ORB-SLAM3 takes continuous-time densities (its settings' units: rad/s^0.5, m/s^1.5, \
@@ -25,14 +25,7 @@ pub(super) fn render(n: &ImuNoise) -> String {
     let mut s = String::from("%YAML:1.0\n");
     s += &provenance("#", n, "ORB-SLAM3 IMU settings", CONVENTION, &fields);
     for (k, f, _) in rows {
-        match f {
-            Some(f) => {
-                let _ = writeln!(s, "{k}: {}", sci(f.value));
-            }
-            None => {
-                let _ = writeln!(s, "# {k}: (missing: see above)");
-            }
-        }
+        value_line(&mut s, "", k, f.map(|f| f.value));
     }
     let _ = writeln!(s, "IMU.Frequency: {}", real(n.rate_hz));
     s

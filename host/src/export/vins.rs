@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use super::{field, no_sensor, provenance, real, sci, ImuNoise};
+use super::{field, no_sensor, provenance, real, sci, value_line, ImuNoise};
 use crate::quantity::{Quantity, STANDARD_GRAVITY};
 
 const CONVENTION: &str = "VINS's config calls these \"measurement noise standard deviation\" and \"bias random \
@@ -41,14 +41,7 @@ pub(super) fn render(n: &ImuNoise) -> String {
     s += "imu: 1\n";
     let _ = writeln!(s, "imu_topic: \"{}\"", n.topic);
     for (k, f, _) in rows {
-        match f {
-            Some(f) => {
-                let _ = writeln!(s, "{k}: {}", sci(f.value));
-            }
-            None => {
-                let _ = writeln!(s, "# {k}: (missing: see above)");
-            }
-        }
+        value_line(&mut s, "", k, f.map(|f| f.value));
     }
     let _ = writeln!(s, "g_norm: {}", sci(g_norm));
     let _ = writeln!(s, "# the IMU's rate, for reference (VINS reads it from the messages): {} Hz", real(n.rate_hz));
