@@ -178,6 +178,28 @@ fn gap_rejects_bad_input_with_located_errors() {
     assert!(!stderr(&o).contains("panicked"));
 }
 
+/// A bad `--export` or `--inflate` is refused before the recording is read (here a file that does not exist), and a
+/// bad datasheet names its file, section, key and the dimensions.
+#[test]
+fn analyze_refuses_bad_exports_before_reading_and_datasheet_faults_are_located() {
+    let o = octavar(&["analyze", "/no/such/rec.csv", "--column", "g", "--rate", "1", "--export", "rovio=x.yaml"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("unknown format \"rovio\""), "{}", stderr(&o));
+    let o = octavar(
+        &["analyze", "/no/such/rec.csv", "--column", "g", "--rate", "1", "--kalibr", "k.yaml", "--inflate=-1"],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--inflate -1: give a positive factor"), "{}", stderr(&o));
+    let dir = tempfile::tempdir().unwrap();
+    let sheet = dir.path().join("sheet.toml");
+    std::fs::write(&sheet, "[accel]\nB = \"0.04 mg/sqrt(Hz)\"\n").unwrap();
+    let o = octavar(&["datasheet", sheet.to_str().unwrap()], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("sheet.toml: [accel] B:") && stderr(&o).contains("needs m s^-2"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
+}
+
 /// `octavar gap --holdout-check predictive` on white noise with a sinusoid: the sinusoid is named, and the JSON
 /// has the plain held-out check and the predictive one beside it, each cured by the sinusoid.
 #[test]

@@ -146,6 +146,20 @@ impl Args {
         })
     }
 
+    /// The exports asked for (`--export`, and `--kalibr` as `--export kalibr=FILE`), with `--inflate` checked.
+    fn export_requests(&self) -> anyhow::Result<Vec<ExportRequest>> {
+        let mut exports: Vec<ExportRequest> =
+            self.exports.iter().map(|e| ExportRequest::parse(e)).collect::<Result<_, _>>()?;
+        if let Some(path) = &self.kalibr {
+            exports.push(ExportRequest { format: ExportFormat::Kalibr, path: path.clone() });
+        }
+        let positive = self.inflate.is_finite() && self.inflate > 0.0;
+        if !exports.is_empty() && !positive {
+            bail!("--inflate {}: give a positive factor", self.inflate);
+        }
+        Ok(exports)
+    }
+
     /// The rate columns and the accelerometer columns of the flags.
     fn column_lists(&self) -> (Vec<String>, Vec<String>) {
         (self.columns.clone(), self.accel_columns.clone())
@@ -157,6 +171,8 @@ impl Args {
     }
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
+        // A bad --export or --inflate is reported before the recording is read, not after its analysis.
+        self.export_requests()?;
         if let Some(kind) = self.stream_kind()? {
             return self.run_stream(kind);
         }
@@ -212,15 +228,8 @@ impl Args {
             std::fs::write(path, octavar::simulate::model_to_toml(&model))
                 .with_context(|| format!("writing {}", path.display()))?;
         }
-        let mut exports: Vec<ExportRequest> =
-            self.exports.iter().map(|e| ExportRequest::parse(e)).collect::<Result<_, _>>()?;
-        if let Some(path) = &self.kalibr {
-            exports.push(ExportRequest { format: ExportFormat::Kalibr, path: path.clone() });
-        }
+        let exports = self.export_requests()?;
         if !exports.is_empty() {
-            if !(self.inflate.is_finite() && self.inflate > 0.0) {
-                bail!("--inflate {}: give a positive factor", self.inflate);
-            }
             if results.iter().all(|c| c.fit.is_err()) {
                 bail!("no channel has a fit to export from");
             }
