@@ -178,13 +178,16 @@ fn gap_rejects_bad_input_with_located_errors() {
     assert!(!stderr(&o).contains("panicked"));
 }
 
-/// A bad `--export` or `--inflate` is refused before the recording is read (here a file that does not exist), and a
-/// bad datasheet names its file, section, key and the dimensions.
+/// A bad `--export` or `--inflate` is refused by analyze and gap before the recording is read (here a file that
+/// does not exist), and a bad datasheet names its file, section, key and the dimensions.
 #[test]
 fn analyze_refuses_bad_exports_before_reading_and_datasheet_faults_are_located() {
-    let o = octavar(&["analyze", "/no/such/rec.csv", "--column", "g", "--rate", "1", "--export", "rovio=x.yaml"], None);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("unknown format \"rovio\""), "{}", stderr(&o));
+    for command in ["analyze", "gap"] {
+        let o =
+            octavar(&[command, "/no/such/rec.csv", "--column", "g", "--rate", "1", "--export", "rovio=x.yaml"], None);
+        assert_eq!(o.status.code(), Some(2), "{command}");
+        assert!(stderr(&o).contains("unknown format \"rovio\""), "{command}: {}", stderr(&o));
+    }
     let o = octavar(
         &["analyze", "/no/such/rec.csv", "--column", "g", "--rate", "1", "--kalibr", "k.yaml", "--inflate=-1"],
         None,

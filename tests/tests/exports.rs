@@ -149,3 +149,48 @@ fn every_export_loads_in_its_targets_loader_with_the_numbers_its_convention_give
     assert_eq!(gz["linear_acceleration/z"]["bias_mean"].as_f64(), Some(0.0));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `gap --export`: where the diagnosis names a Gauss-Markov bias, the exports' bias model is that process, and
+/// KF-GINS's gbstd and corrtime are its sigma in deg/h and its correlation time in hours. The record comes from
+/// the independent generator (circulant embedding of the exponential autocovariance, not shared::sim).
+#[test]
+fn a_gauss_markov_bias_the_gap_diagnosis_names_is_the_exports_bias_model() {
+    use crate::indep_gyro::{IndepGyro, Markov};
+    use octavar::gap::{diagnose, Effect, GapInput, GapOptions};
+    let (sigma, tau_c, rate) = (0.02, 20.0, 50.0);
+    let gyro = IndepGyro {
+        bias_dps: 0.3,
+        n_deg_per_rt_s: 0.01,
+        gauss_markov: Some(Markov { sigma_dps: sigma, tau_s: tau_c }),
+        ..Default::default()
+    };
+    let rec = gyro.generate(rate, 2 * 3600 * 50, 5);
+    let input = GapInput::split(rec.rate_dps, None, rate, 0.5).unwrap();
+    let opts = GapOptions { seeds: 12, ..Default::default() };
+    let report = diagnose(&input, &opts, &|_, _, _| {}).unwrap();
+    assert_eq!(report.effects(), [Effect::GaussMarkov], "the diagnosis names the Gauss-Markov bias alone");
+    let mean = input.rate_dps[..input.n_train].iter().sum::<f64>() / input.n_train as f64;
+    let noise = ImuNoise::from_gap(&report, "rate", Some(mean), "gm.csv", "/imu0", 1.0);
+    let g = noise.gyro.as_ref().expect("a gyro");
+    let m = g.bias_model.as_ref().expect("a bias model");
+    assert!(m.how.contains("gauss_markov effect the gap diagnosis named"), "{}", m.how);
+    let named = report.model().gauss_markov.expect("the final model carries it");
+    assert!((m.sigma - named.sigma_dps.to_radians()).abs() < 1e-12 * m.sigma, "sigma {} in rad/s", m.sigma);
+    assert_eq!(m.tau_c_s, named.tau_s);
+    let sigma_rel = named.sigma_dps / sigma - 1.0;
+    let tau_rel = named.tau_s / tau_c - 1.0;
+    assert!(sigma_rel.abs() < 0.25 && tau_rel.abs() < 0.5, "sigma {sigma_rel:+.2}, T {tau_rel:+.2} from the truth");
+    // KF-GINS by hand: gbstd in deg/h, corrtime in hours.
+    let kf = ExportFormat::KfGins.render(&noise);
+    let field = |key: &str| -> f64 {
+        let line = kf.lines().find(|l| l.trim_start().starts_with(key)).unwrap_or_else(|| panic!("{key} in\n{kf}"));
+        let text = line.split(':').nth(1).unwrap().split('#').next().unwrap().trim();
+        text.trim_start_matches('[').split(',').next().unwrap().trim().trim_end_matches(']').parse().unwrap()
+    };
+    let gbstd = named.sigma_dps * 3600.0;
+    assert!((field("gbstd:") / gbstd - 1.0).abs() < 1e-5, "gbstd {} against {gbstd}", field("gbstd:"));
+    assert!((field("corrtime:") / (named.tau_s / 3600.0) - 1.0).abs() < 1e-3, "corrtime {}", field("corrtime:"));
+    // The density is the base fit's N, as analyze would write it.
+    let n = report.base.fit.n.value.unwrap().to_radians();
+    assert!((g.density.as_ref().unwrap().value / n - 1.0).abs() < 1e-12);
+}

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use octavar::analyze::{self, AnalyzeOptions, ChannelAnalysis};
 use octavar::datasheet::Datasheet;
-use octavar::export::{ExportFormat, ExportRequest, ImuNoise};
+use octavar::export::ImuNoise;
 use octavar::fit::FitOptions;
 use octavar::io::csv::CsvOptions;
 use octavar::io::formats::{self, RecordingFormat};
@@ -15,6 +15,7 @@ use octavar::plot;
 use octavar::stats::{Statistic, TauSpec};
 
 use super::csv_args::CsvArgs;
+use super::export_args::ExportArgs;
 
 /// Analyse a rate recording (CSV, CSV.gz or stdin, NI TDMS, a ROS 2 bag, a device capture or raw samples): the
 /// Allan deviation family with confidence intervals (Stable32's table), the IEEE 952 noise terms N, B, K, R, Q
@@ -68,21 +69,13 @@ pub struct Args {
     /// Write the fitted model as a model.toml (for simulate and gap).
     #[arg(long, value_name = "FILE")]
     pub model_out: Option<PathBuf>,
-    /// Write a Kalibr imu.yaml: the same as --export kalibr=FILE.
-    #[arg(long, value_name = "FILE")]
-    pub kalibr: Option<PathBuf>,
-    /// Write the noise figures for a state estimator or simulator, FORMAT=FILE (repeatable): kalibr, openvins,
-    /// vins, orbslam3, gtsam, kfgins, gz, matlab. Each file opens with where every number came from.
-    #[arg(long = "export", value_name = "FORMAT=FILE")]
-    pub exports: Vec<String>,
+    /// The exports: --export FORMAT=FILE, --kalibr FILE, --inflate X.
+    #[command(flatten)]
+    pub export: ExportArgs,
     /// A datasheet (TOML, figures in any customary unit; docs/exports.md): each fitted term against it, measured /
     /// datasheet with the interval, in the report and the JSON.
     #[arg(long, value_name = "FILE.toml")]
     pub datasheet: Option<PathBuf>,
-    /// Multiply every noise figure of the exports by X (a margin for motion, vibration and temperature that a
-    /// still bench does not see; the files say so).
-    #[arg(long, value_name = "X", default_value_t = 1.0)]
-    pub inflate: f64,
     /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap: a ROS 2 bag), db3 (default
     /// for .db3 and a rosbag2 directory: a ROS 2 bag in SQLite), bag (default for .bag: a ROS 1 bag), capture
     /// (default for .cap/.capture files), or raw little-endian samples f64le, f32le, i16le, u16le (streamed: OADEV
@@ -146,20 +139,6 @@ impl Args {
         })
     }
 
-    /// The exports asked for (`--export`, and `--kalibr` as `--export kalibr=FILE`), with `--inflate` checked.
-    fn export_requests(&self) -> anyhow::Result<Vec<ExportRequest>> {
-        let mut exports: Vec<ExportRequest> =
-            self.exports.iter().map(|e| ExportRequest::parse(e)).collect::<Result<_, _>>()?;
-        if let Some(path) = &self.kalibr {
-            exports.push(ExportRequest { format: ExportFormat::Kalibr, path: path.clone() });
-        }
-        let positive = self.inflate.is_finite() && self.inflate > 0.0;
-        if !exports.is_empty() && !positive {
-            bail!("--inflate {}: give a positive factor", self.inflate);
-        }
-        Ok(exports)
-    }
-
     /// The rate columns and the accelerometer columns of the flags.
     fn column_lists(&self) -> (Vec<String>, Vec<String>) {
         (self.columns.clone(), self.accel_columns.clone())
@@ -172,7 +151,7 @@ impl Args {
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
         // A bad --export or --inflate is reported before the recording is read, not after its analysis.
-        self.export_requests()?;
+        self.export.requests()?;
         if let Some(kind) = self.stream_kind()? {
             return self.run_stream(kind);
         }
@@ -228,17 +207,12 @@ impl Args {
             std::fs::write(path, octavar::simulate::model_to_toml(&model))
                 .with_context(|| format!("writing {}", path.display()))?;
         }
-        let exports = self.export_requests()?;
-        if !exports.is_empty() {
+        if self.export.any() {
             if results.iter().all(|c| c.fit.is_err()) {
                 bail!("no channel has a fit to export from");
             }
             let topic = self.reading.topic.clone().unwrap_or_else(|| "/imu0".to_string());
-            let noise = ImuNoise::from_channels(results, source, rate_hz, &topic, self.inflate);
-            for e in &exports {
-                std::fs::write(&e.path, e.format.render(&noise))
-                    .with_context(|| format!("writing the {} export {}", e.format.name(), e.path.display()))?;
-            }
+            self.export.write(&ImuNoise::from_channels(results, source, rate_hz, &topic, self.export.inflate))?;
         }
         if let Some(path) = &self.plot {
             let series: Vec<plot::AdevSeries> = results

@@ -6,6 +6,7 @@ use std::process::ExitCode;
 use std::sync::Mutex;
 
 use anyhow::{bail, Context};
+use octavar::export::ImuNoise;
 use octavar::gap::{self, GapInput, GapOptions};
 use octavar::io::formats::{self, RecordingFormat};
 use octavar::io::recording::Recording;
@@ -14,6 +15,7 @@ use octavar_shared::sensor::SensorKind;
 use octavar_shared::sim::{BenchSim, ChannelSim};
 
 use super::csv_args::CsvArgs;
+use super::export_args::ExportArgs;
 use super::progress::Progress;
 
 /// Diagnose the sim-to-real gap: fit the IEEE 952 terms on the training part, simulate an ensemble of the fitted
@@ -80,6 +82,11 @@ pub struct Args {
     /// Write the JSON document here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Noise configs for a state estimator or simulator from the base fit (--export FORMAT=FILE, --kalibr FILE,
+    /// --inflate X, as analyze writes them); the bias model is the gauss_markov effect where the diagnosis named
+    /// one.
+    #[command(flatten)]
+    pub export: ExportArgs,
     /// Draw the gap figure (.png or .svg): a panel per view (ADEV, PSD, distribution, temperature) with the record,
     /// the ensemble bands of the base model and of the model with every effect found, and where the gap lay; and
     /// the record over time with its masked transients.
@@ -103,6 +110,8 @@ impl Args {
     }
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
+        // A bad --export or --inflate is reported before the recording is read, not after the diagnosis.
+        self.export.requests()?;
         let mut rec = self.read(&self.input, &self.reading.filters)?;
         let rate_hz = rec.rate_hz;
         let quantity = rec.quantity(0);
@@ -155,6 +164,14 @@ impl Args {
         if let Some(path) = &self.json {
             std::fs::write(path, serde_json::to_string_pretty(&report.to_json())?)
                 .with_context(|| format!("writing {}", path.display()))?;
+        }
+        if self.export.any() {
+            let topic = self.reading.topic.clone().unwrap_or_else(|| "/imu0".to_string());
+            let train = &input.rate_dps[..input.n_train];
+            let (sum, n) = train.iter().filter(|v| v.is_finite()).fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+            let mean = (n > 0).then(|| sum / n as f64);
+            let noise = ImuNoise::from_gap(&report, self.column_name(), mean, &rec.source, &topic, self.export.inflate);
+            self.export.write(&noise)?;
         }
         if let Some(path) = &self.model_out {
             let range = input.rate_dps.iter().filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()));

@@ -10,6 +10,7 @@ pub mod csv_args;
 pub mod datasheet;
 pub mod decode;
 pub mod demo;
+pub mod export_args;
 pub mod gap;
 pub mod progress;
 pub mod record;

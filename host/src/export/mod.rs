@@ -7,6 +7,7 @@
 //! and the conversion, and names any field with no honest counterpart. docs/exports.md gives each convention with
 //! a link to the format's own documentation.
 
+mod from_gap;
 pub mod noise;
 
 mod gtsam;
