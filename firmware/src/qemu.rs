@@ -201,6 +201,8 @@ fn uart_read() -> Option<u8> {
 #[embassy_executor::task]
 pub async fn uart_task() {
     crate::frames::flush_stale();
+    // As on USB: a lone delimiter before the first frame, so a receiver's leftover bytes end there.
+    uart_write(&octavar_shared::proto::RESYNC);
     crate::frames::send(&crate::characterize::hello());
     LINK_UP.store(true, Ordering::Relaxed);
     let mut decoder = Decoder::<Command>::new();

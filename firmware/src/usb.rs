@@ -2,10 +2,10 @@
 //!
 //! Nothing here can stall sampling: producers queue frames with `try_send` and count what does not fit. Frames
 //! go out only while the host holds DTR (a terminal program or `octavar record` has the port open). On each
-//! such connection the frames queued for nobody are dropped (counted) and the hello goes out first, so the host
-//! always starts with a hello. A host that stops reading with DTR still set costs at most [`WRITE_WAIT`] per
-//! packet before the frame is dropped, and the queue's producers never wait on it. Each board reports its chip's
-//! unique ID as its USB serial number.
+//! such connection the frames queued for nobody are dropped (counted), a lone delimiter ends any fragment the
+//! last session left in the FIFO, and the hello goes out first, so the host always starts with a hello. A host
+//! that stops reading with DTR still set costs at most [`WRITE_WAIT`] per packet before the frame is dropped,
+//! and the queue's producers never wait on it. Each board reports its chip's unique ID as its USB serial number.
 
 use core::sync::atomic::Ordering;
 
@@ -17,7 +17,7 @@ use embassy_time::{with_timeout, Duration};
 use embassy_usb::class::cdc_acm::{CdcAcmClass, ControlChanged, Receiver, Sender, State};
 use embassy_usb::driver::EndpointError;
 use embassy_usb::Builder;
-use octavar_shared::proto::Decoder;
+use octavar_shared::proto::{Decoder, RESYNC};
 use static_cell::StaticCell;
 
 use crate::board::{Irqs, UsbParts};
@@ -105,16 +105,43 @@ async fn dtr_dropped(control: &ControlChanged<'static>) {
 
 /// Send queued frames in full-speed packets; a frame that is a multiple of 64 bytes ends with a zero-length
 /// packet so the host's read completes. A packet the host does not take within [`WRITE_WAIT`] drops its frame.
+///
+/// An endpoint write returns once its packet is in the TX FIFO, so a frame cut short (a timeout, or the last
+/// session's DTR drop) may still reach the host in part. A lone delimiter ([`RESYNC`]) goes out before the first
+/// frame of each connection and after every frame not fully sent: the fragment then ends as one bad frame at the
+/// host and the next frame (the hello, on a new connection) decodes on its own. Every frame not fully sent is
+/// counted in [`frames::FRAMES_DROPPED`].
 async fn pump(tx: &mut Sender<'static, UsbDriver>) -> Result<(), Disconnected> {
+    let mut resync = true;
     loop {
         let frame = FRAMES_OUT.receive().await;
+        if resync {
+            match with_timeout(WRITE_WAIT, tx.write_packet(&RESYNC)).await {
+                Ok(r) => {
+                    if let Err(e) = r {
+                        frames::FRAMES_DROPPED.fetch_add(1, Ordering::Relaxed);
+                        return Err(e.into());
+                    }
+                    resync = false;
+                }
+                Err(_) => {
+                    frames::FRAMES_DROPPED.fetch_add(1, Ordering::Relaxed);
+                    continue;
+                }
+            }
+        }
         let zlp = frame.len() % PACKET == 0;
         let packets = frame.chunks(PACKET).chain(zlp.then_some(&[][..]));
         for chunk in packets {
             match with_timeout(WRITE_WAIT, tx.write_packet(chunk)).await {
-                Ok(r) => r?,
+                Ok(Ok(())) => {}
+                Ok(Err(e)) => {
+                    frames::FRAMES_DROPPED.fetch_add(1, Ordering::Relaxed);
+                    return Err(e.into());
+                }
                 Err(_) => {
                     frames::FRAMES_DROPPED.fetch_add(1, Ordering::Relaxed);
+                    resync = true;
                     break;
                 }
             }

@@ -666,6 +666,104 @@ mod tests {
         assert_eq!(sent, [Command::Hello, start, Command::Hello, start, Command::StopRaw]);
     }
 
+    /// The frame starts (offsets just past a delimiter) of `w`, and each frame's end (one past its delimiter).
+    fn frame_spans(w: &[u8]) -> Vec<std::ops::Range<usize>> {
+        let mut spans = Vec::new();
+        let mut start = 0;
+        for (i, &b) in w.iter().enumerate() {
+            if b == 0 {
+                if i > start {
+                    spans.push(start..i + 1);
+                }
+                start = i + 1;
+            }
+        }
+        spans
+    }
+
+    /// Record `bytes` from one connection to its end, with no commands sent.
+    fn record_bytes(bytes: Vec<u8>) -> RecordSummary {
+        struct Once(Option<Vec<u8>>);
+        struct OnceLink(Option<Vec<u8>>);
+        impl Link for OnceLink {
+            fn read(&mut self, buf: &mut [u8]) -> io::Result<ReadOutcome> {
+                Ok(match self.0.as_mut() {
+                    Some(d) if !d.is_empty() => {
+                        let n = d.len().min(buf.len());
+                        buf[..n].copy_from_slice(&d[..n]);
+                        d.drain(..n);
+                        ReadOutcome::Data(n)
+                    }
+                    _ => ReadOutcome::End,
+                })
+            }
+            fn write_all(&mut self, _: &[u8]) -> io::Result<()> {
+                Ok(())
+            }
+        }
+        impl Source for Once {
+            type Link = OnceLink;
+            fn name(&self) -> String {
+                "mem".into()
+            }
+            fn connect(&mut self) -> io::Result<OnceLink> {
+                Ok(OnceLink(self.0.take()))
+            }
+            fn can_reconnect(&self) -> bool {
+                false
+            }
+            fn can_send(&self) -> bool {
+                false
+            }
+        }
+        let mut cap = CaptureWriter::new(Vec::new(), Path::new("mem.cap"));
+        let stop = AtomicBool::new(false);
+        record(&mut Once(Some(bytes)), &mut cap, &RecordOptions::default(), &stop, &mut |_| {}).unwrap()
+    }
+
+    /// The firmware's lone delimiter (`proto::RESYNC`) before each connection's hello and after a frame it could
+    /// not finish: a fragment the last session left in the USB FIFO, or a frame cut by a timed-out write, is one
+    /// bad frame, and only the cut frame is lost. Without the delimiter, the fragment and the frame after it
+    /// merge into one bad frame and both are lost.
+    #[test]
+    fn a_stale_fragment_or_a_cut_frame_costs_only_itself() {
+        let w = wire();
+        assert_eq!(w[0], 0, "the simulated device, like the firmware, starts with a lone delimiter");
+        let spans = frame_spans(&w);
+        let sets_of = |bytes: &[u8]| -> u64 {
+            Decoder::<octavar_shared::proto::Frame>::new()
+                .feed(bytes)
+                .filter_map(|r| match r.ok()?.msg {
+                    octavar_shared::proto::Frame::Samples(s) => Some(s.sets() as u64),
+                    _ => None,
+                })
+                .sum()
+        };
+        let all_sets = sets_of(&w);
+        // A stale fragment (half of a frame of the last session), then this session from its delimiter on.
+        let stale = &w[spans[5].start..spans[5].start + spans[5].len() / 2];
+        let s = record_bytes([stale, &w[..]].concat()).stats;
+        assert!(s.hello.is_some(), "the hello decodes");
+        assert_eq!((s.decode.bad_frame_count(), s.decode.lost_frames), (1, 0), "{:?}", s.decode);
+        assert_eq!(s.sample_sets, all_sets);
+        // Without the delimiter the fragment swallows the hello.
+        let s = record_bytes([stale, &w[1..]].concat()).stats;
+        assert!(s.hello.is_none(), "the hello is lost without the delimiter");
+
+        // Frame 7 cut mid-way by a timeout, then the delimiter and the next frame.
+        let cut = &spans[7];
+        let mid = cut.start + cut.len() / 2;
+        let bytes = [&w[..mid], &octavar_shared::proto::RESYNC[..], &w[cut.end..]].concat();
+        let s = record_bytes(bytes).stats;
+        let lost_sets = sets_of(&w[cut.clone()]);
+        assert!(lost_sets > 0, "frame 7 carries samples");
+        assert_eq!((s.decode.bad_frame_count(), s.decode.lost_frames), (1, 1), "{:?}", s.decode);
+        assert_eq!(s.sample_sets, all_sets - lost_sets, "only the cut frame's samples are lost");
+        // Without it, the cut frame and the next one are both lost.
+        let s = record_bytes([&w[..mid], &w[cut.end..]].concat()).stats;
+        assert_eq!((s.decode.bad_frame_count(), s.decode.lost_frames), (1, 2), "{:?}", s.decode);
+    }
+
     #[test]
     fn once_and_give_up_end_the_wait() {
         let fail = || Some(vec![Step::Data(vec![1, 2, 3]), Step::Fail(io::ErrorKind::Other)]);

@@ -120,8 +120,10 @@ impl DeviceSim {
         out.append(&mut self.link.pending);
     }
 
-    /// Start-up: the hello frame.
+    /// Start-up: a lone delimiter and the hello frame, as the firmware starts each connection.
     pub fn boot(&mut self, out: &mut Vec<u8>) {
+        // The firmware's link starts every connection with a lone delimiter, then the hello.
+        out.extend_from_slice(&octavar_shared::proto::RESYNC);
         let hello = self.core.hello();
         self.link.send(&hello);
         self.drain(out);

@@ -22,6 +22,12 @@ use serde::Serialize;
 
 use super::{CRC_LEN, MAX_BODY, MAX_FRAME, MAX_PACKET, SEQ_LEN};
 
+/// A lone delimiter. A sender writes it before the first frame of a connection and after any frame it could not
+/// finish: whatever partial frame the receiver holds (a fragment left in a USB FIFO by the last session, a frame
+/// cut by a timed-out write) ends there as one bad frame, and the next frame decodes on its own. A receiver takes
+/// a delimiter with nothing before it as idle line ([`super::Decoder::push`]).
+pub const RESYNC: [u8; 1] = [0x00];
+
 /// CRC-32/ISO-HDLC: polynomial 0x04C11DB7, reflected, init and xorout 0xFFFFFFFF (zlib's `crc32`).
 pub(crate) const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 

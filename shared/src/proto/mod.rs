@@ -87,7 +87,7 @@ pub use decoder::{DecodeError, Decoder, DecoderStats, Feed, Received};
 pub use frame::{
     Ack, ChannelEstimate, ChannelInfo, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, Status,
 };
-pub use framing::{crc32, encode_frame, encode_to_vec, EncodeError, Encoder, FrameBuf};
+pub use framing::{crc32, encode_frame, encode_to_vec, EncodeError, Encoder, FrameBuf, RESYNC};
 pub use size::{varint_max, MaxSize};
 pub use snapshot::{SnapshotError, SnapshotPart, SnapshotParts};
 

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::device::simulator::{DeviceConfig, DeviceSim};
-use octavar_shared::proto::{Command, Encoder, Frame, SnapshotPart};
+use octavar_shared::proto::{Command, Decoder, Encoder, Frame, SnapshotPart};
 
 fn scan(i: u32) -> [u16; 5] {
     let x = (i.wrapping_mul(2654435761) >> 20) as u16;
@@ -110,7 +110,7 @@ fn snapshots_after_a_reset_that_restarts_the_raw_index_are_checked() {
     let mut out = Vec::new();
     dev.boot(&mut out);
     run(&mut dev, 0, 39 * 128, &mut out); // two rounds, then the reset at a block boundary
-    let next_seq = out.iter().filter(|&&b| b == 0).count() as u32;
+    let next_seq = Decoder::<Frame>::new().feed(&out).count() as u32;
     let mut fresh = DeviceSim::new(DeviceConfig::F405, 0x1f);
     let mut after = Vec::new();
     run(&mut fresh, 39 * 128, 33 * 128, &mut after); // two more rounds
