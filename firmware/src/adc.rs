@@ -23,7 +23,7 @@ use embassy_stm32::pac::gpio::vals::Moder;
 use embassy_stm32::pac::timer::vals::{Mms, Sms, Ts};
 
 use crate::board::{SamplerParts, TIM3_HZ};
-use crate::board_config::BOARD;
+use crate::board_config::{Port, BOARD};
 use crate::config::*;
 use crate::sampler::ScanRing;
 use octavar_shared::device::ReadyBlock;
@@ -57,13 +57,20 @@ impl HwRing {
         pac::RCC.ahb1enr().modify(|w| {
             w.set_dma2en(true);
             w.set_gpioaen(true);
+            w.set_gpioben(true);
+            w.set_gpiocen(true);
         });
         pac::RCC.apb1enr().modify(|w| {
             w.set_tim3en(true);
             w.set_tim5en(true);
         });
-        for &pin in &BOARD.adc_pins {
-            pac::GPIOA.moder().modify(|w| w.set_moder(usize::from(pin), Moder::ANALOG));
+        for p in &BOARD.adc_pins {
+            let gpio = match p.port {
+                Port::A => pac::GPIOA,
+                Port::B => pac::GPIOB,
+                Port::C => pac::GPIOC,
+            };
+            gpio.moder().modify(|w| w.set_moder(usize::from(p.pin), Moder::ANALOG));
         }
 
         // ADC clock: APB2 (84 MHz) / 4 = 21 MHz.
@@ -74,14 +81,19 @@ impl HwRing {
             w.set_scan(true);
             w.set_res(Res::BITS12);
         });
-        for &pin in &BOARD.adc_pins {
-            let ch = usize::from(pin);
-            adc.smpr2().modify(|w| w.set_smp(ch, SampleTime::CYCLES480));
+        // SMPR2 holds channels 0-9, SMPR1 channels 10-18.
+        for p in &BOARD.adc_pins {
+            let ch = usize::from(p.channel);
+            if ch < 10 {
+                adc.smpr2().modify(|w| w.set_smp(ch, SampleTime::CYCLES480));
+            } else {
+                adc.smpr1().modify(|w| w.set_smp(ch - 10, SampleTime::CYCLES480));
+            }
         }
         adc.sqr1().write(|w| w.set_l((CHANNELS - 1) as u8));
         adc.sqr3().write(|w| {
-            for (rank, &pin) in BOARD.adc_pins.iter().enumerate() {
-                w.set_sq(rank, pin);
+            for (rank, p) in BOARD.adc_pins.iter().enumerate() {
+                w.set_sq(rank, p.channel);
             }
         });
 

@@ -11,6 +11,7 @@
 //! | USB OTG FS D- / D+     | PA11 / PA12 | -     | -                                       |
 //! | SWD (probe-rs, defmt)  | PA13 / PA14 | -     | -                                       |
 //!
+//! The pins are those of `f405-8mhz`; the Feather's (`f405-12mhz`) are A0-A4 = PA4-PA7, PC4 (`board_config.rs`).
 //! The scan order is the channel order of `octavar_shared::device::F405_CHANNELS`.
 
 use embassy_stm32::flash::{Blocking, Flash};
