@@ -168,9 +168,40 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     loop {}
 }
 
+/// Where a probe sets the RTT up channel's mode: the flags word of defmt-rtt's `_SEGGER_RTT` control block, 44
+/// bytes in on a 32-bit target (a 16-byte id, two channel counts, then the up channel's name, buffer, size, write
+/// and read words), as SEGGER's layout fixes it.
+const RTT_UP_FLAGS: usize = 44;
+/// SEGGER's block-if-full mode, which probe-rs sets when it attaches.
+const RTT_MODE_BLOCK_IF_FULL: u32 = 2;
+/// Log lines written with no reader: several times the 512-byte RTT buffer.
+const RTT_FLOOD_LINES: u32 = 64;
+
+/// What an unplugged probe leaves: the RTT up channel in block-if-full mode and nobody reading it. The firmware
+/// then logs several buffers' worth. With defmt-rtt's `disable-blocking-mode` the lines that do not fit are
+/// dropped and boot goes on; a blocking logger would hang here for good, and the QEMU test would time out.
+fn rtt_as_an_unplugged_probe_leaves_it() {
+    extern "C" {
+        static _SEGGER_RTT: u8;
+    }
+    // SAFETY: the flags word is an AtomicU32 inside defmt-rtt's control block (interior mutability: the probe
+    // writes it too); the offset is SEGGER's fixed layout.
+    let flags =
+        unsafe { &*(core::ptr::addr_of!(_SEGGER_RTT).add(RTT_UP_FLAGS) as *const core::sync::atomic::AtomicU32) };
+    flags.store(RTT_MODE_BLOCK_IF_FULL, Ordering::Relaxed);
+    for i in 0..RTT_FLOOD_LINES {
+        defmt::info!("qemu: the RTT channel blocks if full and nobody reads it: line {} of {}", i + 1, RTT_FLOOD_LINES);
+    }
+    hprintln!(
+        "octavar-qemu: {} log lines with the RTT channel block-if-full and no reader: boot goes on",
+        RTT_FLOOD_LINES
+    );
+}
+
 /// Enable USART1 (115200 Bd at 84 MHz, 8N1; QEMU ignores the rate) and hand out the parts.
 pub fn init() -> Parts {
     paint_stack();
+    rtt_as_an_unplugged_probe_leaves_it();
     let core = cortex_m::Peripherals::take().expect("core peripherals are taken once");
     // SAFETY: these are the documented USART1 and RCC registers of the STM32F405; nothing else uses them.
     unsafe {
