@@ -76,6 +76,10 @@ impl FrameSink for Queue {
         frames::FRAMES_DROPPED.load(Ordering::Relaxed)
     }
 
+    fn stack_peak_bytes(&self) -> Option<u32> {
+        Some(crate::stack::peak_bytes())
+    }
+
     fn round(&mut self, snapshots: &[Snapshot], losses: u32, samples: u64) {
         let mut round = Round { snapshots: [DeviceConfig::empty_snapshot(); GYROS], adc_overruns: losses, samples };
         round.snapshots.copy_from_slice(snapshots);

@@ -45,6 +45,7 @@ mod commands;
 mod config;
 mod frames;
 mod sampler;
+mod stack;
 mod store;
 mod systick;
 mod timebase;
@@ -72,6 +73,8 @@ defmt::timestamp!("{=u64:us}", timebase::now_us());
 
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
+    // First, before any task runs: the paint the stack's high-water mark is read from.
+    stack::paint();
     let blocks = BLOCK_CHANNEL
         .init(zerocopy_channel::Channel::new(BLOCKS.init([const { SampleBlock::EMPTY }; BLOCKS_IN_FLIGHT])));
     let (block_tx, block_rx) = blocks.split();

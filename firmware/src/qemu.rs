@@ -122,39 +122,6 @@ impl LogFlash for QemuFlash {
     }
 }
 
-/// The stack's low-water mark is found by painting the free RAM below the stack at start-up.
-const STACK_PAINT: u32 = 0x5AFE_57AC;
-
-extern "C" {
-    /// The lowest address of the stack (the start of CCM, `memory.x`).
-    static mut __stack_floor: u32;
-}
-
-/// Paint the stack's memory below the current stack pointer (less a margin), so that
-/// [`stack_unused`] can tell how deep the stack has ever grown.
-fn paint_stack() {
-    let floor = core::ptr::addr_of_mut!(__stack_floor);
-    let sp = cortex_m::register::msp::read() as *mut u32;
-    let mut p = floor;
-    // SAFETY: the words between the stack's floor and 256 bytes below the live stack are unused.
-    while (p as usize) + 256 < sp as usize {
-        unsafe { p.write_volatile(STACK_PAINT) };
-        p = unsafe { p.add(1) };
-    }
-}
-
-/// Bytes of stack never touched since [`paint_stack`].
-pub fn stack_unused() -> usize {
-    let mut p = core::ptr::addr_of_mut!(__stack_floor) as *const u32;
-    let mut n = 0;
-    // SAFETY: reads the painted region from its floor up to the first overwritten word.
-    while unsafe { p.read_volatile() } == STACK_PAINT {
-        p = unsafe { p.add(1) };
-        n += 4;
-    }
-    n
-}
-
 /// A hard fault in QEMU: say where, and how much stack was left, and exit with failure rather than hang.
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
@@ -162,10 +129,12 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
         "octavar-qemu: hard fault at pc {:#010x} (lr {:#010x}); stack never used: {} bytes",
         frame.pc(),
         frame.lr(),
-        stack_unused()
+        crate::stack::unused_bytes()
     );
     debug::exit(debug::EXIT_FAILURE);
-    loop {}
+    loop {
+        cortex_m::asm::wfi();
+    }
 }
 
 /// Where a probe sets the RTT up channel's mode: the flags word of defmt-rtt's `_SEGGER_RTT` control block, 44
@@ -200,7 +169,6 @@ fn rtt_as_an_unplugged_probe_leaves_it() {
 
 /// Enable USART1 (115200 Bd at 84 MHz, 8N1; QEMU ignores the rate) and hand out the parts.
 pub fn init() -> Parts {
-    paint_stack();
     rtt_as_an_unplugged_probe_leaves_it();
     let core = cortex_m::Peripherals::take().expect("core peripherals are taken once");
     // SAFETY: these are the documented USART1 and RCC registers of the STM32F405; nothing else uses them.
@@ -356,11 +324,12 @@ pub async fn finish_task() {
     }
     Timer::after_millis(5).await;
     hprintln!(
-        "octavar-qemu: {} scans, {} lost, {} frames dropped; stack never used: {} bytes",
+        "octavar-qemu: {} scans, {} lost, {} frames dropped; stack peak {} of {} bytes",
         RUN_SCANS,
         sampler::SCANS_LOST.load(Ordering::Relaxed),
         crate::frames::FRAMES_DROPPED.load(Ordering::Relaxed),
-        stack_unused()
+        crate::stack::peak_bytes(),
+        crate::stack::size_bytes()
     );
     debug::exit(debug::EXIT_SUCCESS);
 }

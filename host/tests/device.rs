@@ -48,7 +48,7 @@ fn verify_and_decode_a_simulated_device() {
     assert_eq!(first_line("snapshots.csv"), "frame_seq,channel,samples,level,m,tau_s,n,sum_sq,avar_codes2,adev_codes");
     assert_eq!(
         first_line("status.csv"),
-        "frame_seq,uptime_ms,samples_per_channel,adc_overruns,frames_dropped,temperature_c"
+        "frame_seq,uptime_ms,samples_per_channel,adc_overruns,frames_dropped,temperature_c,samples_lost,stack_peak_bytes"
     );
     let samples = std::fs::read_to_string(csv.join("samples.csv")).unwrap();
     assert_eq!(samples.lines().count(), 1 + 6100);

@@ -308,6 +308,20 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
     let status = last_status(&records);
     assert_eq!((status.samples_lost, status.adc_overruns, status.frames_dropped), (0, 0, 0), "{status:?}");
     assert_eq!(status.samples_per_channel, (total - reset_after) / RATE * RATE, "{status:?}");
+    // The stack's high-water mark: reported, within the stack, and no deeper than the end of the run's reading.
+    let (end_peak, stack_size) = stdout
+        .lines()
+        .find_map(|l| {
+            let rest = l.split("; stack peak ").nth(1)?;
+            let (peak, size) = rest.split_once(" of ")?;
+            Some((peak.parse::<u32>().ok()?, size.strip_suffix(" bytes")?.parse::<u32>().ok()?))
+        })
+        .unwrap_or_else(|| panic!("no stack peak in the end-of-run line:\n{stdout}"));
+    let peak = status.stack_peak_bytes.expect("the firmware measures its stack");
+    assert!(
+        peak > 256 && peak <= end_peak && end_peak < stack_size,
+        "peak {peak}, at the end {end_peak} of {stack_size}"
+    );
 
     // Estimates: one per round, N and B of every gyro in the last; N near the simulated Table 1 values.
     let estimates: Vec<_> = records

@@ -117,12 +117,13 @@ fn print_summary(out: &mut dyn Write, s: &DecodeSummary) -> std::io::Result<()> 
         let t = &last.status;
         writeln!(
             out,
-            "  last status: uptime {:.1} s, {} samples per channel, ADC overruns {}, frames dropped on the device {}{}",
+            "  last status: uptime {:.1} s, {} samples per channel, ADC overruns {}, frames dropped on the device {}{}{}",
             t.uptime_ms as f64 / 1000.0,
             t.samples_per_channel,
             t.adc_overruns,
             t.frames_dropped,
-            t.temperature_c.map(|c| format!(", {c:.1} degC")).unwrap_or_default()
+            t.temperature_c.map(|c| format!(", {c:.1} degC")).unwrap_or_default(),
+            t.stack_peak_bytes.map(|b| format!(", stack peak {b} bytes")).unwrap_or_default()
         )?;
     }
     for f in &s.csv_files {

@@ -36,6 +36,10 @@ pub trait FrameSink {
     fn send(&mut self, frame: &Frame);
     /// Frames dropped since boot, for the status frame.
     fn frames_dropped(&self) -> u32;
+    /// The stack's high-water mark since boot, bytes, for the status frame (`None`: not measured).
+    fn stack_peak_bytes(&self) -> Option<u32> {
+        None
+    }
     /// A snapshot round is complete: every gyro's pooled snapshot this session, the sample losses since boot and
     /// the scans accumulated this session (what the field log checkpoints). Called after the round's frames.
     fn round(&mut self, snapshots: &[Snapshot], losses: u32, samples: u64) {
@@ -271,6 +275,7 @@ impl<'a, const G: usize> Characterizer<'a, G> {
             frames_dropped: sink.frames_dropped(),
             temperature_c,
             samples_lost: self.samples_lost,
+            stack_peak_bytes: sink.stack_peak_bytes(),
         }));
         sink.round(&snapshots, self.losses, self.samples);
     }

@@ -235,6 +235,9 @@ pub struct Status {
     /// Scans lost since the last reset: the sum of this session's gaps, each counted exactly from the hardware
     /// sample index. `samples_per_channel + samples_lost` scans of time have passed in the session.
     pub samples_lost: u64,
+    /// The deepest the stack has been since boot, in bytes: the high-water mark of the stack painted at boot.
+    /// `None` from a sender that does not measure it (the host's simulated device).
+    pub stack_peak_bytes: Option<u32>,
 }
 
 /// The onboard noise estimate of the gyro channels.

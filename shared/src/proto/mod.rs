@@ -92,7 +92,7 @@ pub use size::{varint_max, MaxSize};
 pub use snapshot::{SnapshotError, SnapshotPart, SnapshotParts};
 
 /// The version of the wire format, sent in [`Hello`]. Bump it on any change a golden-bytes test catches.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// The largest encoded frame in bytes, the 0x00 delimiter included: the receive buffer size.
 pub const MAX_FRAME: usize = 512;

@@ -116,6 +116,7 @@ sum_of_fields!(Status {
     frames_dropped: u32,
     temperature_c: Option<f32>,
     samples_lost: u64,
+    stack_peak_bytes: Option<u32>,
 });
 sum_of_fields!(ChannelEstimate {
     channel: u8,

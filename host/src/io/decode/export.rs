@@ -87,6 +87,8 @@ impl CsvSet {
                     "adc_overruns",
                     "frames_dropped",
                     "temperature_c",
+                    "samples_lost",
+                    "stack_peak_bytes",
                 ]),
             )?,
             estimates: Csv::create(
@@ -167,6 +169,8 @@ impl CsvSet {
                 s.adc_overruns.to_string(),
                 s.frames_dropped.to_string(),
                 opt(s.temperature_c),
+                s.samples_lost.to_string(),
+                opt(s.stack_peak_bytes),
             ])?,
             Message::Estimate(e) => {
                 for c in &e.channels {

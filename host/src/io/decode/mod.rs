@@ -17,7 +17,7 @@
 //! let mut enc = Encoder::new();
 //! let status = Frame::Status(Status {
 //!     uptime_ms: 1000, samples_per_channel: 2000, adc_overruns: 0, frames_dropped: 0, temperature_c: None,
-//!     samples_lost: 0,
+//!     samples_lost: 0, stack_peak_bytes: Some(2048),
 //! });
 //! let mut bytes = enc.encode_to_vec(&status).unwrap().to_vec();
 //! bytes.extend_from_slice(&[0x42, 0x13]); // a frame cut short at the end of the capture

@@ -65,6 +65,7 @@ pub(super) fn example_frames() -> Vec<Frame> {
             frames_dropped: 17,
             temperature_c: Some(23.5),
             samples_lost: 3_999,
+            stack_peak_bytes: Some(5_120),
         }),
         Frame::Estimate(estimate),
         Frame::FieldLog(FieldLogRecord { checkpoint: 12, time_s: 3600, sessions: 2, adc_overruns: 1, part }),
@@ -131,6 +132,7 @@ pub(super) fn worst_frames() -> Vec<Frame> {
             frames_dropped: u32::MAX,
             temperature_c: Some(f32::MAX),
             samples_lost: u64::MAX,
+            stack_peak_bytes: Some(u32::MAX),
         }),
         Frame::Estimate(Estimate { samples: u64::MAX, channels: est }),
         Frame::FieldLog(FieldLogRecord {
@@ -219,6 +221,7 @@ pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
             frames_dropped: r(rng, 16) as u32,
             temperature_c: (rng.below(2) == 0).then(|| r(rng, 10) as f32 / 16.0),
             samples_lost: r(rng, 24),
+            stack_peak_bytes: (rng.below(2) == 0).then(|| r(rng, 17) as u32),
         }),
         4 => {
             let n = rng.below(MAX_CHANNELS + 1);

@@ -38,7 +38,7 @@ fn worst_case_table() {
     assert_eq!(Hello::MAX_SIZE + 1, 209);
     assert_eq!(Samples::MAX_SIZE + 1, 494);
     assert_eq!(SnapshotPart::MAX_SIZE + 1, 480);
-    assert_eq!(Status::MAX_SIZE + 1, 46);
+    assert_eq!(Status::MAX_SIZE + 1, 52);
     assert_eq!(Estimate::MAX_SIZE + 1, 140);
     assert_eq!(FieldLogRecord::MAX_SIZE + 1, 500);
     assert_eq!(FieldLogEnd::MAX_SIZE + 1, 6);
