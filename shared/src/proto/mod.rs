@@ -56,6 +56,7 @@
 //!     frames_dropped: 0,
 //!     temperature_c: Some(24.5),
 //!     samples_lost: 0,
+//!     stack_peak_bytes: Some(4_096),
 //! });
 //! let mut enc = Encoder::new();
 //! let mut wire = [0u8; 2 * MAX_FRAME];
