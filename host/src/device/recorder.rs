@@ -681,44 +681,18 @@ mod tests {
         spans
     }
 
-    /// Record `bytes` from one connection to its end, with no commands sent.
+    /// Record `bytes` from one connection of the fake port, stopping once they are all in.
     fn record_bytes(bytes: Vec<u8>) -> RecordSummary {
-        struct Once(Option<Vec<u8>>);
-        struct OnceLink(Option<Vec<u8>>);
-        impl Link for OnceLink {
-            fn read(&mut self, buf: &mut [u8]) -> io::Result<ReadOutcome> {
-                Ok(match self.0.as_mut() {
-                    Some(d) if !d.is_empty() => {
-                        let n = d.len().min(buf.len());
-                        buf[..n].copy_from_slice(&d[..n]);
-                        d.drain(..n);
-                        ReadOutcome::Data(n)
-                    }
-                    _ => ReadOutcome::End,
-                })
-            }
-            fn write_all(&mut self, _: &[u8]) -> io::Result<()> {
-                Ok(())
-            }
-        }
-        impl Source for Once {
-            type Link = OnceLink;
-            fn name(&self) -> String {
-                "mem".into()
-            }
-            fn connect(&mut self) -> io::Result<OnceLink> {
-                Ok(OnceLink(self.0.take()))
-            }
-            fn can_reconnect(&self) -> bool {
-                false
-            }
-            fn can_send(&self) -> bool {
-                false
-            }
-        }
+        let total = bytes.len() as u64;
+        let mut p = port(vec![Some(vec![Step::Data(bytes)])]);
         let mut cap = CaptureWriter::new(Vec::new(), Path::new("mem.cap"));
         let stop = AtomicBool::new(false);
-        record(&mut Once(Some(bytes)), &mut cap, &RecordOptions::default(), &stop, &mut |_| {}).unwrap()
+        record(&mut p, &mut cap, &opts(), &stop, &mut |s| {
+            if s.bytes == total {
+                stop.store(true, Ordering::Relaxed);
+            }
+        })
+        .unwrap()
     }
 
     /// The firmware's lone delimiter (`proto::RESYNC`) before each connection's hello and after a frame it could
