@@ -1,4 +1,4 @@
-//! The board: clocks, the flash accelerator, brown-out level, watchdog, the USB serial number, and one parts
+//! The board: clocks, the flash accelerator, the brown-out level check, watchdog, the USB serial number, and one parts
 //! struct per task. The crystal and the analog pins are the board variant's (`board_config.rs`).
 //!
 //! | signal                 | pin  | ADC1 channel | front end (see README)                  |
@@ -14,11 +14,11 @@
 //! The pins are those of `f405-8mhz`; the Feather's (`f405-12mhz`) are A0-A4 = PA4-PA7, PC4 (`board_config.rs`).
 //! The scan order is the channel order of `octavar_shared::device::F405_CHANNELS`.
 
-use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::pac;
 use embassy_stm32::peripherals::{ADC1, DMA2_CH0, TIM3, TIM5, USB_OTG_FS};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{bind_interrupts, peripherals, usb, Config, Peri};
+use octavar_shared::flash_f4::{self, BrownOut};
 
 use crate::board_config::BOARD;
 
@@ -90,10 +90,11 @@ pub struct UsbParts {
     pub dm: Peri<'static, peripherals::PA11>,
 }
 
-/// What the store task owns: the flash controller.
+/// What the store task owns: the flash controller (`flash_regs.rs`; the F405 stalls on flash reads during a
+/// write or erase anyway, so the sequences poll).
 pub struct StoreParts {
-    /// Blocking flash driver (the F405 stalls on flash reads during a write or erase anyway).
-    pub flash: Flash<'static, Blocking>,
+    /// The controller, driven by `octavar_shared::flash_f4`'s sequences.
+    pub flash: crate::flash_regs::PacFlash,
 }
 
 /// All the parts, one struct per task, plus the core peripherals.
@@ -108,7 +109,7 @@ pub struct Parts {
     pub syst: cortex_m::peripheral::SYST,
 }
 
-/// Set the clocks, the flash accelerator and the brown-out level, start the HAL and split the peripherals.
+/// Set the clocks and the flash accelerator, check the brown-out level, start the HAL and split the peripherals.
 pub fn init() -> Parts {
     let mut config = Config::default();
     {
@@ -130,12 +131,13 @@ pub fn init() -> Parts {
     }
     let p = embassy_stm32::init(config);
     flash_accelerator_on();
-    brown_out_level_3();
+    let mut flash = crate::flash_regs::PacFlash::new(p.FLASH);
+    check_brown_out(&mut flash);
     let core = cortex_m::Peripherals::take().expect("core peripherals are taken once");
     Parts {
         sampler: SamplerParts { adc: p.ADC1, dma: p.DMA2_CH0, tim3: p.TIM3, tim5: p.TIM5 },
         usb: UsbParts { otg: p.USB_OTG_FS, dp: p.PA12, dm: p.PA11 },
-        store: StoreParts { flash: Flash::new_blocking(p.FLASH) },
+        store: StoreParts { flash },
         syst: core.SYST,
     }
 }
@@ -180,20 +182,18 @@ pub fn flash_caches_reset() {
     flash_accelerator_on();
 }
 
-/// Brown-out reset at level 3 (2.70 V) so a sagging battery resets the MCU rather than corrupt a flash write.
-/// The level is an option byte (BOR_LEV = 00): programmed once, on the first boot that finds it otherwise.
-fn brown_out_level_3() {
-    let flash = pac::FLASH;
-    if flash.optcr().read().bor_lev() == 0 {
-        return;
+/// The field log programs at x32, which needs 2.7 V: brown-out level 3 resets the MCU below that rather than let
+/// a sagging battery corrupt a write. The level is an option byte, programmed once at bring-up
+/// (`octavar_shared::flash_f4::set_brown_out_level`), never at boot: a power cut during an option-byte write can
+/// corrupt the option bytes, and a write that fails would fail again on every boot. Here it is only read.
+fn check_brown_out(flash: &mut crate::flash_regs::PacFlash) {
+    match flash_f4::brown_out_level(flash) {
+        BrownOut::Level3 => defmt::info!("board: brown-out reset at level 3 (2.70 V)"),
+        other => defmt::warn!(
+            "board: brown-out reset is {} (the option bytes): x32 flash writes need level 3; set it once at bring-up",
+            other
+        ),
     }
-    flash.optkeyr().write_value(0x0819_2A3B);
-    flash.optkeyr().write_value(0x4C5D_6E7F);
-    flash.optcr().modify(|w| w.set_bor_lev(0));
-    flash.optcr().modify(|w| w.set_optstrt(true));
-    while flash.sr().read().bsy() {}
-    flash.optcr().modify(|w| w.set_optlock(true));
-    defmt::info!("board: brown-out reset level set to 3 (2.70 V)");
 }
 
 /// The chip's 96-bit unique ID as 24 hex digits: the USB serial number, so every board is its own port.

@@ -25,13 +25,20 @@ pub const BLOCK_SCANS: usize = DEVICE.block_scans;
 pub const BLOCK_CODES: usize = DEVICE.block_codes();
 /// Sample blocks the sampler can hand to characterize before it waits (the ring holds the rest).
 pub const BLOCKS_IN_FLIGHT: usize = 2;
-/// Scans in the DMA ring: 1.024 s, which outlives the erase of a 16 KiB flash sector (at most 0.5 s) with room
-/// for the sampler's poll period; a longer stall loses scans, and the hardware index counts them exactly.
+/// Scans in the DMA ring: 1.024 s, which outlives the longest flash stall (a 16 KiB sector's erase at x32, at
+/// most 0.5 s: `store::RING_COVERS_THE_WORST_STALL`); a longer stall loses scans, and the hardware index counts
+/// them exactly.
 pub const RING_SCANS: usize = 16 * BLOCK_SCANS;
 /// Codes in the DMA ring (20 KiB).
 pub const RING_CODES: usize = RING_SCANS * CHANNELS;
 /// How often the sampler looks at the ring.
 pub const SAMPLER_POLL: Duration = Duration::from_millis(16);
+/// Scans in one sampler poll period.
+pub const POLL_SCANS: usize = (SAMPLER_POLL.as_micros() * SAMPLE_RATE_HZ as u64 / 1_000_000) as usize;
+/// Scans a stall of the CPU can last without losing one, when it starts with the sampler caught up: the ring,
+/// less the block being filled and a poll period's scans the sampler has not looked at yet, less a block of
+/// room for the copy once the CPU is back. 1760 scans, 0.88 s.
+pub const STALL_BUDGET_SCANS: usize = RING_SCANS - 2 * BLOCK_SCANS - POLL_SCANS;
 
 /// Field-log checkpoints at most this often (the "every 10 minutes at most").
 #[cfg(not(feature = "qemu"))]

@@ -55,6 +55,8 @@ mod watchdog;
 mod adc;
 #[cfg(not(feature = "qemu"))]
 mod board;
+#[cfg(not(feature = "qemu"))]
+mod flash_regs;
 #[cfg(feature = "qemu")]
 mod qemu;
 #[cfg(not(feature = "qemu"))]
@@ -88,7 +90,7 @@ async fn main(spawner: Spawner) {
         spawner.spawn(unwrap!(sampler_task(parts.sampler, block_tx)));
         spawner.spawn(unwrap!(characterize_task(block_rx, characterize::core())));
         spawner.spawn(unwrap!(usb::usb_task(parts.usb)));
-        spawner.spawn(unwrap!(store_task(store::BoardFlash::new(parts.store))));
+        spawner.spawn(unwrap!(store_task(store::board_flash(parts.store))));
     }
     #[cfg(feature = "qemu")]
     {

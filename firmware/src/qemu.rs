@@ -11,7 +11,10 @@
 //!   command decoder and router as USB's (QEMU connects USART1 to `-serial`);
 //! - stalls: with `OCTAVAR_QEMU_STALL_EVERY=S` and `OCTAVAR_QEMU_STALL_MS=M`, the CPU stops for M ms every S
 //!   seconds with interrupts masked, as a flash erase stops it, while the virtual converter's count runs on;
-//! - the field log in a RAM flash model (QEMU's flash is read-only);
+//! - the field log in the host tests' model of the flash controller (`octavar_shared::flash_f4::model`; QEMU's
+//!   flash is read-only), driven by the board's own x32 sequences; with `OCTAVAR_QEMU_FLASH_TIMING=worst` each
+//!   erase and programming stalls the CPU, interrupts masked, for the datasheet's worst-case time the model
+//!   charges it at the parallelism it ran at;
 //! - a benchmark at start-up of the characterizer's per-sample path, printed through semihosting;
 //! - a semihosting exit (code 0) after [`RUN_SECONDS`] of scans, once every frame has been written.
 //!
@@ -23,7 +26,9 @@ use core::sync::atomic::Ordering;
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_time::{Duration, Timer};
 use octavar_shared::device::{Characterizer, FrameSink, ReadyBlock};
-use octavar_shared::fieldlog::{LogFlash, RamFlash, RamFlashError};
+use octavar_shared::fieldlog::STM32F405_LOG_SECTORS;
+use octavar_shared::flash_f4::model::ControllerModel;
+use octavar_shared::flash_f4::{F4LogFlash, FlashRegs};
 use octavar_shared::proto::{encode_to_vec, Command, Decoder, Frame};
 use octavar_shared::sensor::temperature_code;
 use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim};
@@ -43,12 +48,26 @@ pub const SEED: u64 = parse_u64(option_env!("OCTAVAR_QEMU_SEED"), 1);
 pub const STALL_EVERY_S: u64 = parse_u64(option_env!("OCTAVAR_QEMU_STALL_EVERY"), 0);
 /// Each stall's length in ms (`OCTAVAR_QEMU_STALL_MS`, 1000 by default).
 pub const STALL_MS: u64 = parse_u64(option_env!("OCTAVAR_QEMU_STALL_MS"), 1000);
+/// Whether flash operations stall the CPU for their worst-case time (`OCTAVAR_QEMU_FLASH_TIMING=worst` at build
+/// time; `none`, the default: they take no time).
+pub const FLASH_TIMING_WORST: bool = match option_env!("OCTAVAR_QEMU_FLASH_TIMING") {
+    None => false,
+    Some(v) => parse_timing(v),
+};
 /// The core clock QEMU's netduinoplus2 gives SysTick, Hz.
 pub const SYSCLK_HZ: u32 = 168_000_000;
 /// The kernel clock of QEMU's TIM2..TIM5 (its timer model counts at 1 GHz, not at the board's 84 MHz).
 pub const TIMER_CLOCK_HZ: u32 = 1_000_000_000;
 /// Scans of the run: whole blocks covering [`RUN_SECONDS`].
 pub const RUN_SCANS: u64 = (RUN_SECONDS * SAMPLE_RATE_HZ as u64).div_ceil(BLOCK_SCANS as u64) * BLOCK_SCANS as u64;
+
+const fn parse_timing(s: &str) -> bool {
+    match s.as_bytes() {
+        b"worst" => true,
+        b"none" | b"" => false,
+        _ => panic!("OCTAVAR_QEMU_FLASH_TIMING must be worst or none"),
+    }
+}
 
 const fn parse_u64(s: Option<&str>, default: u64) -> u64 {
     let Some(s) = s else { return default };
@@ -89,37 +108,79 @@ mod usart1 {
 pub struct Parts {
     /// SysTick, for the time driver.
     pub syst: cortex_m::peripheral::SYST,
-    /// The RAM flash standing in for sectors 1 and 2.
+    /// The field log's flash: the controller model standing in for sectors 1 and 2.
     pub flash: QemuFlash,
 }
 
-/// Words in each of the two RAM sectors: 8 KiB, two checkpoints each (so the log alternates and erases often).
+/// Words of each log sector the model backs: 8 KiB, two checkpoints each (so the log alternates and erases
+/// often). The model charges erases for the whole 16 KiB sector.
 pub const SECTOR_WORDS: usize = 2048;
 
-/// The RAM flash, in a static so that tasks hold only a reference to it.
-static FLASH: ConstStaticCell<RamFlash<SECTOR_WORDS>> = ConstStaticCell::new(RamFlash::new());
+/// The controller model, in a static so that tasks hold only a reference to it.
+static FLASH: ConstStaticCell<ControllerModel<SECTOR_WORDS>> =
+    ConstStaticCell::new(ControllerModel::new(STM32F405_LOG_SECTORS));
 
-/// The field log's flash in QEMU: a [`RamFlash`] in a static.
-pub struct QemuFlash(&'static mut RamFlash<SECTOR_WORDS>);
+/// The field log's flash in QEMU: the board's sequences over the controller model.
+pub type QemuFlash = F4LogFlash<ModelRegs>;
 
-impl LogFlash for QemuFlash {
-    type Error = RamFlashError;
+/// The controller model as the sequences' registers, stalling the CPU after each operation when
+/// [`FLASH_TIMING_WORST`].
+pub struct ModelRegs(&'static mut ControllerModel<SECTOR_WORDS>);
 
-    fn sector_words(&self) -> usize {
-        self.0.sector_words()
+impl FlashRegs for ModelRegs {
+    fn cr(&mut self) -> u32 {
+        self.0.cr()
     }
-
-    fn erase(&mut self, sector: usize) -> Result<(), RamFlashError> {
-        self.0.erase(sector)
+    fn set_cr(&mut self, value: u32) {
+        self.0.set_cr(value)
     }
-
-    fn write(&mut self, sector: usize, offset: usize, words: &[u32]) -> Result<(), RamFlashError> {
-        self.0.write(sector, offset, words)
+    fn sr(&mut self) -> u32 {
+        self.0.sr()
     }
-
-    fn read(&mut self, sector: usize, offset: usize, buf: &mut [u32]) -> Result<(), RamFlashError> {
-        self.0.read(sector, offset, buf)
+    fn clear_sr(&mut self, flags: u32) {
+        self.0.clear_sr(flags)
     }
+    fn key(&mut self, key: u32) {
+        self.0.key(key)
+    }
+    fn optcr(&mut self) -> u32 {
+        self.0.optcr()
+    }
+    fn set_optcr(&mut self, value: u32) {
+        self.0.set_optcr(value)
+    }
+    fn opt_key(&mut self, key: u32) {
+        self.0.opt_key(key)
+    }
+    fn store(&mut self, address: u32, value: u32) {
+        self.0.store(address, value)
+    }
+    fn load(&mut self, address: u32) -> u32 {
+        self.0.load(address)
+    }
+    fn changed(&mut self) {
+        let us = self.0.take_busy_us();
+        if FLASH_TIMING_WORST && us > 0 {
+            stall_cpu_us(us);
+            hprintln!("octavar-qemu: flash busy {} us", us);
+        }
+        if self.0.log.violations > 0 {
+            hprintln!("octavar-qemu: the flash sequences broke {} controller rules", self.0.log.violations);
+        }
+    }
+}
+
+/// Stop the CPU for `us` microseconds of the time base with interrupts masked, as a flash operation does (then
+/// every fetch waits, interrupt vectors included). The time base and the virtual converter run on.
+fn stall_cpu_us(us: u64) {
+    let until = timebase::now_us() + us;
+    critical_section::with(|_| {
+        while timebase::now_us() < until {
+            // Sleep to the next SysTick rather than spin; its interrupt stays masked (a stall loses them).
+            cortex_m::peripheral::SCB::clear_pendst();
+            cortex_m::asm::wfi();
+        }
+    });
 }
 
 /// A hard fault in QEMU: say where, and how much stack was left, and exit with failure rather than hang.
@@ -177,7 +238,7 @@ pub fn init() -> Parts {
         usart1::BRR.write_volatile(84_000_000 / 115_200);
         usart1::CR1.write_volatile(usart1::UE | usart1::TE | usart1::RE);
     }
-    Parts { syst: core.SYST, flash: QemuFlash(FLASH.take()) }
+    Parts { syst: core.SYST, flash: QemuFlash::new(ModelRegs(FLASH.take()), STM32F405_LOG_SECTORS, SECTOR_WORDS) }
 }
 
 fn uart_write(bytes: &[u8]) {
@@ -297,14 +358,7 @@ pub async fn stall_task() {
     let mut next = timebase::now_us() + STALL_EVERY_S * 1_000_000;
     loop {
         Timer::at(embassy_time::Instant::from_micros(next)).await;
-        let until = timebase::now_us() + STALL_MS * 1000;
-        critical_section::with(|_| {
-            while timebase::now_us() < until {
-                // Sleep to the next SysTick rather than spin; its interrupt stays masked (a stall loses them).
-                cortex_m::peripheral::SCB::clear_pendst();
-                cortex_m::asm::wfi();
-            }
-        });
+        stall_cpu_us(STALL_MS * 1000);
         hprintln!("octavar-qemu: stalled {} ms", STALL_MS);
         next += STALL_EVERY_S * 1_000_000;
     }

@@ -19,6 +19,9 @@ use crate::config::*;
 /// Hardware index of the next scan the sampler will hand on, low 32 bits (for the QEMU run's end and the logs;
 /// the M4 has no 64-bit atomics).
 pub static NEXT_SCAN: AtomicU32 = AtomicU32::new(0);
+/// Scans in the ring the sampler has not handed on, at its last poll (the store waits for this to fall below a
+/// block before it stalls the CPU on the flash).
+pub static BACKLOG_SCANS: AtomicU32 = AtomicU32::new(0);
 /// Scans lost since boot (skipped over in the ring, or dropped in a converter recovery), saturating.
 pub static SCANS_LOST: AtomicU32 = AtomicU32::new(0);
 
@@ -58,6 +61,8 @@ pub async fn run<R: ScanRing>(ring: &mut R, mut blocks: BlockSender) -> ! {
             blocks.send_done();
         }
         NEXT_SCAN.store(reader.next_index() as u32, Ordering::Relaxed);
+        let backlog = ring.started().saturating_sub(reader.next_index());
+        BACKLOG_SCANS.store(backlog.min(u64::from(u32::MAX)) as u32, Ordering::Relaxed);
         SCANS_LOST.store(reader.lost().min(u64::from(u32::MAX)) as u32, Ordering::Relaxed);
     }
 }

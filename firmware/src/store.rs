@@ -18,11 +18,14 @@
 //! A read-out never blocks the log: each frame waits at most [`READ_OUT_FRAME_WAIT`] for room, and only while a
 //! host listens; a host that goes away mid read-out ends it, and checkpoints go on.
 
+use core::sync::atomic::Ordering;
 use embassy_futures::select::{select, Either};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::signal::Signal;
-use embassy_time::Duration;
-use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogFlash, Recorded, Recorder};
+
+use embassy_time::{Duration, Timer};
+use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogFlash, Recorded, Recorder, OVERHEAD_WORDS};
+use octavar_shared::flash_f4::{erase_worst_us, program_worst_us, PARALLELISM};
 use octavar_shared::proto::{Ack, FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
 
 use crate::characterize::SNAPSHOT_READY;
@@ -33,6 +36,51 @@ use crate::frames;
 pub type GyroCheckpoint = Checkpoint<GYROS>;
 /// Payload words of one checkpoint.
 pub const CHECKPOINT_WORDS: usize = GyroCheckpoint::WORDS;
+
+/// The longest the flash stalls the CPU in one go, microseconds: a log sector's erase or one checkpoint's
+/// programming at the controller's parallelism, whichever is longer, at the datasheet's worst case.
+pub const FLASH_STALL_WORST_US: u64 = {
+    let erase = erase_worst_us(octavar_shared::fieldlog::STM32F405_LOG_SECTORS[0].bytes, PARALLELISM);
+    let program = program_worst_us(CHECKPOINT_WORDS + OVERHEAD_WORDS, PARALLELISM);
+    if erase > program {
+        erase
+    } else {
+        program
+    }
+};
+
+/// The build fails unless the ring's stall budget covers the worst flash stall at least 1.5 times.
+pub const RING_COVERS_THE_WORST_STALL: () = assert!(
+    2 * STALL_BUDGET_SCANS as u64 * 1_000_000 >= 3 * FLASH_STALL_WORST_US * SAMPLE_RATE_HZ as u64,
+    "the sample ring must outlive the worst-case flash stall 1.5 times"
+);
+const _: () = RING_COVERS_THE_WORST_STALL;
+
+/// How many sampler polls [`settle`] waits at most (characterize may be behind and keep blocks in the ring).
+const SETTLE_POLLS: u32 = 32;
+
+/// Before a flash stall: wait until the sampler has taken every complete block from the ring (what the stall
+/// budget assumes), for at most [`SETTLE_POLLS`] polls.
+async fn settle() {
+    for _ in 0..SETTLE_POLLS {
+        if crate::sampler::BACKLOG_SCANS.load(Ordering::Relaxed) < BLOCK_SCANS as u32 {
+            return;
+        }
+        Timer::after(SAMPLER_POLL).await;
+    }
+}
+
+/// Make the next checkpoint's slot ready (erasing a sector if it is due), after letting the sampler drain.
+async fn prepare<F: LogFlash>(log: &mut FieldLog<F>) {
+    settle().await;
+    match log.prepare_append() {
+        Ok(true) => defmt::info!("field log: sector erased for the next checkpoint"),
+        Ok(false) => {}
+        Err(e) => {
+            defmt::warn!("field log: erase failed (the next checkpoint tries again): {}", defmt::Debug2Format(&e))
+        }
+    }
+}
 
 /// A host asked for the field log from this checkpoint on, in the command frame with this sequence number
 /// (link task -> store).
@@ -52,8 +100,8 @@ pub const READ_OUT_FRAME_WAIT: Duration = Duration::from_secs(2);
 
 /// Checkpoints snapshot rounds and answers field-log reads; generic over the flash (real or RAM).
 ///
-/// Only the log, the recorder (with its base checkpoint) and one record's words live across the waits (this
-/// future is a static).
+/// Only the log, the recorder (with its base checkpoint), one record's words and, while [`settle`] waits before
+/// a checkpoint, that round live across the waits (this future is a static).
 pub async fn run<F: LogFlash>(flash: F) -> ! {
     let mut words = [0u32; CHECKPOINT_WORDS];
     let mut log = match FieldLog::open(flash, CHECKPOINT_WORDS) {
@@ -73,10 +121,15 @@ pub async fn run<F: LogFlash>(flash: F) -> ! {
         (Ok(_), _) => defmt::info!("field log: empty"),
         (Err(e), _) => defmt::warn!("field log: {}", defmt::Debug2Format(&e)),
     }
+    prepare(&mut log).await;
     loop {
-        // The round is handled inside the match (no await there), so it is not kept across the read-out's waits.
+        // The round lives only in this arm, so it is not kept across the read-out's waits.
         let read_from = match select(SNAPSHOT_READY.wait(), LOG_READ.wait()).await {
             Either::First(round) => {
+                if !recorder.due(round.samples) {
+                    continue;
+                }
+                settle().await;
                 match recorder.round(&mut log, &mut words, &round.snapshots, round.adc_overruns, round.samples) {
                     Ok(Recorded::Written { seq, sessions, new_session }) => defmt::info!(
                         "field log: checkpoint {} ({} samples this session, {} sessions{})",
@@ -92,15 +145,16 @@ pub async fn run<F: LogFlash>(flash: F) -> ! {
             }
             Either::Second(from) => Some(from),
         };
-        if let Some(read) = read_from {
-            match read_out(&mut log, read, &mut words).await {
-                Ok(()) => defmt::info!("field log: read out"),
-                Err(_) => defmt::warn!("field log: read-out abandoned (the host went away or stopped reading)"),
-            }
+        let Some(read) = read_from else {
+            prepare(&mut log).await;
+            continue;
+        };
+        match read_out(&mut log, read, &mut words).await {
+            Ok(()) => defmt::info!("field log: read out"),
+            Err(_) => defmt::warn!("field log: read-out abandoned (the host went away or stopped reading)"),
         }
     }
 }
-
 /// Acknowledge the request, then send the newest checkpoint one frame at a time (decode the record, send its
 /// i-th part, until there are no more), then the end frame. Any frame not taken within the bound ends it.
 async fn read_out<F: LogFlash>(
@@ -149,65 +203,13 @@ fn log_frame<F: LogFlash>(
     None
 }
 
-/// The field log's flash on the board: sectors 1 and 2 through embassy-stm32's blocking flash driver.
+/// The field log's flash on the board: sectors 1 and 2 through the shared controller sequences at x32.
 #[cfg(not(feature = "qemu"))]
-pub struct BoardFlash {
-    flash: embassy_stm32::flash::Flash<'static, embassy_stm32::flash::Blocking>,
-}
+pub type BoardFlash = octavar_shared::flash_f4::F4LogFlash<crate::flash_regs::PacFlash>;
 
+/// The board's log flash from the store's parts.
 #[cfg(not(feature = "qemu"))]
-impl BoardFlash {
-    /// Take the flash from the store's parts.
-    pub fn new(parts: crate::board::StoreParts) -> Self {
-        Self { flash: parts.flash }
-    }
-
-    /// Byte offset from the start of flash (what embassy-stm32 takes) of `word` in `sector`.
-    fn offset(sector: usize, word: usize) -> u32 {
-        use octavar_shared::fieldlog::STM32F405_LOG_SECTORS;
-        STM32F405_LOG_SECTORS[sector].address - embassy_stm32::flash::FLASH_BASE as u32 + 4 * word as u32
-    }
-}
-
-#[cfg(not(feature = "qemu"))]
-impl LogFlash for BoardFlash {
-    type Error = embassy_stm32::flash::Error;
-
-    fn sector_words(&self) -> usize {
-        octavar_shared::fieldlog::STM32F405_LOG_SECTORS[0].bytes as usize / 4
-    }
-
-    fn erase(&mut self, sector: usize) -> Result<(), Self::Error> {
-        let from = Self::offset(sector, 0);
-        let to = from + octavar_shared::fieldlog::STM32F405_LOG_SECTORS[sector].bytes;
-        defmt::info!("field log: erasing sector {}", octavar_shared::fieldlog::STM32F405_LOG_SECTORS[sector].index);
-        let result = self.flash.blocking_erase(from, to);
-        crate::board::flash_caches_reset();
-        result
-    }
-
-    fn write(&mut self, sector: usize, offset: usize, words: &[u32]) -> Result<(), Self::Error> {
-        let mut bytes = [0u8; 64];
-        let written = words.chunks(16).enumerate().try_for_each(|(i, chunk)| {
-            for (b, w) in bytes.chunks_exact_mut(4).zip(chunk) {
-                b.copy_from_slice(&w.to_le_bytes());
-            }
-            self.flash.blocking_write(Self::offset(sector, offset + 16 * i), &bytes[..4 * chunk.len()])
-        });
-        // Once for the whole record, whether or not it was all written.
-        crate::board::flash_caches_reset();
-        written
-    }
-
-    fn read(&mut self, sector: usize, offset: usize, buf: &mut [u32]) -> Result<(), Self::Error> {
-        let mut bytes = [0u8; 64];
-        for (i, chunk) in buf.chunks_mut(16).enumerate() {
-            let n = 4 * chunk.len();
-            self.flash.blocking_read(Self::offset(sector, offset + 16 * i), &mut bytes[..n])?;
-            for (w, b) in chunk.iter_mut().zip(bytes.chunks_exact(4)) {
-                *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-            }
-        }
-        Ok(())
-    }
+pub fn board_flash(parts: crate::board::StoreParts) -> BoardFlash {
+    let sectors = octavar_shared::fieldlog::STM32F405_LOG_SECTORS;
+    BoardFlash::new(parts.flash, sectors, sectors[0].bytes as usize / 4)
 }

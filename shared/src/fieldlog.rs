@@ -4,9 +4,9 @@
 //! [`Checkpoint`] (the snapshots of every gyro channel) at most every ten minutes; after a power cycle the host
 //! asks for it and gets the last one that was completely written. This module is the part of that which can be
 //! tested on the host: the record format, the recovery scan and the write order. The flash itself is behind the
-//! [`LogFlash`] trait: the firmware implements it with embassy-stm32's flash driver on sectors 1 and 2 of the
-//! STM32F405 (see [`STM32F405_LOG_SECTORS`] and the root `memory.x`), the tests with [`RamFlash`], a NOR flash
-//! model that can lose power at any word write or erase.
+//! [`LogFlash`] trait: the firmware implements it with the controller sequences of [`crate::flash_f4`] on
+//! sectors 1 and 2 of the STM32F405 (see [`STM32F405_LOG_SECTORS`] and the root `memory.x`), the tests with
+//! [`RamFlash`], a NOR flash model that can lose power at any word write or erase.
 //!
 //! # Format
 //! Each of the two sectors holds fixed-size slots written in order; a slot is one record:
@@ -59,8 +59,8 @@ pub const OVERHEAD_WORDS: usize = 5;
 pub const ERASED: u32 = 0xFFFF_FFFF;
 
 /// Where the field log lives on the STM32F405RG: sectors 1 and 2, 16 KiB each (RM0090 section 3.3, table 5). Small
-/// sectors, because erasing one stalls the single-bank flash, and the CPU with it, for at most 0.5 s (a 128 KiB
-/// sector: 2 s), which the firmware's 1.024 s sample ring outlives.
+/// sectors, because erasing one stalls the single-bank flash, and the CPU with it, for at most 0.5 s at x32 (a
+/// 128 KiB sector: 2 s), which the firmware's 1.024 s sample ring outlives.
 /// The root `memory.x` starts the program after them (`_stext` at sector 4) and exports the same numbers as the
 /// linker symbols `__fieldlog_start` / `__fieldlog_end`; the firmware checks they agree.
 pub const STM32F405_LOG_SECTORS: [LogSector; 2] = [
@@ -144,6 +144,8 @@ pub struct FieldLog<F: LogFlash> {
     payload_words: usize,
     slots_per_sector: usize,
     newest: Option<Newest>,
+    /// The blank slot the next append takes, found (and its sector erased) ahead by [`FieldLog::prepare_append`].
+    ready: Option<(usize, usize)>,
 }
 
 impl<F: LogFlash> FieldLog<F> {
@@ -157,7 +159,7 @@ impl<F: LogFlash> FieldLog<F> {
         if slots_per_sector == 0 {
             return Err(LogError::SectorTooSmall);
         }
-        let mut log = Self { flash, payload_words, slots_per_sector, newest: None };
+        let mut log = Self { flash, payload_words, slots_per_sector, newest: None, ready: None };
         for sector in 0..2 {
             for slot in 0..slots_per_sector {
                 if let Some(seq) = log.check_slot(sector, slot)? {
@@ -183,6 +185,12 @@ impl<F: LogFlash> FieldLog<F> {
     /// Sequence number of the newest valid record, if any.
     pub fn latest_seq(&self) -> Option<u32> {
         self.newest.map(|n| n.seq)
+    }
+
+    /// The flash, for what else goes through its controller; a caller that writes the log's sectors through it
+    /// must reopen the log.
+    pub fn flash_mut(&mut self) -> &mut F {
+        &mut self.flash
     }
 
     /// Give the flash back.
@@ -215,7 +223,10 @@ impl<F: LogFlash> FieldLog<F> {
             return Err(LogError::BadLength);
         }
         let seq = self.newest.map_or(1, |n| n.seq.wrapping_add(1));
-        let (sector, slot) = self.next_slot()?;
+        let (sector, slot) = match self.ready.take() {
+            Some(ready) => ready,
+            None => self.next_slot()?,
+        };
         let base = slot * self.slot_words();
         let header = [MAGIC, seq, self.payload_words as u32];
         let crc = {
@@ -233,12 +244,31 @@ impl<F: LogFlash> FieldLog<F> {
         Ok(seq)
     }
 
+    /// Find the slot the next [`FieldLog::append`] will take, erasing the other sector now if the newest record's
+    /// sector is full (or the log holds nothing valid), so that the append only programs. Returns whether it
+    /// erased. An erase and a programming each stall a single-bank flash's CPU; this lets the caller run
+    /// between them. The newest record stays intact, as in an append.
+    ///
+    /// # Errors
+    /// [`LogError::Flash`] when the erase or the blank check's read fails (the next append tries again).
+    pub fn prepare_append(&mut self) -> Result<bool, LogError<F::Error>> {
+        if self.ready.is_some() {
+            return Ok(false);
+        }
+        let sector_before = self.newest.map(|n| n.sector);
+        let ready = self.next_slot()?;
+        self.ready = Some(ready);
+        // next_slot erases exactly when it moves to the other sector or starts an empty log.
+        Ok(sector_before != Some(ready.0))
+    }
+
     /// Erase both sectors: the log is empty afterwards.
     ///
     /// # Errors
     /// [`LogError::Flash`] when an erase fails.
     pub fn clear(&mut self) -> Result<(), LogError<F::Error>> {
         self.newest = None;
+        self.ready = None;
         self.flash.erase(0).map_err(LogError::Flash)?;
         self.flash.erase(1).map_err(LogError::Flash)
     }
@@ -429,7 +459,7 @@ pub enum RamFlashError {
 /// For tests it can lose power: after [`RamFlash::cut_after`] `n` steps (one word programmed, or one erase) the
 /// step in progress is left half done (a programmed word with only some of its bits cleared; an erase that has
 /// set only some bits of some words) and every later operation fails with [`RamFlashError::PowerCut`] until
-/// [`RamFlash::power_on`]. The QEMU build of the firmware also uses it (without cuts) in place of the real flash.
+/// [`RamFlash::power_on`]. The flash controller model ([`crate::flash_f4::model`]) keeps its array in one.
 #[derive(Clone, Debug)]
 pub struct RamFlash<const W: usize> {
     words: [[u32; W]; 2],

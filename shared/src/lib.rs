@@ -10,7 +10,9 @@
 //! - [`estimate`]: the onboard estimate of N and B from an accumulator snapshot;
 //! - [`device`]: the device core: channel table, schedule, characterizer, sample ring (firmware and host
 //!   simulator both run it);
-//! - [`fieldlog`]: the field log's record format, recovery and checkpoint policy, over any NOR flash.
+//! - [`fieldlog`]: the field log's record format, recovery and checkpoint policy, over any NOR flash;
+//! - [`flash_f4`]: the STM32F405 flash controller's erase, program and option-byte sequences at x32, checked by
+//!   its error flags, with a model of the controller they run on in tests and in QEMU.
 //!
 //! The crate has no allocation and no unsafe code; it builds for `thumbv7em-none-eabihf`.
 #![cfg_attr(not(test), no_std)]
@@ -24,6 +26,7 @@ pub mod acc;
 pub mod device;
 pub mod estimate;
 pub mod fieldlog;
+pub mod flash_f4;
 pub mod proto;
 pub mod sensor;
 pub mod sim;

@@ -60,6 +60,12 @@ impl<const CH: usize> Recorder<CH> {
         self.base.as_ref()
     }
 
+    /// Whether [`Recorder::round`] with `samples` would write a checkpoint: none yet this session, a reset (fewer
+    /// samples than at the last one), or the last one at least `every` samples old.
+    pub fn due(&self, samples: u64) -> bool {
+        self.last.is_none_or(|s| samples < s || samples >= s + self.every)
+    }
+
     /// A round of snapshots of the current session (`samples` scans since the session began): writes the pooled
     /// checkpoint when the last one is at least `every` samples old (or there is none this session).
     ///
@@ -147,8 +153,10 @@ mod tests {
         let mut written = 0;
         for k in 1..=10u32 {
             feed(&mut accs, 300, k);
+            let due = rec.due(u64::from(300 * k));
             let r = rec.round(&mut log, &mut w, &snaps(&accs), 0, u64::from(300 * k)).unwrap();
-            written += usize::from(matches!(r, Recorded::Written { .. }));
+            assert_eq!(due, matches!(r, Recorded::Written { .. }), "due says what the round does");
+            written += usize::from(due);
         }
         // At 300 (the first), 1500, 2700: every 1000 samples at the earliest.
         assert_eq!(written, 3);
@@ -176,6 +184,7 @@ mod tests {
         assert_eq!(rec.round(&mut log, &mut w, &snaps(&accs), 1, 5200).unwrap(), Recorded::NotDue);
         // Reset: empty accumulators, the count from 0.
         let mut after = fed(300, 3);
+        assert!(rec.due(300), "a reset is due at once");
         let r = rec.round(&mut log, &mut w, &snaps(&after), 0, 300).unwrap();
         assert!(matches!(r, Recorded::Written { sessions: 2, new_session: true, .. }), "{r:?}");
         let cp = newest(&mut log);
