@@ -59,6 +59,8 @@ mod board;
 mod flash_regs;
 #[cfg(feature = "qemu")]
 mod qemu;
+#[cfg(feature = "qemu")]
+mod qemu_flash;
 #[cfg(not(feature = "qemu"))]
 mod usb;
 
@@ -121,7 +123,7 @@ async fn sampler_task(parts: board::SamplerParts, blocks: characterize::BlockSen
 #[cfg(not(feature = "qemu"))]
 type LogFlashImpl = store::BoardFlash;
 #[cfg(feature = "qemu")]
-type LogFlashImpl = qemu::QemuFlash;
+type LogFlashImpl = qemu_flash::QemuFlash;
 
 /// The field log (see `store.rs`).
 #[embassy_executor::task]

@@ -11,10 +11,8 @@
 //!   command decoder and router as USB's (QEMU connects USART1 to `-serial`);
 //! - stalls: with `OCTAVAR_QEMU_STALL_EVERY=S` and `OCTAVAR_QEMU_STALL_MS=M`, the CPU stops for M ms every S
 //!   seconds with interrupts masked, as a flash erase stops it, while the virtual converter's count runs on;
-//! - the field log in the host tests' model of the flash controller (`octavar_shared::flash_f4::model`; QEMU's
-//!   flash is read-only), driven by the board's own x32 sequences; with `OCTAVAR_QEMU_FLASH_TIMING=worst` each
-//!   erase and programming stalls the CPU, interrupts masked, for the datasheet's worst-case time the model
-//!   charges it at the parallelism it ran at;
+//! - the field log's flash (`qemu_flash.rs`): the host tests' model of the flash controller, driven by the
+//!   board's own x32 sequences, in RAM a reset keeps, with worst-case timing and power cuts on request;
 //! - a benchmark at start-up of the characterizer's per-sample path, printed through semihosting;
 //! - a semihosting exit (code 0) after [`RUN_SECONDS`] of scans, once every frame has been written.
 //!
@@ -26,13 +24,10 @@ use core::sync::atomic::Ordering;
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_time::{Duration, Timer};
 use octavar_shared::device::{Characterizer, FrameSink, ReadyBlock};
-use octavar_shared::fieldlog::STM32F405_LOG_SECTORS;
-use octavar_shared::flash_f4::model::ControllerModel;
-use octavar_shared::flash_f4::{F4LogFlash, FlashRegs};
 use octavar_shared::proto::{encode_to_vec, Command, Decoder, Frame};
 use octavar_shared::sensor::temperature_code;
 use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim};
-use static_cell::{ConstStaticCell, StaticCell};
+use static_cell::StaticCell;
 
 use crate::characterize::BlockSender;
 use crate::config::*;
@@ -69,7 +64,7 @@ const fn parse_timing(s: &str) -> bool {
     }
 }
 
-const fn parse_u64(s: Option<&str>, default: u64) -> u64 {
+pub const fn parse_u64(s: Option<&str>, default: u64) -> u64 {
     let Some(s) = s else { return default };
     let b = s.as_bytes();
     if b.is_empty() {
@@ -109,70 +104,12 @@ pub struct Parts {
     /// SysTick, for the time driver.
     pub syst: cortex_m::peripheral::SYST,
     /// The field log's flash: the controller model standing in for sectors 1 and 2.
-    pub flash: QemuFlash,
-}
-
-/// Words of each log sector the model backs: 8 KiB, two checkpoints each (so the log alternates and erases
-/// often). The model charges erases for the whole 16 KiB sector.
-pub const SECTOR_WORDS: usize = 2048;
-
-/// The controller model, in a static so that tasks hold only a reference to it.
-static FLASH: ConstStaticCell<ControllerModel<SECTOR_WORDS>> =
-    ConstStaticCell::new(ControllerModel::new(STM32F405_LOG_SECTORS));
-
-/// The field log's flash in QEMU: the board's sequences over the controller model.
-pub type QemuFlash = F4LogFlash<ModelRegs>;
-
-/// The controller model as the sequences' registers, stalling the CPU after each operation when
-/// [`FLASH_TIMING_WORST`].
-pub struct ModelRegs(&'static mut ControllerModel<SECTOR_WORDS>);
-
-impl FlashRegs for ModelRegs {
-    fn cr(&mut self) -> u32 {
-        self.0.cr()
-    }
-    fn set_cr(&mut self, value: u32) {
-        self.0.set_cr(value)
-    }
-    fn sr(&mut self) -> u32 {
-        self.0.sr()
-    }
-    fn clear_sr(&mut self, flags: u32) {
-        self.0.clear_sr(flags)
-    }
-    fn key(&mut self, key: u32) {
-        self.0.key(key)
-    }
-    fn optcr(&mut self) -> u32 {
-        self.0.optcr()
-    }
-    fn set_optcr(&mut self, value: u32) {
-        self.0.set_optcr(value)
-    }
-    fn opt_key(&mut self, key: u32) {
-        self.0.opt_key(key)
-    }
-    fn store(&mut self, address: u32, value: u32) {
-        self.0.store(address, value)
-    }
-    fn load(&mut self, address: u32) -> u32 {
-        self.0.load(address)
-    }
-    fn changed(&mut self) {
-        let us = self.0.take_busy_us();
-        if FLASH_TIMING_WORST && us > 0 {
-            stall_cpu_us(us);
-            hprintln!("octavar-qemu: flash busy {} us", us);
-        }
-        if self.0.log.violations > 0 {
-            hprintln!("octavar-qemu: the flash sequences broke {} controller rules", self.0.log.violations);
-        }
-    }
+    pub flash: crate::qemu_flash::QemuFlash,
 }
 
 /// Stop the CPU for `us` microseconds of the time base with interrupts masked, as a flash operation does (then
 /// every fetch waits, interrupt vectors included). The time base and the virtual converter run on.
-fn stall_cpu_us(us: u64) {
+pub fn stall_cpu_us(us: u64) {
     let until = timebase::now_us() + us;
     critical_section::with(|_| {
         while timebase::now_us() < until {
@@ -238,7 +175,7 @@ pub fn init() -> Parts {
         usart1::BRR.write_volatile(84_000_000 / 115_200);
         usart1::CR1.write_volatile(usart1::UE | usart1::TE | usart1::RE);
     }
-    Parts { syst: core.SYST, flash: QemuFlash::new(ModelRegs(FLASH.take()), STM32F405_LOG_SECTORS, SECTOR_WORDS) }
+    Parts { syst: core.SYST, flash: crate::qemu_flash::take() }
 }
 
 fn uart_write(bytes: &[u8]) {

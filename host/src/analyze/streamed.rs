@@ -95,6 +95,23 @@ pub struct StreamOptions {
     pub scale: f64,
     /// The noise-term fit; `None` skips it.
     pub fit: Option<FitOptions>,
+    /// Which of a capture's data to analyse.
+    pub capture_data: CaptureData,
+}
+
+/// Which of a capture's data [`analyze_capture`] analyses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CaptureData {
+    /// The newest whole field-log checkpoint if the capture holds one (a read-out of the log: the whole logged
+    /// deployment), else the raw samples, else the device's snapshots.
+    #[default]
+    Auto,
+    /// The newest whole field-log checkpoint.
+    FieldLog,
+    /// The raw samples.
+    Raw,
+    /// The device's accumulator snapshots (the last of each session, pooled).
+    Snapshots,
 }
 
 impl Default for StreamOptions {
@@ -105,6 +122,7 @@ impl Default for StreamOptions {
             confidence: 0.683,
             scale: 1.0,
             fit: Some(FitOptions::default()),
+            capture_data: CaptureData::Auto,
         }
     }
 }
@@ -303,11 +321,13 @@ pub fn analyze_csv(
     })
 }
 
-/// Analyse a capture: its raw samples through the streaming accumulator (scaled by each channel's deg/s per
-/// code), or, when it has none, the device's accumulator snapshots (the last of each session, pooled).
+/// Analyse a capture: the newest whole field-log checkpoint (a read-out of the device's log, which pools every
+/// session it logged), its raw samples through the streaming accumulator (scaled by each channel's deg/s per
+/// code), or the device's accumulator snapshots (the last of each session, pooled), as
+/// [`StreamOptions::capture_data`] says.
 ///
 /// # Errors
-/// Decoding errors, a capture without hello, or with neither samples nor snapshots.
+/// Decoding errors, a capture without hello, or without the data asked for.
 pub fn analyze_capture<R: Read>(
     mut capture: CaptureReader<R>,
     opts: &StreamOptions,
@@ -320,9 +340,11 @@ pub fn analyze_capture<R: Read>(
     let mut cols: Vec<Vec<f64>> = Vec::new();
     // Per channel: the snapshots of finished sessions (pooled) and the latest of the current one.
     let mut snaps: Vec<(Option<octavar_shared::acc::Snapshot>, Option<octavar_shared::acc::Snapshot>)> = Vec::new();
+    let mut checkpoints = crate::io::decode::Checkpoints::new();
     let mut records = 0u64;
     for item in capture.by_ref() {
         let d = item?;
+        checkpoints.take(&d);
         records += 1;
         if records.is_multiple_of(4096) {
             progress(d.meta.offset);
@@ -400,8 +422,46 @@ pub fn analyze_capture<R: Read>(
     let ch_scale = |c: usize| hello.channels.get(c).map_or(1.0, |i| octavar_shared::sensor::dps_per_code(i.kind));
     let mut out = Vec::new();
     let have_samples = accs.iter().any(|a| a.samples() > 0);
+    let newest = checkpoints.newest_whole();
+    let use_log = match opts.capture_data {
+        CaptureData::Auto => newest.is_some(),
+        CaptureData::FieldLog => true,
+        CaptureData::Raw | CaptureData::Snapshots => false,
+    };
+    if use_log {
+        let Some(cp) = newest else {
+            let why = if checkpoints.by_number.is_empty() {
+                "no field-log checkpoint"
+            } else {
+                "no whole field-log checkpoint (parts lost: read the log again)"
+            };
+            return Err(StreamError::Capture { name, what: why.into() });
+        };
+        for (&c, snap) in &cp.channels {
+            let c = usize::from(c);
+            let points = crate::stats::strided::snapshot_points(snap, rate, ch_scale(c), opts.confidence);
+            if points.is_empty() {
+                continue;
+            }
+            let counts = Counts { tau0_s: tau0, n_samples: snap.samples as usize, n_gaps: 0 };
+            out.push(octave_channel(&ch_name(c), counts, points, opts));
+        }
+        return Ok(StreamAnalysis {
+            source: name,
+            rate_hz: rate,
+            samples: cp.samples(),
+            channels: out,
+            method: format!(
+                "field-log checkpoint {}: {} session(s), {} s, {} sample loss(es)",
+                cp.number, cp.sessions, cp.time_s, cp.adc_overruns
+            ),
+        });
+    }
+    if opts.capture_data == CaptureData::Raw && !have_samples {
+        return Err(StreamError::Capture { name, what: "no raw samples (record with --raw)".into() });
+    }
     let mut samples = 0;
-    if have_samples {
+    if have_samples && opts.capture_data != CaptureData::Snapshots {
         for (c, acc) in accs.into_iter().enumerate() {
             if acc.samples() == 0 {
                 continue;

@@ -88,6 +88,10 @@ pub struct Args {
     /// Stream a CSV too (automatic above 1 GiB): OADEV at octave tau and the fit in bounded memory.
     #[arg(long)]
     pub stream: bool,
+    /// Which of a capture's data to analyse: auto (the newest whole field-log checkpoint if the capture holds a
+    /// read-out of the log, else the raw samples, else the device's snapshots), field-log, raw or snapshots.
+    #[arg(long, value_enum, default_value_t = CaptureDataArg::Auto, value_name = "DATA")]
+    pub capture_data: CaptureDataArg,
     /// Stride S of the streamed OADEV: fully overlapping up to m = S, clusters every m/S samples above.
     #[arg(long, default_value_t = octavar::stats::streamed::DEFAULT_STRIDE, value_name = "S")]
     pub stride: usize,
@@ -278,6 +282,7 @@ impl Args {
             confidence: self.confidence,
             scale: unit.to_dps(),
             fit: self.fit_options(),
+            capture_data: self.capture_data.into(),
         };
         let size = std::fs::metadata(&self.input).map(|m| m.len()).unwrap_or(0);
         let bar = (size > 0).then(|| super::progress::Progress::new(size, "analyze"));
@@ -312,5 +317,30 @@ impl Args {
         let range =
             result.channels.iter().flat_map(|c| c.fit_points.first().map(|p| p.dev * 10.0)).fold(0.0f64, f64::max);
         self.emit(&result.source, result.samples, result.rate_hz, || range, &result.channels)
+    }
+}
+
+/// `--capture-data`'s values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum CaptureDataArg {
+    /// The field log if the capture holds one, else raw samples, else snapshots.
+    Auto,
+    /// The newest whole field-log checkpoint.
+    FieldLog,
+    /// The raw samples.
+    Raw,
+    /// The device's snapshots.
+    Snapshots,
+}
+
+impl From<CaptureDataArg> for octavar::analyze::streamed::CaptureData {
+    fn from(a: CaptureDataArg) -> Self {
+        use octavar::analyze::streamed::CaptureData;
+        match a {
+            CaptureDataArg::Auto => CaptureData::Auto,
+            CaptureDataArg::FieldLog => CaptureData::FieldLog,
+            CaptureDataArg::Raw => CaptureData::Raw,
+            CaptureDataArg::Snapshots => CaptureData::Snapshots,
+        }
     }
 }

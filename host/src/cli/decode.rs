@@ -113,6 +113,23 @@ fn print_summary(out: &mut dyn Write, s: &DecodeSummary) -> std::io::Result<()> 
             snap.adev_1s_codes.map_or("n/a".to_string(), |a| format!("{a:.4e} codes"))
         )?;
     }
+    if let Some(cp) = &s.field_log_checkpoint {
+        writeln!(
+            out,
+            "field log: checkpoint {}, {} session(s), {} s, {} samples per channel, {} sample loss(es)",
+            cp.checkpoint, cp.sessions, cp.time_s, cp.samples, cp.adc_overruns
+        )?;
+        for e in &cp.estimates {
+            let name = e.name.clone().unwrap_or_else(|| format!("channel {}", e.channel));
+            let n = e.n_dps_per_rt_s.map_or("n/a".into(), |n| format!("{:.3e} deg/sqrt(s)", n));
+            let b = match (e.b_dps, e.tau_b_s) {
+                (Some(b), Some(t)) => format!("{b:.3e} deg/s at {t:.3} s"),
+                (Some(b), None) => format!("{b:.3e} deg/s"),
+                _ => "n/a".into(),
+            };
+            writeln!(out, "  {name}: onboard estimate N {n}, B {b}")?;
+        }
+    }
     if let Some(last) = s.statuses.last() {
         let t = &last.status;
         writeln!(

@@ -11,6 +11,7 @@ pub mod datasheet;
 pub mod decode;
 pub mod demo;
 pub mod export_args;
+pub mod fieldlog;
 pub mod gap;
 pub mod progress;
 pub mod record;
@@ -39,6 +40,8 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Record a device's frames (serial port, file or stdin) into a capture file, with live counts; survives unplugging.
     Record(record::Args),
+    /// Read the field log a device kept without a PC (its checkpoints in flash) into a capture, resuming if cut.
+    Fieldlog(fieldlog::Args),
     /// Decode a capture: summary, CSV (samples, snapshots, status, estimates) and JSON; damaged frames are counted.
     Decode(decode::Args),
     /// Replay a capture's raw samples through the accumulator and check every device snapshot bit for bit.
@@ -56,6 +59,7 @@ impl Command {
             Command::Datasheet(a) => a.run(),
             Command::Simulate(a) => a.run(),
             Command::Record(a) => a.run(),
+            Command::Fieldlog(a) => a.run(),
             Command::Decode(a) => a.run(),
             Command::Verify(a) => a.run(),
             Command::Gap(a) => a.run(),

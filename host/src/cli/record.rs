@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use octavar::device::recorder::{record, EndReason, LiveStats, ReaderSource, RecordOptions, SerialSource};
+use octavar::device::recorder::{record, EndReason, LiveStats, PortSource, ReaderSource, RecordOptions};
 use octavar::io::capture::CaptureWriter;
 
 /// Raised by Ctrl-C (and by --duration): the recording ends cleanly.
@@ -20,7 +20,8 @@ static STOP: AtomicBool = AtomicBool::new(false);
 /// recording cleanly. Exit 0, or 1 when the device stayed away longer than --timeout.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The device's serial port, for example /dev/ttyACM0 (Linux), /dev/cu.usbmodem1 (macOS) or COM3.
+    /// The device's serial port, for example /dev/ttyACM0 (Linux), /dev/cu.usbmodem1 (macOS) or COM3, or
+    /// tcp:HOST:PORT (QEMU's serial port, a ser2net bridge).
     #[arg(required_unless_present = "from")]
     pub port: Option<String>,
     /// Read the bytes from a file instead of a port (- is stdin): a replayed capture, or a pipe.
@@ -88,7 +89,7 @@ impl Args {
                 record(&mut src, &mut capture, &opts, &STOP, &mut |s| line.show(s, &input.name))
             }
             (None, Some(port)) => {
-                let mut src = SerialSource { path: port.clone(), baud: self.baud, timeout: Duration::from_millis(200) };
+                let mut src = PortSource::parse(port, self.baud, Duration::from_millis(200));
                 record(&mut src, &mut capture, &opts, &STOP, &mut |s| line.show(s, port))
             }
             (None, None) => anyhow::bail!("give a serial port or --from FILE"),

@@ -5,6 +5,8 @@
 //! Above `io` (captures and frame decoding) and `stats`; below `cli` and `demo`.
 
 pub mod accumulate;
+pub mod link;
+pub mod log_readout;
 pub mod recorder;
 pub mod simulator;
 pub mod verify;

@@ -8,210 +8,24 @@
 //! [`RecordOptions::give_up_after`] has passed. A stop flag (Ctrl-C) ends the recording cleanly: the capture is
 //! synced and the summary returned.
 //!
-//! The link is abstracted behind [`Source`] and [`Link`], so the recovery loop is tested with a fake port that
-//! fails and comes back; [`SerialSource`] is the real port (the `serialport` crate, no libudev), and
-//! [`ReaderSource`] reads a file or stdin (`--from`).
+//! The link is abstracted behind [`Source`] and [`Link`] (`super::link`), so the recovery loop is tested with a
+//! fake port that fails and comes back.
 
 use std::collections::BTreeMap;
-use std::io::{self, Read};
+use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use octavar_shared::proto::{Command, Encoder, Hello};
 use serde::Serialize;
 
+pub use super::link::{Link, PortSource, ReadOutcome, ReaderSource, SerialSource, Source, TcpSource};
 use crate::io::capture::{CaptureError, CaptureSink, CaptureWriter};
 use crate::io::decode::{adev_codes_at, DecodeStats, Message, StreamDecoder};
 use octavar_shared::sensor::dps_per_code;
 
 /// The averaging time of the live ADEV readout, s.
 pub const LIVE_TAU_S: f64 = 1.0;
-
-/// What one read from a link gave.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ReadOutcome {
-    /// Bytes arrived (at least one).
-    Data(usize),
-    /// Nothing arrived within the link's timeout; try again.
-    Idle,
-    /// The source has ended for good (the end of a file or of stdin).
-    End,
-}
-
-/// An open connection to a device.
-pub trait Link {
-    /// Read what has arrived, waiting at most the link's timeout.
-    ///
-    /// # Errors
-    /// Any error means the connection is lost (unplugged device, reset port).
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<ReadOutcome>;
-
-    /// Send bytes to the device.
-    ///
-    /// # Errors
-    /// The connection is lost, or the link cannot send (a file).
-    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()>;
-}
-
-/// Where links come from: a port that can be opened again after a disconnect.
-pub trait Source {
-    /// The link type.
-    type Link: Link;
-
-    /// What to call the source in messages (the port path, the file name, `stdin`).
-    fn name(&self) -> String;
-
-    /// Open a connection.
-    ///
-    /// # Errors
-    /// The port cannot be opened (not there, busy, no permission).
-    fn connect(&mut self) -> io::Result<Self::Link>;
-
-    /// Whether a lost connection can come back (a port can; a file or stdin cannot).
-    fn can_reconnect(&self) -> bool;
-
-    /// Whether commands can be sent.
-    fn can_send(&self) -> bool {
-        self.can_reconnect()
-    }
-}
-
-/// A serial port (USB CDC-ACM or a UART) through the `serialport` crate.
-#[derive(Clone, Debug)]
-pub struct SerialSource {
-    /// The port, for example `/dev/ttyACM0` or `COM3`.
-    pub path: String,
-    /// Baud rate (ignored by USB CDC-ACM, used by a UART).
-    pub baud: u32,
-    /// How long one read waits for bytes.
-    pub timeout: Duration,
-}
-
-/// An open serial port.
-pub struct SerialLink(Box<dyn serialport::SerialPort>);
-
-impl Link for SerialLink {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<ReadOutcome> {
-        match self.0.read(buf) {
-            // A tty that reads 0 bytes was hung up: the device is gone.
-            Ok(0) => Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the port was closed (device gone)")),
-            Ok(n) => Ok(ReadOutcome::Data(n)),
-            Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => Ok(ReadOutcome::Idle),
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(ReadOutcome::Idle),
-            Err(e) => Err(e),
-        }
-    }
-
-    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
-        io::Write::write_all(&mut self.0, bytes)?;
-        io::Write::flush(&mut self.0)
-    }
-}
-
-impl Source for SerialSource {
-    type Link = SerialLink;
-
-    fn name(&self) -> String {
-        self.path.clone()
-    }
-
-    fn connect(&mut self) -> io::Result<SerialLink> {
-        // DTR on: the firmware sends frames only while the host holds DTR (Linux sets it on open; other systems
-        // are told).
-        let port = serialport::new(&self.path, self.baud)
-            .timeout(self.timeout)
-            .dtr_on_open(true)
-            .open()
-            .map_err(io::Error::from)?;
-        Ok(SerialLink(port))
-    }
-
-    fn can_reconnect(&self) -> bool {
-        true
-    }
-}
-
-/// A file or stdin, read on a thread so that a stop request is seen even while nothing arrives.
-pub struct ReaderSource {
-    name: String,
-    reader: Option<Box<dyn Read + Send>>,
-    poll: Duration,
-}
-
-impl ReaderSource {
-    /// Read `reader` (called `name` in messages), checking for a stop every `poll` while waiting.
-    pub fn new(name: &str, reader: Box<dyn Read + Send>, poll: Duration) -> Self {
-        ReaderSource { name: name.to_string(), reader: Some(reader), poll }
-    }
-}
-
-/// The receiving end of a [`ReaderSource`]'s thread.
-pub struct ReaderLink {
-    rx: mpsc::Receiver<io::Result<Vec<u8>>>,
-    pending: Vec<u8>,
-    poll: Duration,
-}
-
-impl Link for ReaderLink {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<ReadOutcome> {
-        if self.pending.is_empty() {
-            match self.rx.recv_timeout(self.poll) {
-                Ok(Ok(bytes)) => self.pending = bytes,
-                Ok(Err(e)) => return Err(e),
-                Err(mpsc::RecvTimeoutError::Timeout) => return Ok(ReadOutcome::Idle),
-                Err(mpsc::RecvTimeoutError::Disconnected) => return Ok(ReadOutcome::End),
-            }
-        }
-        let n = buf.len().min(self.pending.len());
-        buf[..n].copy_from_slice(&self.pending[..n]);
-        self.pending.drain(..n);
-        Ok(ReadOutcome::Data(n))
-    }
-
-    fn write_all(&mut self, _bytes: &[u8]) -> io::Result<()> {
-        Err(io::Error::new(io::ErrorKind::Unsupported, "cannot send commands to a file"))
-    }
-}
-
-impl Source for ReaderSource {
-    type Link = ReaderLink;
-
-    fn name(&self) -> String {
-        self.name.clone()
-    }
-
-    fn connect(&mut self) -> io::Result<ReaderLink> {
-        let mut reader = self
-            .reader
-            .take()
-            .ok_or_else(|| io::Error::new(io::ErrorKind::NotConnected, "the input was already read"))?;
-        let (tx, rx) = mpsc::sync_channel(16);
-        std::thread::spawn(move || {
-            let mut buf = vec![0u8; 1 << 16];
-            loop {
-                match reader.read(&mut buf) {
-                    Ok(0) => break,
-                    Ok(n) => {
-                        if tx.send(Ok(buf[..n].to_vec())).is_err() {
-                            break;
-                        }
-                    }
-                    Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                    Err(e) => {
-                        let _ = tx.send(Err(e));
-                        break;
-                    }
-                }
-            }
-        });
-        Ok(ReaderLink { rx, pending: Vec::new(), poll: self.poll })
-    }
-
-    fn can_reconnect(&self) -> bool {
-        false
-    }
-}
 
 /// How [`record`] behaves.
 #[derive(Clone, Debug)]

@@ -214,8 +214,10 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
     let mut per_channel: BTreeMap<u8, u64> = BTreeMap::new();
     let mut statuses = Thinned::new(MAX_SERIES);
     let mut estimates = Thinned::new(MAX_SERIES);
+    let mut checkpoints = super::Checkpoints::new();
     for d in reader.by_ref() {
         let d = d?;
+        checkpoints.take(&d);
         if let Some(csv) = csv.as_mut() {
             csv.record(&d, hello.as_ref())?;
         }
@@ -255,7 +257,14 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
             .collect()
     };
     let snapshots = summarize(last);
-    let field_log = summarize(last_log);
+    // The newest whole checkpoint when there is one (it pools the whole logged deployment), else the last
+    // field-log snapshot of each channel.
+    let whole = checkpoints.newest_whole();
+    let field_log_checkpoint = whole.map(|cp| super::summary::checkpoint_summary(cp, hello.as_ref(), rate));
+    let field_log = match whole {
+        Some(cp) => summarize(cp.channels.iter().map(|(&c, s)| (c, (cp.number, *s))).collect()),
+        None => summarize(last_log),
+    };
     let (statuses, statuses_every) = statuses.into_parts();
     let (estimates, estimates_every) = estimates.into_parts();
     Ok(DecodeSummary {
@@ -269,6 +278,7 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
         estimates,
         estimates_every,
         field_log,
+        field_log_checkpoint,
         csv_files,
     })
 }

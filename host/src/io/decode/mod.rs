@@ -40,14 +40,18 @@ use octavar_shared::proto::{
 };
 use serde::Serialize;
 
+mod checkpoints;
 mod export;
 mod stream;
 mod summary;
 
+pub use checkpoints::{gyro_channels, Checkpoint, Checkpoints};
+
 pub use export::{export, write_json, ExportOptions};
 pub use stream::{open, CaptureReader, StreamDecoder};
 pub use summary::{
-    adev_codes_at, level_rows, DecodeSummary, EstimateSummary, LevelRow, SnapshotSummary, StatusSummary, Thinned,
+    adev_codes_at, level_rows, ChannelEstimate, CheckpointSummary, DecodeSummary, EstimateSummary, LevelRow,
+    SnapshotSummary, StatusSummary, Thinned,
 };
 
 /// Bad frames listed by offset in [`DecodeStats::bad_frames`]; the rest are only counted.

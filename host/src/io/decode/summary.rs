@@ -174,8 +174,80 @@ pub struct DecodeSummary {
     pub estimates: Vec<EstimateSummary>,
     /// Spacing of the kept estimates.
     pub estimates_every: u64,
-    /// The last field-log snapshot of each channel.
+    /// The field log's snapshots: the newest whole checkpoint's (every session it pools), else the last
+    /// field-log snapshot of each channel. `frame_seq` is the checkpoint's number for a whole checkpoint.
     pub field_log: Vec<SnapshotSummary>,
+    /// The newest whole field-log checkpoint: what it pools, and the onboard estimate of each channel from it.
+    pub field_log_checkpoint: Option<CheckpointSummary>,
     /// CSV files written.
     pub csv_files: Vec<PathBuf>,
+}
+
+/// A field-log checkpoint in the summary.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CheckpointSummary {
+    /// Its number in the device's log.
+    pub checkpoint: u32,
+    /// Power-on sessions pooled.
+    pub sessions: u32,
+    /// Sampling time covered, s.
+    pub time_s: u32,
+    /// Sample losses over those sessions.
+    pub adc_overruns: u32,
+    /// Samples per channel.
+    pub samples: u64,
+    /// The onboard estimate (N, B) of each gyro channel from the checkpoint, as the device computes it.
+    pub estimates: Vec<ChannelEstimate>,
+}
+
+/// One channel's onboard estimate.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ChannelEstimate {
+    /// Channel index.
+    pub channel: u8,
+    /// Its name from the hello.
+    pub name: Option<String>,
+    /// Angle random walk N, deg/sqrt(s).
+    pub n_dps_per_rt_s: Option<f32>,
+    /// Bias instability B, deg/s.
+    pub b_dps: Option<f32>,
+    /// Where B was read, s.
+    pub tau_b_s: Option<f32>,
+}
+
+/// Summarise a checkpoint: its counts, and `shared::estimate` on each channel's snapshot (the device's own
+/// estimate, in deg/s where the hello names the gyro).
+pub(super) fn checkpoint_summary(
+    cp: &super::Checkpoint,
+    hello: Option<&Hello>,
+    rate: Option<f64>,
+) -> CheckpointSummary {
+    let estimates = cp
+        .channels
+        .iter()
+        .map(|(&channel, snap)| {
+            let info = hello.and_then(|h| h.channels.get(usize::from(channel)));
+            let cfg = octavar_shared::estimate::EstimateConfig {
+                rate_hz: rate.unwrap_or(2000.0) as f32,
+                dps_per_code: info.map_or(1.0, |c| octavar_shared::sensor::dps_per_code(c.kind) as f32),
+                ..Default::default()
+            };
+            let e = octavar_shared::estimate::estimate(snap, &cfg);
+            ChannelEstimate {
+                channel,
+                name: info.map(|c| c.name.to_string()),
+                n_dps_per_rt_s: e.n_dps_per_rt_s,
+                b_dps: e.b_dps,
+                tau_b_s: e.tau_b_s,
+            }
+        })
+        .collect();
+    CheckpointSummary {
+        checkpoint: cp.number,
+        sessions: cp.sessions,
+        time_s: cp.time_s,
+        adc_overruns: cp.adc_overruns,
+        samples: cp.samples(),
+        estimates,
+    }
 }

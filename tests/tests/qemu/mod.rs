@@ -2,7 +2,7 @@
 //! USART1, decode the bytes with the host decoder, and check every device snapshot bit for bit against the host's
 //! replay of the same raw codes (`octavar::device::verify`).
 //!
-//! Three runs:
+//! Three runs here, and the field log's power cut and read-out in [`fieldlog`]:
 //! - [`SECONDS`] of simulated bench samples (the paper's four gyros, `shared::sim`) with USART1 on a TCP socket:
 //!   the test is the host, and after [`RESET_AFTER`] scans have arrived it sends `Command::Reset` the way
 //!   `octavar` would, through the firmware's real command decoder. The device acknowledges it, the raw index
@@ -31,6 +31,8 @@ use octavar::io::decode::{CaptureReader, Decoded, Message};
 use octavar_shared::proto::{Encoder, Status};
 
 use crate::util::temp_dir;
+
+mod fieldlog;
 
 /// Seconds of samples of the command run (`OCTAVAR_QEMU_SECONDS`).
 const SECONDS: u64 = 5;
@@ -106,6 +108,7 @@ fn build_firmware(vars: &[(&str, String)], dir: &Path) -> PathBuf {
         "OCTAVAR_QEMU_STALL_EVERY",
         "OCTAVAR_QEMU_STALL_MS",
         "OCTAVAR_QEMU_FLASH_TIMING",
+        "OCTAVAR_QEMU_POWER_CUT_STEP",
     ] {
         cmd.env_remove(var);
     }
