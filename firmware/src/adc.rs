@@ -48,13 +48,15 @@ const CONVERTER: ConverterConfig = ConverterConfig {
     channels: CHANNELS,
     ring_scans: RING_SCANS,
     settled_ticks: settled_ticks(SCAN_TICKS, PERIOD_TICKS),
-    // tSTAB is 3 us at most (DS8626 table 66): wait 4.
+    // tSTAB is 3 us at most (the datasheet's ADC characteristics): wait 4.
     stabilisation_ticks: TIM3_HZ / 250_000,
 };
 
 const _: () = assert!(TIM3_HZ.is_multiple_of(ADC_HZ) && SYSCLK_HZ.is_multiple_of(TIM3_HZ));
-// The check waits for the scan to settle: most of the period is left to read the ring's position in.
-const _: () = assert!(CONVERTER.settled_ticks < PERIOD_TICKS / 2);
+// The check waits for the scan to settle (180 us at most, as firmware/README.md says): most of the period is
+// left to read the ring's position in.
+const _: () =
+    assert!(CONVERTER.settled_ticks <= 180 * (TIM3_HZ / 1_000_000) && CONVERTER.settled_ticks < PERIOD_TICKS / 2);
 
 /// The ring the DMA writes: shared with the hardware, so read only with volatile loads.
 struct Ring(UnsafeCell<[u16; RING_CODES]>);

@@ -313,7 +313,7 @@ impl<R: ConverterRegs> Converter<R> {
 }
 
 /// Arm the stream: disable it and wait until it is, clear its flags, and enable it at ring slot 0 with a full
-/// count (RM0090 section 10.3.17). Its addresses (ADC1_DR, the ring) are set once, at configuration.
+/// count (RM0090 section 10.3, the stream configuration procedure). Its addresses (ADC1_DR, the ring) are set once, at configuration.
 fn arm_dma<R: ConverterRegs>(regs: &mut R, ring_codes: usize) {
     let cr = regs.dma_cr();
     regs.set_dma_cr(cr & !dma_cr::EN);

@@ -8,11 +8,11 @@
 //! on with what the model converted for that index, and tells a stale code (an older lap), a rotated one (another
 //! channel) or a misplaced one (another scan) at once.
 //!
-//! The rules it holds the driver to (RM0090 sections 10.3.17, 10.5 and 13.8.1; a break counts in
-//! [`ModelLog::violations`]): the stream's configuration and NDTR are written only while it is disabled, it is
-//! enabled only with its flags clear (disabling it by software sets TCIF) and only as the ring (peripheral to
-//! memory, circular, half-words, NDTR the ring's length), and the ADC is triggered only after its stabilisation
-//! time. What the hardware does on its own: triggers are ignored while OVR is set; an overrun stops the DMA
+//! The rules it holds the driver to (RM0090 section 10.3's stream configuration procedure, section 10.5's
+//! registers and section 13.8.1; a break counts in [`ModelLog::violations`]): the stream's configuration and NDTR
+//! are written only while it is disabled, it is enabled only with its flags clear (disabling it by software sets
+//! TCIF) and only as the ring (peripheral to memory, circular, half-words, NDTR the ring's length), the ADC's DMA
+//! requests are re-enabled only once OVR is clear, and the ADC is triggered only after its stabilisation time. What the hardware does on its own: triggers are ignored while OVR is set; an overrun stops the DMA
 //! requests until DMA is cleared and set again in ADC_CR2 with OVR clear; the sequencer resumes where it stopped
 //! unless ADON is cleared, which resets it to the first channel; a conversion whose request the DMA does not
 //! serve leaves its code in ADC_DR, and the next conversion overruns.
@@ -53,8 +53,8 @@ pub struct Timing {
 
 impl Timing {
     /// The board's: TIM3 at 84 MHz triggering at 2 kHz; ADC1 at 21 MHz (4 ticks a cycle), 480 sampling and 12
-    /// conversion cycles per channel, a trigger latency of 3 ADC cycles, tSTAB 3 us (DS8626 table 66); about 8
-    /// CPU cycles (168 MHz) per peripheral access and 2 per code copied.
+    /// conversion cycles per channel, a trigger latency of 3 ADC cycles, tSTAB 3 us (the datasheet's maximum);
+    /// about 8 CPU cycles (168 MHz) per peripheral access and 2 per code copied.
     pub const F405: Timing = Timing {
         period_ticks: 42_000,
         conversion_ticks: (480 + 12) * 4,
@@ -111,17 +111,17 @@ pub struct ModelLog {
     pub faults: [u64; 5],
     /// Faults that hit between a read of ADC_SR (a check) and the end of a copy from the ring after it.
     pub window_faults: u64,
-    /// Failures the driver reported before recovering, and how many of them named each cause.
+    /// Failures the driver found (and recovered from).
     pub failures: u64,
-    /// ... with OVR set.
+    /// Failures found with OVR set.
     pub failed_overrun: u64,
-    /// ... with TEIF set.
+    /// Failures found with TEIF set.
     pub failed_transfer_error: u64,
-    /// ... with DMEIF set.
+    /// Failures found with DMEIF set.
     pub failed_direct_mode_error: u64,
-    /// ... with the stream disabled.
+    /// Failures found with the stream disabled.
     pub failed_stream_off: u64,
-    /// ... on the DMA position alone.
+    /// Failures found on the DMA's position alone.
     pub failed_position: u64,
     /// Rule breaks by the driver: 0 for a correct one.
     pub violations: u32,

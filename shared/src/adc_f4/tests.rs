@@ -402,6 +402,43 @@ fn a_recovery_that_leaves_the_adc_on_rotates_the_channels() {
     assert_eq!(m.log.violations, 0, "{}", m.log.last_violation);
 }
 
+/// The model's rules bite: the stream is not reconfigured while it runs, and not enabled before its flags
+/// (TCIF, set when software disabled it) are cleared; the ADC's DMA requests are not re-enabled with OVR set.
+#[test]
+fn the_model_holds_the_driver_to_the_streams_and_the_adcs_rules() {
+    let mut m = model(8);
+    m.set_dma_ndtr(CODES as u32);
+    m.set_dma_cr(dma_cr::RING | dma_cr::EN);
+    assert!(m.stream_enabled());
+    assert_eq!(m.log.violations, 0);
+    m.set_dma_ndtr(1);
+    assert_eq!(m.log.violations, 1, "NDTR written while the stream runs");
+    m.set_dma_cr(dma_cr::RING);
+    assert_ne!(m.dma_cr() & dma_cr::EN, 0, "EN reads 1 until the current transfer ends");
+    assert_eq!(m.dma_cr() & dma_cr::EN, 0);
+    assert_ne!(m.dma_flags() & dma_flags::TCIF, 0, "disabling the stream sets TCIF");
+    m.set_dma_cr(dma_cr::RING | dma_cr::EN);
+    assert!(!m.stream_enabled(), "not enabled with a flag set");
+    assert_eq!(m.log.violations, 2);
+    m.clear_dma_flags(dma_flags::ALL);
+    m.set_dma_cr((dma_cr::RING & !dma_cr::CIRC) | dma_cr::EN);
+    assert!(!m.stream_enabled(), "not enabled other than as the ring");
+    assert_eq!(m.log.violations, 3);
+    m.set_dma_cr(dma_cr::RING | dma_cr::EN);
+    assert!(m.stream_enabled());
+
+    m.inject(Fault::Overrun);
+    m.set_adc_cr2(adc_cr2::DDS | adc_cr2::EXTSEL_TIM3_TRGO | adc_cr2::DMA | adc_cr2::ADON | adc_cr2::EXTEN_RISING);
+    m.start_tim3();
+    m.run_until_started(0);
+    m.cpu_away(PERIOD / 2);
+    assert_ne!(m.adc_sr() & adc_sr::OVR, 0);
+    let cr2 = m.adc_cr2();
+    m.set_adc_cr2(cr2 & !adc_cr2::DMA);
+    m.set_adc_cr2(cr2);
+    assert_eq!((m.log.violations, m.log.last_violation), (4, "ADC_CR2.DMA set again with OVR still set"));
+}
+
 /// What one randomised session did.
 struct Session {
     first: u64,
@@ -481,7 +518,7 @@ const SESSIONS: u64 = 384;
 const POLLS: usize = 250;
 
 #[test]
-fn ten_thousand_random_faults_hand_on_no_stale_or_rotated_block_and_every_gap_is_exact() {
+fn twenty_thousand_random_faults_hand_on_no_stale_or_rotated_block_and_every_gap_is_exact() {
     let mut faults = [0u64; 5];
     let (mut window, mut handed, mut lost, mut scans, mut failures, mut discarded, mut long_stalls) =
         (0, 0, 0, 0, 0, 0, 0);
@@ -509,7 +546,7 @@ fn ten_thousand_random_faults_hand_on_no_stale_or_rotated_block_and_every_gap_is
          {discarded} copies thrown away, {long_stalls} stalls longer than the ring; {handed} blocks handed on, \
          {lost} of {scans} scans lost"
     );
-    assert!(total >= 10_000, "{total} faults");
+    assert!(total >= 20_000, "{total} faults");
     assert!(faults.iter().all(|&f| f >= 500), "every kind, many times: {faults:?}");
     assert!(window >= 100, "faults in the window: {window}");
     assert!(handed * BLOCK as u64 > scans / 4, "a quarter of the scans or more are handed on and checked");
