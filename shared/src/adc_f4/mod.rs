@@ -111,7 +111,7 @@ pub mod dma_flags {
 
 /// ADC1, DMA2 stream 0, TIM3 and TIM5 and the ring, as the converter's decisions see them.
 ///
-/// Every method but the last three is one bus access; implementations must not reorder them.
+/// Each register method is one bus access; implementations must not reorder them.
 pub trait ConverterRegs {
     /// Read ADC_SR.
     fn adc_sr(&mut self) -> u32;

@@ -299,23 +299,32 @@ fn the_trigger_count_wraps_at_32_bits_without_a_jump() {
     assert_eq!(ring.regs().log.failures, 1);
 }
 
-/// The converter with `after_check` run after every check: what happens between a check and the copy that
-/// follows it (an interrupt, a fault during it).
-struct AfterCheck<'a, F: FnMut(&mut Model)> {
-    ring: &'a mut Ring,
-    after_check: F,
+/// Where the sampler's poll lets the test act on the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Moment {
+    /// Just after a check: between it and the copy that follows.
+    AfterCheck,
+    /// Just before a copy starts reading the ring.
+    BeforeCopy,
 }
 
-impl<F: FnMut(&mut Model)> ScanRing<N> for AfterCheck<'_, F> {
+/// The converter with `act` run at each [`Moment`] of the poll: an interrupt, a fault during it.
+struct Interfered<'a, F: FnMut(&mut Model, Moment)> {
+    ring: &'a mut Ring,
+    act: F,
+}
+
+impl<F: FnMut(&mut Model, Moment)> ScanRing<N> for Interfered<'_, F> {
     fn started(&mut self) -> u64 {
         self.ring.started()
     }
     fn copy_block(&mut self, block: &ReadyBlock, out: &mut [u16; N]) {
+        (self.act)(self.ring.regs(), Moment::BeforeCopy);
         ScanRing::<N>::copy_block(self.ring, block, out)
     }
     fn check(&mut self) -> Option<u64> {
         let r = self.ring.check_and_recover();
-        (self.after_check)(self.ring.regs());
+        (self.act)(self.ring.regs(), Moment::AfterCheck);
         r
     }
 }
@@ -337,10 +346,10 @@ fn poll_through_the_window<P: Poll>() -> (Ring, P, Checker) {
     m.run_until_started(b + BLOCK as u64 - 2);
     assert_eq!(m.scans_started(), b + BLOCK as u64 - 1, "B's last scan is the next to start");
     let mut once = true;
-    let mut r = AfterCheck {
+    let mut r = Interfered {
         ring: &mut ring,
-        after_check: |m: &mut Model| {
-            if core::mem::take(&mut once) {
+        act: |m: &mut Model, at| {
+            if at == Moment::AfterCheck && core::mem::take(&mut once) {
                 m.inject(Fault::Overrun);
                 m.cpu_away(3 * PERIOD);
             }
@@ -439,6 +448,30 @@ fn the_model_holds_the_driver_to_the_streams_and_the_adcs_rules() {
     assert_eq!((m.log.violations, m.log.last_violation), (4, "ADC_CR2.DMA set again with OVR still set"));
 }
 
+#[test]
+fn a_copy_the_dma_overtakes_is_thrown_away_and_counted() {
+    let (mut ring, mut s) = start(model(9));
+    let mut c = Checker::new(ring.base());
+    run(&mut ring, &mut s, &mut c, 10);
+    // A stall leaves the reader at the ring's oldest complete block; the CPU is taken away again just before
+    // the copy, long enough for the DMA to reach it.
+    ring.regs().cpu_away(3000 * PERIOD);
+    let mut once = true;
+    let mut r = Interfered {
+        ring: &mut ring,
+        act: |m: &mut Model, at| {
+            if at == Moment::BeforeCopy && core::mem::take(&mut once) {
+                m.cpu_away(2 * BLOCK as u64 * PERIOD);
+            }
+        },
+    };
+    s.poll(&mut r, &mut c);
+    assert_eq!((c.overtaken, c.bad, ring.regs().log.failures), (1, 0, 0));
+    run(&mut ring, &mut s, &mut c, 10);
+    assert_accounted(&s, &c, 0, ring.regs().scans_started());
+    assert_eq!(c.bad, 0);
+}
+
 /// What one randomised session did.
 struct Session {
     first: u64,
@@ -450,12 +483,13 @@ struct Session {
     long_stalls: u64,
 }
 
-/// A session of `polls` polls, with faults arriving at random times (a mean gap of 0.128 s to 4 s, a random mix of
-/// kinds), interrupts of up to three trigger periods at random register accesses, and after some checks the CPU
-/// away for up to two blocks' time with a fault arriving meanwhile (the window between the check and the copy);
-/// stalls shorter and longer than
-/// the ring between polls; a consumer that is sometimes behind; a trigger count that starts anywhere (a quarter
-/// of the sessions wrap it).
+/// A session of `polls` polls, with:
+/// - faults arriving at random times (a mean gap of 0.128 s to 4 s, a random mix of kinds);
+/// - the CPU taken away at random register accesses and code reads (for up to 1 to 256 trigger periods);
+/// - after some checks, the CPU away for up to two blocks' time with a fault arriving meanwhile (the window
+///   between the check and the copy), and before some copies the CPU away as long (the DMA may overtake them);
+/// - stalls shorter and longer than the ring between polls, and a consumer that is sometimes behind;
+/// - a trigger count that starts anywhere (a quarter of the sessions wrap it).
 fn session<P: Poll>(seed: u64, polls: usize) -> Session {
     let mut rng = SimRng::new(SimRng::derive_seed(0xADC, seed));
     let tim5_start = if seed.is_multiple_of(4) {
@@ -470,7 +504,7 @@ fn session<P: Poll>(seed: u64, polls: usize) -> Session {
         weights.iter_mut().for_each(|w| *w = (rng.next_u64() % 4) as u32);
     }
     m.random_faults(gap, weights);
-    m.interrupts((rng.next_u64() % 65) as u32, 3 * PERIOD as u32);
+    m.interrupts((rng.next_u64() % 65) as u32, (PERIOD << (rng.next_u64() % 9)) as u32);
     let (mut ring, _) = start(m);
     let first = ring.base();
     let mut p = P::at(first);
@@ -489,13 +523,15 @@ fn session<P: Poll>(seed: u64, polls: usize) -> Session {
         };
         ring.regs().cpu_away(away);
         c.behind = rng.next_u64().is_multiple_of(10);
-        let mut r = AfterCheck {
+        let mut r = Interfered {
             ring: &mut ring,
-            after_check: |m: &mut Model| {
+            act: |m: &mut Model, at| {
                 if window_rng.next_u64() % 256 < window_chance {
                     let longest = PERIOD << (window_rng.next_u64() % 9);
                     m.cpu_away(window_rng.next_u64() % longest);
-                    m.inject(Fault::ALL[(window_rng.next_u64() % 5) as usize]);
+                    if at == Moment::AfterCheck {
+                        m.inject(Fault::ALL[(window_rng.next_u64() % 5) as usize]);
+                    }
                 }
             },
         };
@@ -520,8 +556,8 @@ const POLLS: usize = 250;
 #[test]
 fn twenty_thousand_random_faults_hand_on_no_stale_or_rotated_block_and_every_gap_is_exact() {
     let mut faults = [0u64; 5];
-    let (mut window, mut handed, mut lost, mut scans, mut failures, mut discarded, mut long_stalls) =
-        (0, 0, 0, 0, 0, 0, 0);
+    let (mut window, mut handed, mut lost, mut scans, mut failures, mut discarded, mut overtaken, mut long_stalls) =
+        (0, 0, 0, 0, 0, 0, 0, 0);
     for seed in 0..SESSIONS {
         let s = session::<Sampler>(seed, POLLS);
         let c = &s.checker;
@@ -538,17 +574,20 @@ fn twenty_thousand_random_faults_hand_on_no_stale_or_rotated_block_and_every_gap
         scans += s.started - s.first;
         failures += s.log.failures;
         discarded += c.discarded;
+        overtaken += c.overtaken;
         long_stalls += s.long_stalls;
     }
     let total: u64 = faults.iter().sum();
     eprintln!(
         "faults {total} {faults:?} ({window} between a check and a copy's end), {failures} failures found, \
-         {discarded} copies thrown away, {long_stalls} stalls longer than the ring; {handed} blocks handed on, \
+         {discarded} copies thrown away after a failure and {overtaken} overtaken by the DMA, {long_stalls} stalls \
+         longer than the ring; {handed} blocks handed on, \
          {lost} of {scans} scans lost"
     );
     assert!(total >= 20_000, "{total} faults");
     assert!(faults.iter().all(|&f| f >= 500), "every kind, many times: {faults:?}");
-    assert!(window >= 100, "faults in the window: {window}");
+    assert!(window >= 1000 && discarded >= 1000, "faults in the window: {window}, copies thrown away: {discarded}");
+    assert!(overtaken > 0 && long_stalls > 0);
     assert!(handed * BLOCK as u64 > scans / 4, "a quarter of the scans or more are handed on and checked");
 }
 
