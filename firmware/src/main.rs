@@ -115,7 +115,7 @@ async fn main(spawner: Spawner) {
 #[cfg(not(feature = "qemu"))]
 #[embassy_executor::task]
 async fn sampler_task(parts: board::SamplerParts, blocks: characterize::BlockSender) {
-    let mut ring = adc::HwRing::start(parts);
+    let mut ring = adc::start(parts);
     sampler::run(&mut ring, blocks).await
 }
 

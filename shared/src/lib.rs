@@ -11,6 +11,8 @@
 //! - [`device`]: the device core: channel table, schedule, characterizer, sample ring (firmware and host
 //!   simulator both run it);
 //! - [`fieldlog`]: the field log's record format, recovery and checkpoint policy, over any NOR flash;
+//! - [`adc_f4`]: the STM32F405's sampling converter (ADC1 scan, DMA2 ring, TIM3 trigger, TIM5 count): failure
+//!   checks and the recovery, with a model of the hardware with faults injected for the tests;
 //! - [`flash_f4`]: the STM32F405 flash controller's erase, program and option-byte sequences at x32, checked by
 //!   its error flags, with a model of the controller they run on in tests and in QEMU.
 //!
@@ -23,6 +25,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool, clippy::needless_range_loop)]
 
 pub mod acc;
+pub mod adc_f4;
 pub mod device;
 pub mod estimate;
 pub mod fieldlog;

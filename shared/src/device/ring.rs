@@ -69,6 +69,18 @@ impl RingReader {
         }
     }
 
+    /// A reader of the same ring whose first scan, in slot 0, has hardware index `first` (the trigger count when
+    /// the converter was armed).
+    ///
+    /// # Panics
+    /// As [`RingReader::new`].
+    pub const fn starting_at(ring_scans: usize, block_scans: usize, first: u64) -> Self {
+        let mut r = Self::new(ring_scans, block_scans);
+        r.base = first;
+        r.next = first;
+        r
+    }
+
     /// Hardware index of the next scan the reader will take.
     pub const fn next_index(&self) -> u64 {
         self.next
