@@ -19,18 +19,19 @@
 //! host listens; a host that goes away mid read-out ends it, and checkpoints go on.
 
 use core::sync::atomic::Ordering;
-use embassy_futures::select::{select, Either};
+use embassy_futures::select::{select3, Either3};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::signal::Signal;
 
 use embassy_time::{Duration, Timer};
-use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogFlash, Recorded, Recorder, OVERHEAD_WORDS};
-use octavar_shared::flash_f4::{erase_worst_us, program_worst_us, PARALLELISM};
-use octavar_shared::proto::{Ack, FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
+use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogError, LogFlash, Recorded, Recorder, OVERHEAD_WORDS};
+use octavar_shared::flash_f4::{erase_worst_us, program_worst_us, FlashError, PARALLELISM};
+use octavar_shared::proto::{Ack, CheckpointReport, FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
 
 use crate::characterize::SNAPSHOT_READY;
 use crate::config::*;
 use crate::frames;
+use crate::timebase;
 
 /// The checkpoint type of this firmware: one snapshot per gyro.
 pub type GyroCheckpoint = Checkpoint<GYROS>;
@@ -71,13 +72,20 @@ async fn settle() {
 }
 
 /// Make the next checkpoint's slot ready (erasing a sector if it is due), after letting the sampler drain.
-async fn prepare<F: LogFlash>(log: &mut FieldLog<F>) {
+/// Returns how long the erase held the CPU, us (0: none was due).
+async fn prepare<F: LogFlash>(log: &mut FieldLog<F>) -> u32 {
     settle().await;
+    let t0 = timebase::now_us();
     match log.prepare_append() {
-        Ok(true) => defmt::info!("field log: sector erased for the next checkpoint"),
-        Ok(false) => {}
+        Ok(true) => {
+            let us = saturate(timebase::now_us() - t0);
+            defmt::info!("field log: sector erased for the next checkpoint in {} us", us);
+            us
+        }
+        Ok(false) => 0,
         Err(e) => {
-            defmt::warn!("field log: erase failed (the next checkpoint tries again): {}", defmt::Debug2Format(&e))
+            defmt::warn!("field log: erase failed (the next checkpoint tries again): {}", defmt::Debug2Format(&e));
+            0
         }
     }
 }
@@ -85,6 +93,9 @@ async fn prepare<F: LogFlash>(log: &mut FieldLog<F>) {
 /// A host asked for the field log from this checkpoint on, in the command frame with this sequence number
 /// (link task -> store).
 pub static LOG_READ: Signal<CriticalSectionRawMutex, LogRead> = Signal::new();
+
+/// A host asked for a checkpoint now, in the command frame with this sequence number (link task -> store).
+pub static CHECKPOINT_NOW: Signal<CriticalSectionRawMutex, u32> = Signal::new();
 
 /// A field-log read request.
 #[derive(Clone, Copy)]
@@ -98,11 +109,12 @@ pub struct LogRead {
 /// The longest a read-out waits for room in the frame queue, per frame.
 pub const READ_OUT_FRAME_WAIT: Duration = Duration::from_secs(2);
 
-/// Checkpoints snapshot rounds and answers field-log reads; generic over the flash (real or RAM).
+/// Checkpoints snapshot rounds, answers field-log reads, and writes a checkpoint when a host asks, with a report
+/// of what it cost; generic over the controller behind the flash (the board's or QEMU's model).
 ///
 /// Only the log, the recorder (with its base checkpoint), one record's words and, while [`settle`] waits before
 /// a checkpoint, that round live across the waits (this future is a static).
-pub async fn run<F: LogFlash>(flash: F) -> ! {
+pub async fn run<F: LogFlash<Error = FlashError>>(flash: F) -> ! {
     let mut words = [0u32; CHECKPOINT_WORDS];
     let mut log = match FieldLog::open(flash, CHECKPOINT_WORDS) {
         Ok(log) => log,
@@ -122,32 +134,67 @@ pub async fn run<F: LogFlash>(flash: F) -> ! {
         (Err(e), _) => defmt::warn!("field log: {}", defmt::Debug2Format(&e)),
     }
     prepare(&mut log).await;
+    // A host's request for a checkpoint, written at the next round.
+    let mut forced: Option<u32> = None;
     loop {
         // The round lives only in this arm, so it is not kept across the read-out's waits.
-        let read_from = match select(SNAPSHOT_READY.wait(), LOG_READ.wait()).await {
-            Either::First(round) => {
-                if !recorder.due(round.samples) {
+        let read = match select3(SNAPSHOT_READY.wait(), LOG_READ.wait(), CHECKPOINT_NOW.wait()).await {
+            Either3::First(round) => {
+                let force = forced.take();
+                if force.is_none() && !recorder.due(round.samples) {
                     continue;
                 }
                 settle().await;
-                match recorder.round(&mut log, &mut words, &round.snapshots, round.adc_overruns, round.samples) {
-                    Ok(Recorded::Written { seq, sessions, new_session }) => defmt::info!(
-                        "field log: checkpoint {} ({} samples this session, {} sessions{})",
+                let lost_before = crate::sampler::SCANS_LOST.load(Ordering::Relaxed);
+                let t0 = timebase::now_us();
+                let (snaps, overruns, samples) = (&round.snapshots, round.adc_overruns, round.samples);
+                let written = match force {
+                    Some(_) => recorder.round_now(&mut log, &mut words, snaps, overruns, samples),
+                    None => recorder.round(&mut log, &mut words, snaps, overruns, samples),
+                };
+                let program_us = timebase::now_us() - t0;
+                let (checkpoint, flash_error) = match written {
+                    Ok(Recorded::Written { seq, sessions, new_session }) => {
+                        defmt::info!(
+                            "field log: checkpoint {} ({} samples this session, {} sessions{}), {} us",
+                            seq,
+                            samples,
+                            sessions,
+                            if new_session { ", after a reset" } else { "" },
+                            program_us
+                        );
+                        (seq, 0)
+                    }
+                    Ok(Recorded::NotDue) => (0, 0),
+                    Err(e) => {
+                        defmt::warn!("field log: checkpoint failed: {}", defmt::Debug2Format(&e));
+                        (0, flash_flags(&e))
+                    }
+                };
+                let erase_us = prepare(&mut log).await;
+                if let Some(seq) = force {
+                    // The sampler has caught up after the stalls: what it lost is counted.
+                    settle().await;
+                    let samples_lost = crate::sampler::SCANS_LOST.load(Ordering::Relaxed).wrapping_sub(lost_before);
+                    let report = CheckpointReport {
                         seq,
-                        round.samples,
-                        sessions,
-                        if new_session { ", after a reset" } else { "" }
-                    ),
-                    Ok(Recorded::NotDue) => {}
-                    Err(e) => defmt::warn!("field log: checkpoint failed: {}", defmt::Debug2Format(&e)),
+                        checkpoint,
+                        program_us: saturate(program_us),
+                        erase_us,
+                        samples_lost,
+                        flash_error,
+                    };
+                    if frames::send_within(Frame::CheckpointReport(report), READ_OUT_FRAME_WAIT).await.is_err() {
+                        defmt::warn!("field log: the checkpoint report found no room in the frame queue");
+                    }
                 }
-                None
+                continue;
             }
-            Either::Second(from) => Some(from),
-        };
-        let Some(read) = read_from else {
-            prepare(&mut log).await;
-            continue;
+            Either3::Second(read) => read,
+            Either3::Third(seq) => {
+                forced = Some(seq);
+                continue;
+            }
         };
         match read_out(&mut log, read, &mut words).await {
             Ok(()) => defmt::info!("field log: read out"),
@@ -155,6 +202,20 @@ pub async fn run<F: LogFlash>(flash: F) -> ! {
         }
     }
 }
+
+/// Microseconds in a u32 (71 minutes at most).
+fn saturate(us: u64) -> u32 {
+    us.min(u64::from(u32::MAX)) as u32
+}
+
+/// FLASH_SR's error flags of a failed checkpoint (`u32::MAX` when the log itself refused it).
+fn flash_flags(e: &LogError<FlashError>) -> u32 {
+    match e {
+        LogError::Flash(f) if f.flags != 0 => f.flags,
+        _ => u32::MAX,
+    }
+}
+
 /// Acknowledge the request, then send the newest checkpoint one frame at a time (decode the record, send its
 /// i-th part, until there are no more), then the end frame. Any frame not taken within the bound ends it.
 async fn read_out<F: LogFlash>(

@@ -145,14 +145,15 @@ impl<'a, const G: usize> Characterizer<'a, G> {
     }
 
     /// Act on a host command that arrived with sequence number `seq`, and acknowledge it with that number.
-    /// [`Command::ReadFieldLog`] is the field log's (the firmware routes it there); it is not acknowledged here.
+    /// [`Command::ReadFieldLog`] and [`Command::Checkpoint`] are the field log's (the firmware routes them there);
+    /// they are not acknowledged here.
     pub fn command(&mut self, seq: u32, cmd: Command, sink: &mut impl FrameSink) {
         match cmd {
             Command::StartRaw { channel_mask } => self.raw_mask = channel_mask & self.cfg.all_channels_mask(),
             Command::StopRaw => self.raw_mask = 0,
             Command::Reset => self.reset(),
             Command::Hello => sink.send(&self.hello()),
-            Command::ReadFieldLog { .. } => return,
+            Command::ReadFieldLog { .. } | Command::Checkpoint => return,
         }
         sink.send(&Frame::Ack(Ack { seq }));
     }

@@ -80,12 +80,39 @@ impl<const CH: usize> Recorder<CH> {
         adc_overruns: u32,
         samples: u64,
     ) -> Result<Recorded, LogError<F::Error>> {
+        self.checkpoint(log, words, snapshots, adc_overruns, samples, false)
+    }
+
+    /// As [`Recorder::round`], but written whether or not it is due (a host asked for a checkpoint).
+    ///
+    /// # Errors
+    /// As [`Recorder::round`].
+    pub fn round_now<F: LogFlash>(
+        &mut self,
+        log: &mut FieldLog<F>,
+        words: &mut [u32],
+        snapshots: &[Snapshot; CH],
+        adc_overruns: u32,
+        samples: u64,
+    ) -> Result<Recorded, LogError<F::Error>> {
+        self.checkpoint(log, words, snapshots, adc_overruns, samples, true)
+    }
+
+    fn checkpoint<F: LogFlash>(
+        &mut self,
+        log: &mut FieldLog<F>,
+        words: &mut [u32],
+        snapshots: &[Snapshot; CH],
+        adc_overruns: u32,
+        samples: u64,
+        force: bool,
+    ) -> Result<Recorded, LogError<F::Error>> {
         let new_session = self.last.is_some_and(|s| samples < s);
         if new_session {
             // A reset: the checkpoint last written pooled the session that ended.
             self.reload(log, words)?;
         }
-        if self.last.is_some_and(|s| samples < s + self.every) {
+        if !force && self.last.is_some_and(|s| samples < s + self.every) {
             return Ok(Recorded::NotDue);
         }
         let cp = Checkpoint::merge_session(self.base.as_ref(), snapshots, adc_overruns);
@@ -169,6 +196,22 @@ mod tests {
         assert!(matches!(r, Recorded::Written { sessions: 2, new_session: false, .. }), "{r:?}");
         let cp = newest(&mut log);
         assert_eq!((cp.sessions, cp.adc_overruns, cp.snapshots[1].samples), (2, 2, 3200));
+    }
+
+    /// A checkpoint a host asks for is written when none is due, and the schedule runs on from it.
+    #[test]
+    fn a_forced_checkpoint_is_written_when_none_is_due() {
+        let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
+        let mut w = vec![0u32; Checkpoint::<2>::WORDS];
+        let (mut rec, _) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        let mut accs = fed(1500, 1);
+        assert!(matches!(rec.round(&mut log, &mut w, &snaps(&accs), 0, 1500).unwrap(), Recorded::Written { .. }));
+        feed(&mut accs, 200, 2);
+        assert_eq!(rec.round(&mut log, &mut w, &snaps(&accs), 0, 1700).unwrap(), Recorded::NotDue);
+        let r = rec.round_now(&mut log, &mut w, &snaps(&accs), 0, 1700).unwrap();
+        assert!(matches!(r, Recorded::Written { seq: 2, sessions: 1, new_session: false }), "{r:?}");
+        assert_eq!(newest(&mut log).snapshots[0].samples, 1700);
+        assert!(!rec.due(1700 + EVERY - 1) && rec.due(1700 + EVERY));
     }
 
     /// A host reset restarts the session's count: the next round is checkpointed at once, pooled with the

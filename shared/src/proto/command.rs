@@ -25,4 +25,7 @@ pub enum Command {
     },
     /// Send a [`super::Frame::Hello`].
     Hello,
+    /// Write a field-log checkpoint at the next snapshot round, whether or not one is due, and answer with a
+    /// [`super::Frame::CheckpointReport`]: what the flash cost (the bring-up's check of a checkpoint's stall).
+    Checkpoint,
 }

@@ -32,6 +32,8 @@ pub enum Frame {
     FieldLogEnd(FieldLogEnd),
     /// A host command was carried out.
     Ack(Ack),
+    /// A checkpoint the host asked for ([`super::Command::Checkpoint`]) was written, or failed.
+    CheckpointReport(CheckpointReport),
 }
 
 impl Frame {
@@ -46,6 +48,7 @@ impl Frame {
             Frame::FieldLog(_) => "field-log",
             Frame::FieldLogEnd(_) => "field-log-end",
             Frame::Ack(_) => "ack",
+            Frame::CheckpointReport(_) => "checkpoint-report",
         }
     }
 }
@@ -299,6 +302,24 @@ pub struct FieldLogRecord {
 pub struct Ack {
     /// The sequence number of the command's frame.
     pub seq: u32,
+}
+
+/// What a checkpoint the host asked for cost: the measured stalls of the CPU on the flash, and the scans lost.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CheckpointReport {
+    /// The sequence number of the command's frame.
+    pub seq: u32,
+    /// The checkpoint's number in the log (0 when it failed).
+    pub checkpoint: u32,
+    /// How long programming it held the CPU, in us (measured on the device's time base).
+    pub program_us: u32,
+    /// How long the erase that prepared the next checkpoint's slot held it, in us (0: none was due).
+    pub erase_us: u32,
+    /// Scans the sampler lost while the checkpoint was written and the next slot prepared.
+    pub samples_lost: u32,
+    /// The flash controller's error flags when writing failed (FLASH_SR; 0: written).
+    pub flash_error: u32,
 }
 
 /// The end of a field-log read-out.

@@ -86,14 +86,15 @@ mod tests;
 pub use command::Command;
 pub use decoder::{DecodeError, Decoder, DecoderStats, Feed, Received};
 pub use frame::{
-    Ack, ChannelEstimate, ChannelInfo, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, Status,
+    Ack, ChannelEstimate, ChannelInfo, CheckpointReport, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples,
+    Status,
 };
 pub use framing::{crc32, encode_frame, encode_to_vec, EncodeError, Encoder, FrameBuf, RESYNC};
 pub use size::{varint_max, MaxSize};
 pub use snapshot::{SnapshotError, SnapshotPart, SnapshotParts};
 
 /// The version of the wire format, sent in [`Hello`]. Bump it on any change a golden-bytes test catches.
-pub const PROTOCOL_VERSION: u16 = 3;
+pub const PROTOCOL_VERSION: u16 = 4;
 
 /// The largest encoded frame in bytes, the 0x00 delimiter included: the receive buffer size.
 pub const MAX_FRAME: usize = 512;

@@ -15,8 +15,8 @@
 use heapless::{String, Vec};
 
 use super::{
-    Ack, ChannelEstimate, ChannelInfo, Command, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples,
-    SnapshotPart, Status, MAX_BODY,
+    Ack, ChannelEstimate, ChannelInfo, CheckpointReport, Command, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello,
+    Samples, SnapshotPart, Status, MAX_BODY,
 };
 use crate::acc::LevelSum;
 use crate::sensor::SensorKind;
@@ -128,17 +128,28 @@ sum_of_fields!(Estimate { samples: u64, channels: Vec<ChannelEstimate, { super::
 sum_of_fields!(FieldLogRecord { checkpoint: u32, time_s: u32, sessions: u32, adc_overruns: u32, part: SnapshotPart });
 sum_of_fields!(FieldLogEnd { checkpoints: u32 });
 sum_of_fields!(Ack { seq: u32 });
+sum_of_fields!(CheckpointReport {
+    seq: u32,
+    checkpoint: u32,
+    program_us: u32,
+    erase_us: u32,
+    samples_lost: u32,
+    flash_error: u32
+});
 
 impl MaxSize for Frame {
-    // Eight variants: one varint byte of index, then the largest variant.
+    // Nine variants: one varint byte of index, then the largest variant.
     const MAX_SIZE: usize = 1 + max(
-        max(max(Hello::MAX_SIZE, Samples::MAX_SIZE), max(SnapshotPart::MAX_SIZE, Status::MAX_SIZE)),
-        max(max(Estimate::MAX_SIZE, FieldLogRecord::MAX_SIZE), max(FieldLogEnd::MAX_SIZE, Ack::MAX_SIZE)),
+        max(
+            max(max(Hello::MAX_SIZE, Samples::MAX_SIZE), max(SnapshotPart::MAX_SIZE, Status::MAX_SIZE)),
+            max(max(Estimate::MAX_SIZE, FieldLogRecord::MAX_SIZE), max(FieldLogEnd::MAX_SIZE, Ack::MAX_SIZE)),
+        ),
+        CheckpointReport::MAX_SIZE,
     );
 }
 
 impl MaxSize for Command {
-    // Five variants; the largest carries a u32.
+    // Six variants; the largest carries a u32.
     const MAX_SIZE: usize = 1 + u32::MAX_SIZE;
 }
 

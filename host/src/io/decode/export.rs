@@ -184,7 +184,7 @@ impl CsvSet {
                     ])?;
                 }
             }
-            Message::Hello(_) | Message::FieldLogEnd(_) | Message::Ack(_) => {}
+            Message::Hello(_) | Message::FieldLogEnd(_) | Message::Ack(_) | Message::CheckpointReport(_) => {}
         }
         Ok(())
     }
@@ -237,7 +237,7 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
             }
             Message::Status(status) => statuses.push(StatusSummary { frame_seq: seq, status }),
             Message::Estimate(estimate) => estimates.push(EstimateSummary { frame_seq: seq, estimate }),
-            Message::FieldLogEnd(_) | Message::Ack(_) => {}
+            Message::FieldLogEnd(_) | Message::Ack(_) | Message::CheckpointReport(_) => {}
         }
     }
     let csv_files = csv.map(CsvSet::finish).transpose()?.unwrap_or_default();

@@ -35,8 +35,8 @@ use std::path::{Path, PathBuf};
 
 use octavar_shared::acc::{Snapshot, LEVELS};
 use octavar_shared::proto::{
-    self, Ack, Decoder, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotError, SnapshotPart,
-    Status, LEVELS_PER_PART, PROTOCOL_VERSION,
+    self, Ack, CheckpointReport, Decoder, Estimate, FieldLogEnd, FieldLogRecord, Frame, Hello, Samples, SnapshotError,
+    SnapshotPart, Status, LEVELS_PER_PART, PROTOCOL_VERSION,
 };
 use serde::Serialize;
 
@@ -152,6 +152,8 @@ pub enum Message {
     FieldLogEnd(FieldLogEnd),
     /// The device carried out the host command with this sequence number.
     Ack(Ack),
+    /// What a checkpoint the host asked for cost.
+    CheckpointReport(CheckpointReport),
 }
 
 /// A message and the frame it came from.
@@ -263,6 +265,8 @@ pub struct DecodeStats {
     pub field_log_ends: u64,
     /// Command acknowledgements.
     pub acks: u64,
+    /// Reports of checkpoints the host asked for.
+    pub checkpoint_reports: u64,
     /// A hello announced a protocol version this host does not know.
     pub unknown_protocol: Option<u16>,
     /// The first bad frames, with their offsets.

@@ -159,6 +159,10 @@ impl StreamDecoder {
                 self.stats.acks += 1;
                 Message::Ack(a)
             }
+            Frame::CheckpointReport(r) => {
+                self.stats.checkpoint_reports += 1;
+                Message::CheckpointReport(r)
+            }
             Frame::AllanSnapshot(part) => {
                 self.stats.snapshot_parts += 1;
                 let channel = part.channel;

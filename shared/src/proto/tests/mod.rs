@@ -71,6 +71,14 @@ pub(super) fn example_frames() -> Vec<Frame> {
         Frame::FieldLog(FieldLogRecord { checkpoint: 12, time_s: 3600, sessions: 2, adc_overruns: 1, part }),
         Frame::FieldLogEnd(FieldLogEnd { checkpoints: 13 }),
         Frame::Ack(Ack { seq: 70_000 }),
+        Frame::CheckpointReport(CheckpointReport {
+            seq: 9,
+            checkpoint: 41,
+            program_us: 78_700,
+            erase_us: 500_000,
+            samples_lost: 0,
+            flash_error: 0,
+        }),
     ]
 }
 
@@ -82,6 +90,7 @@ pub(super) fn example_commands() -> Vec<Command> {
         Command::Reset,
         Command::ReadFieldLog { from_checkpoint: 300 },
         Command::Hello,
+        Command::Checkpoint,
     ]
 }
 
@@ -144,6 +153,14 @@ pub(super) fn worst_frames() -> Vec<Frame> {
         }),
         Frame::FieldLogEnd(FieldLogEnd { checkpoints: u32::MAX }),
         Frame::Ack(Ack { seq: u32::MAX }),
+        Frame::CheckpointReport(CheckpointReport {
+            seq: u32::MAX,
+            checkpoint: u32::MAX,
+            program_us: u32::MAX,
+            erase_us: u32::MAX,
+            samples_lost: u32::MAX,
+            flash_error: u32::MAX,
+        }),
     ]
 }
 
@@ -172,7 +189,7 @@ impl XorShift {
 /// A random frame of a random kind (field values random, collections of random length).
 pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
     let r = |rng: &mut XorShift, bits: u32| rng.next_u64() >> (64 - bits);
-    match rng.below(8) {
+    match rng.below(9) {
         0 => {
             let mut h = Hello::new("0.1.0+g1234567", "octavar-f405", r(rng, 16) as u32, 12, 3300, 8);
             for i in 0..rng.below(MAX_CHANNELS + 1) {
@@ -236,6 +253,14 @@ pub(super) fn random_frame(rng: &mut XorShift) -> Frame {
             Frame::Estimate(Estimate { samples: r(rng, 40), channels })
         }
         6 => Frame::FieldLogEnd(FieldLogEnd { checkpoints: r(rng, 20) as u32 }),
+        7 => Frame::CheckpointReport(CheckpointReport {
+            seq: r(rng, 32) as u32,
+            checkpoint: r(rng, 20) as u32,
+            program_us: r(rng, 20) as u32,
+            erase_us: r(rng, 20) as u32,
+            samples_lost: r(rng, 12) as u32,
+            flash_error: r(rng, 8) as u32,
+        }),
         _ => Frame::Ack(Ack { seq: r(rng, 32) as u32 }),
     }
 }

@@ -22,6 +22,7 @@ fn worst_case_values_take_exactly_max_size() {
             Frame::FieldLog(v) => (body_len(v), FieldLogRecord::MAX_SIZE),
             Frame::FieldLogEnd(v) => (body_len(v), FieldLogEnd::MAX_SIZE),
             Frame::Ack(v) => (body_len(v), Ack::MAX_SIZE),
+            Frame::CheckpointReport(v) => (body_len(v), CheckpointReport::MAX_SIZE),
         };
         assert_eq!(inner, max, "{f:?}");
         assert_eq!(body_len(f), 1 + max);
@@ -43,6 +44,7 @@ fn worst_case_table() {
     assert_eq!(FieldLogRecord::MAX_SIZE + 1, 500);
     assert_eq!(FieldLogEnd::MAX_SIZE + 1, 6);
     assert_eq!(Ack::MAX_SIZE + 1, 6);
+    assert_eq!(CheckpointReport::MAX_SIZE + 1, 31);
     assert_eq!(Frame::MAX_SIZE, 500);
     assert_eq!(Command::MAX_SIZE, 6);
     // 500 body + 8 sequence/CRC = 508 bytes before COBS; COBS adds ceil(508 / 254) = 2; plus the delimiter.
