@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 
 pub mod accumulate;
 pub mod analyze;
+pub mod bringup;
 pub mod csv_args;
 pub mod datasheet;
 pub mod decode;
@@ -40,6 +41,8 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Record a device's frames (serial port, file or stdin) into a capture file, with live counts; survives unplugging.
     Record(record::Args),
+    /// Check a freshly flashed board: hello, clock in ppm, gaps, counters, a forced checkpoint, a reconnect, a reset.
+    Bringup(bringup::Args),
     /// Read the field log a device kept without a PC (its checkpoints in flash) into a capture, resuming if cut.
     Fieldlog(fieldlog::Args),
     /// Decode a capture: summary, CSV (samples, snapshots, status, estimates) and JSON; damaged frames are counted.
@@ -60,6 +63,7 @@ impl Command {
             Command::Simulate(a) => a.run(),
             Command::Record(a) => a.run(),
             Command::Fieldlog(a) => a.run(),
+            Command::Bringup(a) => a.run(),
             Command::Decode(a) => a.run(),
             Command::Verify(a) => a.run(),
             Command::Gap(a) => a.run(),

@@ -5,6 +5,7 @@
 //! Above `io` (captures and frame decoding) and `stats`; below `cli` and `demo`.
 
 pub mod accumulate;
+pub mod bringup;
 pub mod link;
 pub mod log_readout;
 pub mod recorder;

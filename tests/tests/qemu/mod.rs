@@ -2,7 +2,7 @@
 //! USART1, decode the bytes with the host decoder, and check every device snapshot bit for bit against the host's
 //! replay of the same raw codes (`octavar::device::verify`).
 //!
-//! Three runs here, and the field log's power cut and read-out in [`fieldlog`]:
+//! Three runs here; the field log's power cut and read-out in [`fieldlog`], and `octavar bringup` in [`bringup`]:
 //! - [`SECONDS`] of simulated bench samples (the paper's four gyros, `shared::sim`) with USART1 on a TCP socket:
 //!   the test is the host, and after [`RESET_AFTER`] scans have arrived it sends `Command::Reset` the way
 //!   `octavar` would, through the firmware's real command decoder. The device acknowledges it, the raw index
@@ -32,6 +32,7 @@ use octavar_shared::proto::{Encoder, Status};
 
 use crate::util::temp_dir;
 
+mod bringup;
 mod fieldlog;
 
 /// Seconds of samples of the command run (`OCTAVAR_QEMU_SECONDS`).
