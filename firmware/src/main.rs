@@ -60,6 +60,8 @@ mod flash_regs;
 #[cfg(feature = "qemu")]
 mod qemu;
 #[cfg(feature = "qemu")]
+mod qemu_bench;
+#[cfg(feature = "qemu")]
 mod qemu_flash;
 #[cfg(not(feature = "qemu"))]
 mod usb;
@@ -81,7 +83,8 @@ async fn main(spawner: Spawner) {
     stack::paint();
     let blocks = BLOCK_CHANNEL
         .init(zerocopy_channel::Channel::new(BLOCKS.init([const { SampleBlock::EMPTY }; BLOCKS_IN_FLIGHT])));
-    let (block_tx, block_rx) = blocks.split();
+    #[cfg_attr(not(feature = "qemu"), allow(unused_mut))]
+    let (mut block_tx, mut block_rx) = blocks.split();
 
     #[cfg(not(feature = "qemu"))]
     {
@@ -99,7 +102,8 @@ async fn main(spawner: Spawner) {
         let parts = qemu::init();
         systick::init(parts.syst, qemu::SYSCLK_HZ, qemu::TIMER_CLOCK_HZ);
         let core = characterize::core();
-        qemu::bench_characterizer(core);
+        qemu_bench::bench_characterizer(core);
+        qemu_bench::bench_whole_path(core, &mut block_tx, &mut block_rx);
         core.restart(characterize::RAW_AT_BOOT);
         spawner.spawn(unwrap!(watchdog::watchdog_task()));
         spawner.spawn(unwrap!(qemu::uart_task()));

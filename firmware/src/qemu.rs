@@ -13,7 +13,7 @@
 //!   seconds with interrupts masked, as a flash erase stops it, while the virtual converter's count runs on;
 //! - the field log's flash (`qemu_flash.rs`): the host tests' model of the flash controller, driven by the
 //!   board's own x32 sequences, in RAM a reset keeps, with worst-case timing and power cuts on request;
-//! - a benchmark at start-up of the characterizer's per-sample path, printed through semihosting;
+//! - benchmarks at start-up of the per-sample path (`qemu_bench.rs`), printed through semihosting;
 //! - a semihosting exit (code 0) after [`RUN_SECONDS`] of scans, once every frame has been written.
 //!
 //! Raw streaming of every channel is on from the start, so a host can replay every code and check every
@@ -23,8 +23,8 @@ use core::sync::atomic::Ordering;
 
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_time::{Duration, Timer};
-use octavar_shared::device::{Characterizer, FrameSink, ReadyBlock};
-use octavar_shared::proto::{encode_to_vec, Command, Decoder, Frame};
+use octavar_shared::device::ReadyBlock;
+use octavar_shared::proto::{Command, Decoder};
 use octavar_shared::sensor::temperature_code;
 use octavar_shared::sim::{Bench, BenchSim, ChannelSim, GyroSim};
 use static_cell::StaticCell;
@@ -323,51 +323,4 @@ pub async fn finish_task() {
         crate::stack::size_bytes()
     );
     debug::exit(debug::EXIT_SUCCESS);
-}
-
-/// A sink that encodes every frame, as the firmware's queue does, and keeps none.
-struct EncodeOnly;
-
-impl FrameSink for EncodeOnly {
-    fn send(&mut self, frame: &Frame) {
-        core::hint::black_box(encode_to_vec(0, frame).ok());
-    }
-    fn frames_dropped(&self) -> u32 {
-        0
-    }
-}
-
-/// Time the characterizer's real per-sample path and print it through semihosting: `Characterizer::feed` on
-/// blocks of interleaved scans (four gyros and the temperature), snapshot rounds, estimates and frame encoding
-/// included, raw streaming off.
-///
-/// QEMU counts no cycles, but with `-icount shift=0` each instruction advances virtual time by exactly 1 ns, and
-/// the time base counts virtual time: so virtual nanoseconds per sample are instructions per sample.
-pub fn bench_characterizer(core: &mut Characterizer<'static, GYROS>) {
-    const BLOCKS: u64 = 250; // 32 000 scans: 16 snapshot rounds
-    static BLOCK: StaticCell<[u16; BLOCK_CODES]> = StaticCell::new();
-    let block = BLOCK.init([0; BLOCK_CODES]);
-    let mut s = 12345u32;
-    for (i, c) in block.iter_mut().enumerate() {
-        s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        // 64 codes of noise around mid-scale on the gyros, a steady temperature code.
-        *c = if i % CHANNELS == GYROS { 1900 } else { 2048 + (s >> 26) as u16 };
-    }
-    core.restart(0);
-    // Warm up (fill the accumulators' rings), then time.
-    core.feed(0, block, &mut EncodeOnly);
-    let t0 = timebase::now_us();
-    for b in 1..=BLOCKS {
-        core.feed(b * BLOCK_SCANS as u64, core::hint::black_box(&block[..]), &mut EncodeOnly);
-    }
-    let t1 = timebase::now_us();
-    let samples = BLOCKS * (BLOCK_SCANS * GYROS) as u64;
-    let per_milli = (t1 - t0) * 1_000_000 / samples;
-    hprintln!(
-        "octavar-bench: Characterizer::feed: {}.{:03} instructions/sample/channel (virtual ns with -icount shift=0; {} scans of {} gyros and a temperature, rounds and frame encoding included)",
-        per_milli / 1000,
-        per_milli % 1000,
-        BLOCKS * BLOCK_SCANS as u64,
-        GYROS
-    );
 }

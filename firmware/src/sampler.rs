@@ -32,9 +32,9 @@ pub static BACKLOG_SCANS: AtomicU32 = AtomicU32::new(0);
 pub static SCANS_LOST: AtomicU32 = AtomicU32::new(0);
 
 /// Characterize's free blocks, as the poll fills and hands them on.
-struct Blocks(BlockSender);
+pub struct Blocks<'a>(pub &'a mut BlockSender);
 
-impl BlockSink<BLOCK_CODES> for Blocks {
+impl BlockSink<BLOCK_CODES> for Blocks<'_> {
     fn free_block(&mut self) -> Option<&mut [u16; BLOCK_CODES]> {
         self.0.try_send().map(|b| &mut b.codes)
     }
@@ -65,14 +65,13 @@ impl BlockSink<BLOCK_CODES> for Blocks {
 }
 
 /// Hand the ring's blocks to characterize, forever.
-pub async fn run<R: ScanRing<BLOCK_CODES>>(ring: &mut R, blocks: BlockSender) -> ! {
+pub async fn run<R: ScanRing<BLOCK_CODES>>(ring: &mut R, mut blocks: BlockSender) -> ! {
     // Both converters number their first scan 0, in ring slot 0 (TIM5 starts at 0; so does QEMU's count).
     let mut sampler = Sampler::new(RING_SCANS, BLOCK_SCANS, 0);
-    let mut blocks = Blocks(blocks);
     let mut ticker = Ticker::every(SAMPLER_POLL);
     loop {
         ticker.next().await;
-        sampler.poll(ring, &mut blocks);
+        sampler.poll(ring, &mut Blocks(&mut blocks));
         NEXT_SCAN.store(sampler.next_index() as u32, Ordering::Relaxed);
         let backlog = ring.started().saturating_sub(sampler.next_index());
         BACKLOG_SCANS.store(backlog.min(u64::from(u32::MAX)) as u32, Ordering::Relaxed);

@@ -332,8 +332,9 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
         })
         .unwrap_or_else(|| panic!("no stack peak in the end-of-run line:\n{stdout}"));
     let peak = status.stack_peak_bytes.expect("the firmware measures its stack");
+    // A tenth of the stack left: what lies below it (QEMU's flash model in .uninit) stays out of reach.
     assert!(
-        peak > 256 && peak <= end_peak && end_peak < stack_size,
+        peak > 256 && peak <= end_peak && end_peak * 10 < stack_size * 9,
         "peak {peak}, at the end {end_peak} of {stack_size}"
     );
 
