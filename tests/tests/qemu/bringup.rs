@@ -1,4 +1,5 @@
-//! `octavar bringup` against the QEMU firmware over its TCP serial port: every check QEMU can answer passes,
+//! `octavar bringup` against the QEMU firmware over its TCP serial port (QEMU connects to the test, and again
+//! after the reconnect check drops the connection): every check QEMU can answer passes,
 //! with the figures a board would give (the clock against the host's, a checkpoint's stall at the flash's
 //! worst-case timing, nothing lost), and the one it cannot (a hello first after a reconnect: TCP has no DTR) says
 //! so instead of passing silently.
@@ -6,7 +7,9 @@
 use std::time::{Duration, Instant};
 
 use octavar::device::bringup::{bringup, BringupOptions, Outcome};
-use octavar::device::link::{PortSource, Source};
+use std::net::TcpListener;
+
+use octavar::device::link::{Source, TcpLink};
 
 use super::{build_firmware, qemu_available, wait_qemu, KillOnDrop, SEED};
 use crate::util::temp_dir;
@@ -14,21 +17,28 @@ use crate::util::temp_dir;
 /// Seconds of scans the firmware runs (the checks take about 10 s).
 const SECONDS: u64 = 16;
 
-/// The port QEMU listens on, tried until QEMU is up (it starts the guest once the first client connects).
-struct Retrying(PortSource);
+/// The test's listener, which QEMU's USART1 connects to (and connects to again, a second after the test drops
+/// the connection: `reconnect=1`). Holding the listener keeps the port the test's own while other tests run.
+struct Listening(TcpListener);
 
-impl Source for Retrying {
-    type Link = <PortSource as Source>::Link;
+impl Source for Listening {
+    type Link = TcpLink;
     fn name(&self) -> String {
-        self.0.name()
+        format!("tcp:{}", self.0.local_addr().map(|a| a.to_string()).unwrap_or_default())
     }
-    fn connect(&mut self) -> std::io::Result<Self::Link> {
+    fn connect(&mut self) -> std::io::Result<TcpLink> {
+        self.0.set_nonblocking(true)?;
         let t0 = Instant::now();
         loop {
-            match self.0.connect() {
-                Ok(l) => return Ok(l),
-                Err(e) if t0.elapsed() > Duration::from_secs(20) => return Err(e),
-                Err(_) => std::thread::sleep(Duration::from_millis(50)),
+            match self.0.accept() {
+                Ok((stream, _)) => {
+                    stream.set_nonblocking(false)?;
+                    return TcpLink::from_stream(stream, Duration::from_millis(50));
+                }
+                Err(e) if e.kind() != std::io::ErrorKind::WouldBlock || t0.elapsed() > Duration::from_secs(20) => {
+                    return Err(e)
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(20)),
             }
         }
     }
@@ -51,13 +61,14 @@ fn bringup_passes_every_check_qemu_can_answer() {
         ],
         &dir,
     );
-    let port = std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("a free port").port();
+    let listener = TcpListener::bind("127.0.0.1:0").expect("bind a local port");
+    let port = listener.local_addr().expect("local address").port();
     let stdout_file = dir.join("stdout.txt");
     let t0 = Instant::now();
     let child = std::process::Command::new("qemu-system-arm")
         .args(["-M", "netduinoplus2", "-nographic", "-monitor", "none"])
         .args(["-semihosting-config", "enable=on,target=native"])
-        .args(["-serial", &format!("tcp:127.0.0.1:{port},server=on,wait=on")])
+        .args(["-serial", &format!("tcp:127.0.0.1:{port},reconnect=1")])
         .arg("-kernel")
         .arg(&elf)
         .stdin(std::process::Stdio::null())
@@ -77,7 +88,7 @@ fn bringup_passes_every_check_qemu_can_answer() {
         hello_on_connect: false,
         ..Default::default()
     };
-    let mut source = Retrying(PortSource::parse(&format!("tcp:127.0.0.1:{port}"), 0, Duration::from_millis(50)));
+    let mut source = Listening(listener);
     let report = bringup(&mut source, &opts).expect("connect to QEMU");
     let _ = wait_qemu(child, &stdout_file, t0, || {});
 
