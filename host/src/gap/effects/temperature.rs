@@ -39,8 +39,8 @@ impl EffectKind for Kind {
 /// gyro's noise, `N^2 + B^2/(2 pi f) + K^2/(4 pi^2 f^2)` (IEEE 952 Annex C). Ordinary least squares would let the
 /// flicker and random walk at the lowest frequencies, where a slow temperature wander also lives, dominate the
 /// estimate; GLS weighs each frequency by its noise. The tapers together weigh the record nearly uniformly (one
-/// Hann taper, used before, counts mainly the middle half: on the withheld temperature seed 7 it read the coupling
-/// 31% high from noise there, where the record's other draws scatter by 6%). The lag minimises the GLS residual
+/// Hann taper counts mainly the middle half, and noise there can move the coupling by several times the scatter
+/// of the record's other draws). The lag minimises the GLS residual
 /// `sum |R - k X|^2 / S` on a log grid from the block length to three record lengths, refined by golden-section
 /// search, and is compared with no lag. Two passes: S from the base fit, then from the IEEE fit of the record
 /// without the fitted coupling (the base fit took part of the temperature bump for flicker or random walk), which
