@@ -28,7 +28,6 @@
 
 use super::covariance::{CovarianceBasis, EstimatorShape};
 use super::{predict, FitOptions, FitPoint, Solution, Term, TermEstimate};
-use crate::stats::edf::chi2_quantile;
 use crate::stats::linalg::{cholesky, forward_solve, invert, solve};
 
 /// A relative ridge on the diagonal of the covariance of ln AVAR, so that neighbouring octaves of a long
@@ -330,13 +329,8 @@ fn forced_bound(
     Some(hi.max(0.0).sqrt())
 }
 
-/// The standard normal quantile at `p` (0 < p < 1).
+/// The standard normal quantile at `p` (0 < p < 1; statrs).
 pub(super) fn normal_quantile(p: f64) -> f64 {
-    // z = +-sqrt(chi2_1(|2p - 1|)).
-    let z = chi2_quantile((2.0 * p - 1.0).abs(), 1.0).sqrt();
-    if p >= 0.5 {
-        z
-    } else {
-        -z
-    }
+    use statrs::distribution::{ContinuousCDF, Normal};
+    Normal::standard().inverse_cdf(p)
 }

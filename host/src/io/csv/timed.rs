@@ -108,6 +108,5 @@ pub(super) fn median_rate(
     if steps.is_empty() {
         return Err(RecordingError::NoRate { path: path.to_string() });
     }
-    steps.sort_by(f64::total_cmp);
-    Ok(1.0 / steps[steps.len() / 2])
+    Ok(1.0 / crate::stats::robust::median_in_place(&mut steps))
 }

@@ -9,6 +9,9 @@ use super::BagError;
 /// The largest chunk octavar decompresses (writers make chunks of about a megabyte): a bigger size in a chunk
 /// header is taken for corruption rather than allocated.
 const MAX_CHUNK_BYTES: u64 = 1 << 32;
+/// MCAP's CRC-32 (the zlib one, CRC-32/ISO-HDLC), with the `crc` crate the frame protocol uses, sixteen bytes a
+/// step.
+const CRC32: crc::Crc<u32, crc::Table<16>> = crc::Crc::<u32, crc::Table<16>>::new(&crc::CRC_32_ISO_HDLC);
 
 impl Scan {
     /// Decompress a chunk, check its CRC, and take the records in it.
@@ -61,7 +64,7 @@ impl Scan {
             return Err(corrupt(format!("the chunk holds {} bytes where its header says {size}", content.len())));
         }
         if header.uncompressed_crc != 0 {
-            let crc = crc32fast::hash(content);
+            let crc = CRC32.checksum(content);
             if crc != header.uncompressed_crc {
                 return Err(corrupt(format!(
                     "the chunk's CRC is {crc:08x} where its header says {:08x}",
