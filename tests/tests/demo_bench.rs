@@ -52,5 +52,32 @@ fn demo_recovers_table1_and_finds_the_temperature() {
         assert_eq!(loc.view, ViewKind::Temperature);
         assert!(loc.band_s[1] >= 100.0, "{loc:?}");
         assert!(h.shrink > 0.5, "{}", report.text());
+        if r.paper.label.contains("ENV-05H") {
+            // The README quotes this report's headline: its lines must be the report's, word for word.
+            let text = report.text();
+            for line in readme_gap_quote() {
+                assert!(text.lines().any(|l| l == line), "README's quote {line:?} is not in the report:\n{text}");
+            }
+        }
     }
+}
+
+/// The lines README.md quotes from the demo's ENV-05H gap report (the text block after "The two lines that
+/// matter"), a line wrapped there (its continuation indented) joined back into one.
+fn readme_gap_quote() -> Vec<String> {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).expect("README.md");
+    let after = readme.split("The two lines that matter").nth(1).expect("README quotes the demo's gap headline");
+    let block = after.split("```text\n").nth(1).and_then(|b| b.split("```").next()).expect("a text block");
+    let mut lines: Vec<String> = Vec::new();
+    for l in block.lines().filter(|l| !l.trim().is_empty()) {
+        match (l.starts_with(' '), lines.last_mut()) {
+            (true, Some(last)) => {
+                last.push(' ');
+                last.push_str(l.trim_start());
+            }
+            _ => lines.push(l.to_string()),
+        }
+    }
+    assert!(lines.len() >= 2, "{lines:?}");
+    lines
 }
