@@ -145,6 +145,15 @@ fn totdev_last(data: &[f64], kind: DataKind, tau0_s: f64) -> Option<f64> {
     Some((sum / (2.0 * tau * tau * (n_phase - 2) as f64)).sqrt())
 }
 
+/// The number of terms of `stat` at m in a gap-free record of `n_phase` points (TOTDEV's reflected record has
+/// N - 2 at every m, the last one included).
+fn gap_free_terms(stat: Statistic, n_phase: usize, m: u64) -> u64 {
+    match stat {
+        Statistic::Totdev => n_phase.saturating_sub(2) as u64,
+        _ => stat.terms(n_phase, m as usize) as u64,
+    }
+}
+
 /// The four arrays allantools returns.
 type AllanArrays<'py> =
     (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
@@ -165,10 +174,23 @@ pub fn allan<'py>(
     let kind = samples::kind(data_type)?;
     let rate_hz = samples::rate(rate)?;
     let data = samples::borrow(&data, "data")?;
-    // The tau list is allantools' over the record the library sees: NaN at either end trimmed (gaps=True only).
-    let n_valid = py.detach(|| samples::check_nan(data, "data", gaps).map(|()| samples::trimmed(data).len()))?;
-    let ms = averaging_factors(&taus, samples::n_phase(n_valid, kind), rate_hz)?;
-    let rows = py.detach(|| estimates(samples::trimmed(data), kind, rate_hz, stat, &ms))?;
+    // With gaps, the tau list is allantools' over the record the library sees: NaN at either end trimmed.
+    let record = if gaps { samples::trimmed(data) } else { data };
+    let n_phase = samples::n_phase(record.len(), kind);
+    let ms = averaging_factors(&taus, n_phase, rate_hz)?;
+    let rows = py.detach(|| {
+        let rows = estimates(record, kind, rate_hz, stat, &ms);
+        // Without gaps a NaN is an error. It costs nothing to look for one: a NaN leaves fewer terms than a
+        // gap-free record has (inside the record: the terms touching it; at either end: the library trims it),
+        // and only then is the record searched for it, to name it. (A NaN that no term of the request touches
+        // changes nothing, and goes unremarked.)
+        let complete =
+            |rows: &Vec<(u64, u64, f64)>| rows.iter().all(|&(m, n, _)| n == gap_free_terms(stat, n_phase, m));
+        if !gaps && !rows.as_ref().is_ok_and(complete) {
+            samples::check_nan(data, "data", false)?;
+        }
+        rows
+    })?;
     let taus: Vec<f64> = rows.iter().map(|r| r.0 as f64 / rate_hz).collect();
     let devs: Vec<f64> = rows.iter().map(|r| r.2).collect();
     let errs: Vec<f64> = rows.iter().map(|r| r.2 / (r.1 as f64).sqrt()).collect();

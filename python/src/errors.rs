@@ -15,9 +15,20 @@ pub fn value_error(message: impl Into<String>) -> PyErr {
     PyValueError::new_err(message.into())
 }
 
-/// An `OSError` for `err`, with `message` (which names the file) as its text.
+/// An `OSError` for `err`, with `message` (which names the file) as its text. Its errno (the system's, or the one
+/// of its kind where the error was made in Rust) makes Python raise the matching subclass.
 pub fn os_error(err: &std::io::Error, message: String) -> PyErr {
-    match err.raw_os_error() {
+    use std::io::ErrorKind;
+    // POSIX numbers, the same on Linux and macOS (and in the Windows C runtime).
+    let errno = err.raw_os_error().or(match err.kind() {
+        ErrorKind::NotFound => Some(2),
+        ErrorKind::PermissionDenied => Some(13),
+        ErrorKind::AlreadyExists => Some(17),
+        ErrorKind::NotADirectory => Some(20),
+        ErrorKind::IsADirectory => Some(21),
+        _ => None,
+    });
+    match errno {
         Some(errno) => PyOSError::new_err((errno, message)),
         None => PyOSError::new_err(message),
     }
