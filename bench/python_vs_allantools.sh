@@ -7,6 +7,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . bench/ref_venv.sh
-"$PY" -m pip install --quiet ./python
+# The build backend (maturin) is in the venv already: no isolated build environment to fetch.
+PATH="$(dirname "$PY"):$PATH" "$PY" -m pip install --quiet --no-build-isolation ./python
 cd bench
 "$PY" python_vs_allantools.py "$@"

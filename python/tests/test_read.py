@@ -40,7 +40,7 @@ def test_csv_columns_units_time_and_filters(tmp_path):
 def test_gzip_semicolons_decimal_commas_and_gaps(tmp_path):
     v = series()[:, 0]
     lines = ["x"] + [f"{x:.17g}".replace(".", ",") for x in v]
-    lines[9] = ""  # an empty cell: a gap (sample 8)
+    lines[9] = "NaN"  # a gap (sample 8)
     p = tmp_path / "rec.csv.gz"
     with gzip.open(p, "wt") as f:
         f.write("\n".join(lines) + "\n")
