@@ -9,7 +9,8 @@
 //! - `errs` is dev / sqrt(n), and the taus are m / rate.
 //!
 //! The deviations are the library's (`octavar::stats::analyze` at those m, without intervals), which agree with
-//! allantools' to about 1e-13. One tau lies outside what the library computes: TOTDEV at m = N - 1 (only `"all"`
+//! allantools' to about 1e-13. A NaN sample is an error unless NaN marks gaps (`gaps=True`); finding one costs
+//! nothing on a clean record, because the term counts show it. One tau lies outside what the library computes: TOTDEV at m = N - 1 (only `"all"`
 //! or an explicit tau reaches it), where the reflected record still has N - 2 terms; [`totdev_last`] computes it
 //! from the samples in one pass.
 
