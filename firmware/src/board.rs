@@ -130,7 +130,7 @@ pub fn init() -> Parts {
         config.rcc.mux.clk48sel = mux::Clk48sel::PLL1_Q;
     }
     let p = embassy_stm32::init(config);
-    flash_accelerator_on();
+    crate::flash_regs::flash_accelerator_on();
     let mut flash = crate::flash_regs::PacFlash::new(p.FLASH);
     check_brown_out(&mut flash);
     let core = cortex_m::Peripherals::take().expect("core peripherals are taken once");
@@ -152,34 +152,6 @@ const fn pll_prediv(m: u32) -> embassy_stm32::rcc::PllPreDiv {
         12 => PllPreDiv::DIV12,
         _ => panic!("add the PLL divider of this crystal"),
     }
-}
-
-/// Instruction and data caches and prefetch on (embassy-stm32 sets the wait states but leaves the ART off).
-pub fn flash_accelerator_on() {
-    pac::FLASH.acr().modify(|w| {
-        w.set_prften(true);
-        w.set_icen(true);
-        w.set_dcen(true);
-    });
-}
-
-/// After a flash erase or write: the caches may hold the old contents of the changed lines. RM0090 section
-/// 3.5.2: disable them, reset them, enable them again.
-pub fn flash_caches_reset() {
-    let acr = pac::FLASH.acr();
-    acr.modify(|w| {
-        w.set_icen(false);
-        w.set_dcen(false);
-    });
-    acr.modify(|w| {
-        w.set_icrst(true);
-        w.set_dcrst(true);
-    });
-    acr.modify(|w| {
-        w.set_icrst(false);
-        w.set_dcrst(false);
-    });
-    flash_accelerator_on();
 }
 
 /// The field log programs at x32, which needs 2.7 V: brown-out level 3 resets the MCU below that rather than let

@@ -1,5 +1,6 @@
 //! The flash controller's registers and array on the board, through the PAC, for the shared checked sequences
-//! (`octavar_shared::flash_f4`: erase and program at x32, the brown-out option byte).
+//! (`octavar_shared::flash_f4`: erase and program at x32, the brown-out option byte), and its accelerator (the
+//! ART's caches and prefetch).
 
 use embassy_stm32::pac;
 use embassy_stm32::pac::flash::regs::{Cr, Optcr, Sr};
@@ -65,6 +66,34 @@ impl FlashRegs for PacFlash {
     }
 
     fn changed(&mut self) {
-        crate::board::flash_caches_reset();
+        flash_caches_reset();
     }
+}
+
+/// Instruction and data caches and prefetch on (embassy-stm32 sets the wait states but leaves the ART off).
+pub fn flash_accelerator_on() {
+    pac::FLASH.acr().modify(|w| {
+        w.set_prften(true);
+        w.set_icen(true);
+        w.set_dcen(true);
+    });
+}
+
+/// After a flash erase or write: the caches may hold the old contents of the changed lines. RM0090 section
+/// 3.5.2: disable them, reset them, enable them again.
+pub fn flash_caches_reset() {
+    let acr = pac::FLASH.acr();
+    acr.modify(|w| {
+        w.set_icen(false);
+        w.set_dcen(false);
+    });
+    acr.modify(|w| {
+        w.set_icrst(true);
+        w.set_dcrst(true);
+    });
+    acr.modify(|w| {
+        w.set_icrst(false);
+        w.set_dcrst(false);
+    });
+    flash_accelerator_on();
 }

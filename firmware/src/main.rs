@@ -108,7 +108,7 @@ async fn main(spawner: Spawner) {
         spawner.spawn(unwrap!(watchdog::watchdog_task()));
         spawner.spawn(unwrap!(qemu::uart_task()));
         spawner.spawn(unwrap!(characterize_task(block_rx, core)));
-        spawner.spawn(unwrap!(store_task(parts.flash)));
+        spawner.spawn(unwrap!(store_task(qemu_flash::take())));
         spawner.spawn(unwrap!(qemu::stall_task()));
         spawner.spawn(unwrap!(qemu::finish_task()));
         spawner.spawn(unwrap!(qemu::sampler_task(block_tx)));

@@ -99,12 +99,10 @@ mod usart1 {
     pub const USART1EN: u32 = 1 << 4;
 }
 
-/// What the QEMU build owns.
+/// What the QEMU build owns (the field log's flash is `qemu_flash`'s).
 pub struct Parts {
     /// SysTick, for the time driver.
     pub syst: cortex_m::peripheral::SYST,
-    /// The field log's flash: the controller model standing in for sectors 1 and 2.
-    pub flash: crate::qemu_flash::QemuFlash,
 }
 
 /// Stop the CPU for `us` microseconds of the time base with interrupts masked, as a flash operation does (then
@@ -175,7 +173,7 @@ pub fn init() -> Parts {
         usart1::BRR.write_volatile(84_000_000 / 115_200);
         usart1::CR1.write_volatile(usart1::UE | usart1::TE | usart1::RE);
     }
-    Parts { syst: core.SYST, flash: crate::qemu_flash::take() }
+    Parts { syst: core.SYST }
 }
 
 fn uart_write(bytes: &[u8]) {
