@@ -70,6 +70,7 @@ fn verify_and_decode_a_simulated_device() {
         "estimates",
         "estimates_every",
         "field_log",
+        "field_log_checkpoint",
         "hello",
         "samples_per_channel",
         "snapshots",
