@@ -1,0 +1,68 @@
+//! The JSON documents' key sets, pinned by snapshots (`tests/snapshots/`): users' scripts read these keys, so a
+//! key that disappears or is renamed fails here. Adding keys is free: review the new snapshot
+//! (`cargo insta review`, or `INSTA_UPDATE=always` and read the diff) and commit it.
+
+mod common;
+use common::{octavar, stderr};
+
+/// Every key path of `v`, sorted: `a.b` for an object's member, `a[].b` for a member of any element of an array.
+fn key_paths(v: &serde_json::Value) -> String {
+    fn walk(v: &serde_json::Value, prefix: &str, out: &mut std::collections::BTreeSet<String>) {
+        match v {
+            serde_json::Value::Object(m) => {
+                for (k, child) in m {
+                    let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                    out.insert(path.clone());
+                    walk(child, &path, out);
+                }
+            }
+            serde_json::Value::Array(items) => {
+                for item in items {
+                    walk(item, &format!("{prefix}[]"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut out = std::collections::BTreeSet::new();
+    walk(v, "", &mut out);
+    out.into_iter().collect::<Vec<_>>().join("\n")
+}
+
+/// White noise plus a 50 s sinusoid, 16384 samples at 10 Hz, in one column `g`.
+fn record() -> String {
+    let mut s = 7u64;
+    let mut text = String::from("g\n");
+    for i in 0..16_384 {
+        let mut a = 0.0;
+        for _ in 0..12 {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            a += (s >> 11) as f64 / (1u64 << 53) as f64;
+        }
+        let t = i as f64 / 10.0;
+        text.push_str(&format!("{}\n", 0.1 * (a - 6.0) + 0.05 * (std::f64::consts::TAU * t / 50.0).sin()));
+    }
+    text
+}
+
+/// Run `args` with the record on stdin and `--json FILE` appended; the document.
+fn json_of(args: &[&str]) -> serde_json::Value {
+    let dir = tempfile::tempdir().expect("a temp dir");
+    let json = dir.path().join("out.json");
+    let all = [args, &["--json", json.to_str().unwrap()]].concat();
+    let o = octavar(&all, Some(record().as_bytes()));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    serde_json::from_str(&std::fs::read_to_string(&json).expect("the JSON")).expect("valid JSON")
+}
+
+#[test]
+fn analyze_json_keys() {
+    let v = json_of(&["analyze", "-", "--column", "g", "--rate", "10"]);
+    insta::assert_snapshot!("analyze", key_paths(&v));
+}
+
+#[test]
+fn gap_json_keys() {
+    let v = json_of(&["gap", "-", "--column", "g", "--rate", "10", "--seeds", "8"]);
+    insta::assert_snapshot!("gap", key_paths(&v));
+}
