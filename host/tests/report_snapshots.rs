@@ -1,6 +1,8 @@
-//! The JSON documents' key sets, pinned by snapshots (`tests/snapshots/`): users' scripts read these keys, so a
-//! key that disappears or is renamed fails here. Adding keys is free: review the new snapshot
-//! (`cargo insta review`, or `INSTA_UPDATE=always` and read the diff) and commit it.
+//! The reports, pinned by snapshots (`tests/snapshots/`): the JSON documents' key sets, which users' scripts read
+//! (a key that disappears or is renamed fails here; adding keys is free), and the text reports of `analyze` and
+//! `gap` whole, layout and figures, on a fixed record, so what README and the docs quote cannot drift unseen. A
+//! change is reviewed into the snapshot (`cargo insta review`, or `INSTA_UPDATE=always` and read the diff) and
+//! committed.
 
 mod common;
 use common::{octavar, stderr};
@@ -65,4 +67,25 @@ fn analyze_json_keys() {
 fn gap_json_keys() {
     let v = json_of(&["gap", "-", "--column", "g", "--rate", "10", "--seeds", "8"]);
     insta::assert_snapshot!("gap", key_paths(&v));
+}
+
+/// Run `args` with the record on stdin; what it printed, the run's own duration (`diagnosed in 0.2 s`) masked.
+fn text_of(args: &[&str]) -> String {
+    let o = octavar(args, Some(record().as_bytes()));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).expect("UTF-8");
+    text.lines()
+        .map(|l| match l.split_once("diagnosed in ") {
+            Some((head, tail)) => format!("{head}diagnosed in [time]{}", tail.split_once(" s").map_or("", |(_, r)| r)),
+            None => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The text reports, whole: their layout and every figure on a fixed record (README and the docs quote them).
+#[test]
+fn analyze_and_gap_text_reports() {
+    insta::assert_snapshot!("analyze_text", text_of(&["analyze", "-", "--column", "g", "--rate", "10"]));
+    insta::assert_snapshot!("gap_text", text_of(&["gap", "-", "--column", "g", "--rate", "10", "--seeds", "8"]));
 }
