@@ -230,32 +230,53 @@ pub fn accumulate<R: BufRead>(
             }
         }
         Some(name) => {
-            let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(reader);
-            let headers = rdr.headers().map_err(|e| csv_error(source_name, e))?.clone();
-            let idx = headers.iter().position(|h| h.trim() == name).ok_or_else(|| {
-                if headers.is_empty() {
+            // The recordings' own row splitter (io::csv::rows): the delimiter read off the header, quotes
+            // honoured, each cell's text parsed here as an exact integer.
+            use crate::io::csv::rows::{clean_header, split, trim_line_end, Delimiter, Dialect};
+            let io_err = |err| AccumulateError::Io { source_name: source_name.to_string(), err };
+            let mut lines = reader.lines();
+            let header = match lines.next() {
+                Some(line) => line.map_err(io_err)?,
+                None => return Err(AccumulateError::Empty { source_name: source_name.to_string() }),
+            };
+            let header = clean_header(trim_line_end(&header)).to_string();
+            let delimiter = Dialect::detect_delimiter(&header).unwrap_or(Delimiter::Byte(b','));
+            let mut header_cells = Vec::new();
+            let bad_row = |line: u64, message: String| AccumulateError::Csv {
+                source_name: source_name.to_string(),
+                line,
+                message,
+            };
+            split(&header, delimiter, &mut header_cells).map_err(|e| bad_row(1, e.to_string()))?;
+            let names: Vec<String> = header_cells.iter().map(|c| c.to_string()).collect();
+            let idx = names.iter().position(|h| h == name).ok_or_else(|| {
+                if header.trim().is_empty() {
                     AccumulateError::Empty { source_name: source_name.to_string() }
                 } else {
                     AccumulateError::MissingColumn {
                         source_name: source_name.to_string(),
                         column: name.clone(),
-                        available: headers.iter().collect::<Vec<_>>().join(", "),
+                        available: names.join(", "),
                     }
                 }
             })?;
             let column = Some(name.clone());
-            let mut record = csv::StringRecord::new();
-            loop {
-                match rdr.read_record(&mut record) {
-                    Ok(false) => break,
-                    Ok(true) => {
-                        let line = record.position().map_or(0, |p| p.line());
-                        block.push(to_code(&record[idx], line, &column)?);
-                        if block.len() == block.capacity() {
-                            flush(&mut block, &mut acc);
-                        }
-                    }
-                    Err(e) => return Err(csv_error(source_name, e)),
+            for (i, line) in lines.enumerate() {
+                let line_no = i as u64 + 2;
+                let line = line.map_err(io_err)?;
+                let row = trim_line_end(&line);
+                if row.trim().is_empty() {
+                    continue;
+                }
+                let mut cells = Vec::with_capacity(names.len());
+                split(row, delimiter, &mut cells).map_err(|e| bad_row(line_no, e.to_string()))?;
+                if cells.len() != names.len() {
+                    let why = format!("{} fields where the header has {}", cells.len(), names.len());
+                    return Err(bad_row(line_no, why));
+                }
+                block.push(to_code(cells[idx], line_no, &column)?);
+                if block.len() == block.capacity() {
+                    flush(&mut block, &mut acc);
                 }
             }
         }
@@ -265,24 +286,6 @@ pub fn accumulate<R: BufRead>(
         return Err(AccumulateError::Empty { source_name: source_name.to_string() });
     }
     Ok(AccumulateReport::from_snapshot(acc.snapshot(), opts.rate_hz))
-}
-
-fn csv_error(source_name: &str, e: csv::Error) -> AccumulateError {
-    let line = e.position().map_or(0, |p| p.line());
-    match e.into_kind() {
-        csv::ErrorKind::Io(err) => AccumulateError::Io { source_name: source_name.to_string(), err },
-        kind => AccumulateError::Csv { source_name: source_name.to_string(), line, message: describe_csv(&kind) },
-    }
-}
-
-fn describe_csv(kind: &csv::ErrorKind) -> String {
-    match kind {
-        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
-            format!("{len} fields where the header has {expected_len}")
-        }
-        csv::ErrorKind::Utf8 { .. } => "not valid UTF-8".to_string(),
-        other => format!("{other:?}"),
-    }
 }
 
 #[cfg(test)]
@@ -323,7 +326,10 @@ mod tests {
         let e = accumulate("a,b\n1,10\n".as_bytes(), "c.csv", &o2).unwrap_err();
         assert!(e.to_string().contains("no column \"q\""), "{e}");
         let e = accumulate("a,b\n1,10\n2\n".as_bytes(), "c.csv", &o).unwrap_err();
-        assert!(e.to_string().contains("line 3"), "{e}");
+        assert_eq!(e.to_string(), "c.csv, line 3: 1 fields where the header has 2");
+        // The recordings' dialects: another delimiter, quoted names, CRLF line ends.
+        let r = accumulate("\"a\";\"b\"\r\n1;10\r\n2;12\r\n3;10\r\n".as_bytes(), "c.csv", &o).unwrap();
+        assert_eq!(r.octaves[0].sum_sq, 8);
     }
 
     #[test]
