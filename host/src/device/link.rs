@@ -75,20 +75,31 @@ pub struct SerialLink(Box<dyn serialport::SerialPort>);
 
 impl Link for SerialLink {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<ReadOutcome> {
-        match self.0.read(buf) {
-            // A tty that reads 0 bytes was hung up: the device is gone.
-            Ok(0) => Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the port was closed (device gone)")),
-            Ok(n) => Ok(ReadOutcome::Data(n)),
-            Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => Ok(ReadOutcome::Idle),
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(ReadOutcome::Idle),
-            Err(e) => Err(e),
-        }
+        // A tty that reads 0 bytes was hung up: the device is gone.
+        stream_read(&mut self.0, buf, "the port was closed (device gone)")
     }
 
     fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
-        io::Write::write_all(&mut self.0, bytes)?;
-        io::Write::flush(&mut self.0)
+        stream_write(&mut self.0, bytes)
     }
+}
+
+/// A read from a byte stream with a timeout, as a link reads it: 0 bytes is the peer gone (`closed` says how),
+/// a timeout or an interruption is idle.
+fn stream_read(stream: &mut impl Read, buf: &mut [u8], closed: &str) -> io::Result<ReadOutcome> {
+    match stream.read(buf) {
+        Ok(0) => Err(io::Error::new(io::ErrorKind::UnexpectedEof, closed.to_string())),
+        Ok(n) => Ok(ReadOutcome::Data(n)),
+        Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => Ok(ReadOutcome::Idle),
+        Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(ReadOutcome::Idle),
+        Err(e) => Err(e),
+    }
+}
+
+/// Write all of `bytes` to a byte stream and flush it.
+fn stream_write(stream: &mut impl io::Write, bytes: &[u8]) -> io::Result<()> {
+    stream.write_all(bytes)?;
+    stream.flush()
 }
 
 impl Source for SerialSource {
@@ -223,18 +234,11 @@ impl TcpLink {
 
 impl Link for TcpLink {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<ReadOutcome> {
-        match self.0.read(buf) {
-            Ok(0) => Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the connection was closed")),
-            Ok(n) => Ok(ReadOutcome::Data(n)),
-            Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => Ok(ReadOutcome::Idle),
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(ReadOutcome::Idle),
-            Err(e) => Err(e),
-        }
+        stream_read(&mut self.0, buf, "the connection was closed")
     }
 
     fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
-        io::Write::write_all(&mut self.0, bytes)?;
-        io::Write::flush(&mut self.0)
+        stream_write(&mut self.0, bytes)
     }
 }
 
