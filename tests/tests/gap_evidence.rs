@@ -2,7 +2,8 @@
 //!
 //! The gap diagnosis names an effect by the views' gap, or, where no view sees it, by its estimator's own test
 //! (`octavar::gap::evidence`): a temperature coupling or a warm-up whose estimate stands beyond a threshold of
-//! standard errors, a resonance or a filter corner whose fit lowers its chi-square beyond a threshold. That route is only as good as its false-alarm rate on records that have no such effect, so
+//! standard errors, a resonance or a filter corner whose fit lowers its chi-square beyond a threshold, spikes whose
+//! law gains a likelihood ratio beyond a threshold over a Gaussian core. That route is only as good as its false-alarm rate on records that have no such effect, so
 //! this study measures it on effect-free records of both generators:
 //! - `sim`: octavar's own simulator (`shared::sim`'s `VirtualGyro` and bench temperature);
 //! - `indep`: the independent generator of [`crate::fft_gyro`] (white, Timmer-Koenig flicker, random walk), with a
@@ -35,7 +36,8 @@ use crate::util::coarse_channel;
 const N_SAMPLES: usize = 1 << 18;
 
 /// The effects that can be named by their estimator's test.
-const TESTED: [Effect; 4] = [Effect::Temperature, Effect::WarmUp, Effect::Resonance, Effect::Bandwidth];
+const TESTED: [Effect; 5] =
+    [Effect::Temperature, Effect::WarmUp, Effect::Resonance, Effect::Bandwidth, Effect::Outliers];
 
 /// Which generator made a record.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -57,6 +57,9 @@ mod temperature;
 mod tests;
 mod warm_up;
 
+/// The outliers estimator's own acceptance, which its evidence test shares ([`crate::gap::evidence`]).
+pub(crate) use outliers::MIN_LR as OUTLIERS_MIN_LR;
+
 /// A candidate effect: something the IEEE 952 base model does not have.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]

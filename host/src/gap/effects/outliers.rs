@@ -48,7 +48,7 @@ mod tests;
 const HALF_WINDOW: usize = 4;
 
 /// Twice the log-likelihood a mixture must gain over the Gaussian core alone.
-const MIN_LR: f64 = 50.0;
+pub(crate) const MIN_LR: f64 = 50.0;
 
 /// The magnitude law's centre must stand this many core sds out: a core a little lighter or heavier than a
 /// Gaussian fits as a "contamination" buried in it.
@@ -285,6 +285,10 @@ impl EffectKind for Kind {
     fn estimate(data: &TrainingData) -> Option<EffectFit> {
         outliers(data)
     }
+
+    fn test_statistic(p: &OutliersParams) -> Option<f64> {
+        Some(p.lr)
+    }
 }
 
 /// Spikes on a share of the samples ([module docs](self)).
@@ -326,6 +330,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
             run_continue: c.cont_next,
             count: c.flagged.len(),
             robust_sigma_dps: m.sigma,
+            lr: c.mix.lr,
         }
         .into(),
         n_params: 3 + usize::from(c.rho1 > 0.0) + usize::from(c.cont_next > 0.0),

@@ -99,6 +99,8 @@ pub struct OutliersParams {
     pub run_continue: f64,
     pub count: usize,
     pub robust_sigma_dps: f64,
+    /// Twice the log-likelihood the spike law gains over the Gaussian core alone: the estimator's test.
+    pub lr: f64,
 }
 
 /// A quantisation lattice in the rate.
@@ -231,10 +233,11 @@ mod tests {
             run_continue: 0.0,
             count: 3,
             robust_sigma_dps: 0.1,
+            lr: 80.0,
         };
         assert_eq!(
             keys(&to_value(o)),
-            ["count", "per_sample", "robust_sigma_dps", "run_continue", "run_mean", "size_dps", "spread_dps"]
+            ["count", "lr", "per_sample", "robust_sigma_dps", "run_continue", "run_mean", "size_dps", "spread_dps"]
         );
         let r = ResonanceParams {
             sigma_dps: 1.0,

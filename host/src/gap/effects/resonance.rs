@@ -375,7 +375,7 @@ impl EffectKind for Kind {
 /// Narrowband random vibration: a resonance.
 ///
 /// Method: the Welch spectrum (Hann segments of a power of two near a 32nd of the record, at least 256 samples
-/// and 16 segments, 50% overlap), in ln P. A median background over a window of one octave around each bin (a
+/// and 16 segments, 50% overlap; where no bump passes, again with segments twice as long), in ln P. A median background over a window of one octave around each bin (a
 /// bump a fraction of an octave wide hardly moves it); the up to three largest local maxima of the excess over it
 /// (smoothed over 5 bins) are candidate centres. Each is fitted by Levenberg-Marquardt in ln P over a window from
 /// six half-widths below its centre to twelve above: a background quadratic in ln f plus the bump, the exact AR(2)
@@ -392,12 +392,47 @@ impl EffectKind for Kind {
 /// on the filtered record as it is, a resonance at 0.6 of the corner comes out with three quarters of its power
 /// and is filtered once more in the simulation.
 pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
-    let x = d.rate_dps;
-    let rate_hz = d.rate_hz;
-    let n = x.len();
+    let n = d.rate_dps.len();
     let target = (n / 32).max(256);
     let seg = (1usize << (usize::BITS - 1 - target.leading_zeros())).min(1 << 16);
-    if n < seg * (MIN_SEGMENTS / 2 + 1) {
+    // A bump narrower than the default segments resolve (the power of two below a 32nd of the record can leave a
+    // Q of 10 at a few bins) is looked for again at twice their length, where the segments still number enough.
+    let bump =
+        most_significant_bump(d, seg).or_else(|| most_significant_bump(d, 2 * seg).filter(|_| 2 * seg <= 1 << 16))?;
+    let sigma = bump.power.sqrt();
+    let gyro = refit_without(d, &bump);
+    let gyro = octavar_shared::sim::GyroSim {
+        resonance: Some(ResonanceSim { sigma_dps: sigma, freq_hz: bump.freq_hz, q: bump.q }),
+        ..gyro
+    };
+    Some(EffectFit {
+        effect: Effect::Resonance,
+        params: ResonanceParams {
+            sigma_dps: sigma,
+            freq_hz: bump.freq_hz,
+            q: bump.q,
+            width_hz: bump.freq_hz / bump.q,
+            peak_ratio: bump.peak_ratio,
+            sigma_se_dps: 0.5 * sigma * bump.se_ln[0],
+            freq_se_hz: bump.freq_hz * bump.se_ln[1],
+            q_se: bump.q * bump.se_ln[2],
+            delta_chi2: bump.delta_chi2,
+        }
+        .into(),
+        n_params: 3,
+        gyro,
+        channel: None,
+        spread: None,
+        cleaned: None,
+    })
+}
+
+/// The most significant bump of the Welch spectrum of the training samples in segments of `seg` samples that
+/// passes every test of [`resonance`]; `None` where there are too few segments or no bump passes.
+fn most_significant_bump(d: &TrainingData, seg: usize) -> Option<Bump> {
+    let x = d.rate_dps;
+    let rate_hz = d.rate_hz;
+    if x.len() < seg * (MIN_SEGMENTS / 2 + 1) {
         return None;
     }
     let (p, segments) = welch(x, d.gaps, rate_hz, seg);
@@ -441,7 +476,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
             fit_bump(&f, &ln_p, (k_lo, k_hi), k, 0.5 * (left + right) as f64, rate_hz, d.base.bandwidth_hz)
         })
         .collect();
-    let bump = bumps
+    bumps
         .into_iter()
         .filter(|b| {
             b.delta_chi2 >= DELTA_CHI2
@@ -452,33 +487,7 @@ pub(super) fn resonance(d: &TrainingData) -> Option<EffectFit> {
                 && b.q >= MIN_Q
                 && b.peak_ratio.is_finite()
         })
-        .max_by(|a, b| a.delta_chi2.total_cmp(&b.delta_chi2))?;
-    let sigma = bump.power.sqrt();
-    let gyro = refit_without(d, &bump);
-    let gyro = octavar_shared::sim::GyroSim {
-        resonance: Some(ResonanceSim { sigma_dps: sigma, freq_hz: bump.freq_hz, q: bump.q }),
-        ..gyro
-    };
-    Some(EffectFit {
-        effect: Effect::Resonance,
-        params: ResonanceParams {
-            sigma_dps: sigma,
-            freq_hz: bump.freq_hz,
-            q: bump.q,
-            width_hz: bump.freq_hz / bump.q,
-            peak_ratio: bump.peak_ratio,
-            sigma_se_dps: 0.5 * sigma * bump.se_ln[0],
-            freq_se_hz: bump.freq_hz * bump.se_ln[1],
-            q_se: bump.q * bump.se_ln[2],
-            delta_chi2: bump.delta_chi2,
-        }
-        .into(),
-        n_params: 3,
-        gyro,
-        channel: None,
-        spread: None,
-        cleaned: None,
-    })
+        .max_by(|a, b| a.delta_chi2.total_cmp(&b.delta_chi2))
 }
 
 /// The base terms re-fitted on the OADEV less the resonance's exact Allan variance, without the points where the
