@@ -55,7 +55,7 @@ pub(crate) fn analyze_blocks(
         return None;
     }
     let top = ms.last().map_or(0, |m| m.trailing_zeros() as usize);
-    let levels = level_sums(y, top)?;
+    let levels = level_sums(y, top, stat.difference_order())?;
     let series: OnceLock<Option<Series>> = OnceLock::new();
     let one = |&m: &u64| {
         let (m, level) = (m as usize, &levels[m.trailing_zeros() as usize]);
@@ -98,14 +98,15 @@ struct ChunkLevel {
     blocks: usize,
 }
 
-/// The levels m = 2^0 .. 2^top of the samples `y` (less y[0]); None when a sample is NaN, infinite or beyond
+/// The levels m = 2^0 .. 2^top of the samples `y` (less y[0]), with the sums of the differences of `order` 2 or
+/// 3; None when a sample is NaN, infinite or beyond
 /// [`MAX_SAMPLE`].
-pub(crate) fn level_sums(y: &[f64], top: usize) -> Option<Vec<Level>> {
+pub(crate) fn level_sums(y: &[f64], top: usize, order: u32) -> Option<Vec<Level>> {
     let reference = y[0];
     let in_chunk = top.min(CHUNK_LOG);
     let chunks: Option<Vec<Vec<ChunkLevel>>> = y
         .par_chunks(CHUNK)
-        .map_init(Vec::new, |buf: &mut Vec<f64>, ch| chunk_levels(ch, reference, in_chunk, buf))
+        .map_init(Vec::new, |buf: &mut Vec<f64>, ch| chunk_levels(ch, reference, in_chunk, order, buf))
         .collect();
     let chunks = chunks?;
     let mut levels = vec![Level::default(); top + 1];
@@ -150,7 +151,8 @@ pub(crate) fn level_sums(y: &[f64], top: usize) -> Option<Vec<Level>> {
     };
     for level in levels.iter_mut().skip(CHUNK_LOG + 1) {
         b = b.chunks_exact(2).map(|p| p[0] + p[1]).collect();
-        *level = Level { d1: d1(&b), d2: d2(&b), blocks: b.len() };
+        let (d1, d2) = if order == 2 { (d1(&b), 0.0) } else { (0.0, d2(&b)) };
+        *level = Level { d1, d2, blocks: b.len() };
     }
     Some(levels)
 }
@@ -158,35 +160,41 @@ pub(crate) fn level_sums(y: &[f64], top: usize) -> Option<Vec<Level>> {
 /// Levels 0 ..= top of one chunk (top <= [`CHUNK_LOG`]); None when the chunk holds a NaN, an infinity or a
 /// sample beyond [`MAX_SAMPLE`] (its sum is then not finite, or that large). Compiled for AVX2 + FMA where the
 /// CPU has them.
-fn chunk_levels(ch: &[f64], reference: f64, top: usize, buf: &mut Vec<f64>) -> Option<Vec<ChunkLevel>> {
+fn chunk_levels(ch: &[f64], reference: f64, top: usize, order: u32, buf: &mut Vec<f64>) -> Option<Vec<ChunkLevel>> {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
             // SAFETY: the features were just detected on this CPU.
-            return unsafe { chunk_levels_avx2(ch, reference, top, buf) };
+            return unsafe { chunk_levels_avx2(ch, reference, top, order, buf) };
         }
     }
-    chunk_levels_body(ch, reference, top, buf)
+    chunk_levels_body(ch, reference, top, order, buf)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn chunk_levels_avx2(ch: &[f64], reference: f64, top: usize, buf: &mut Vec<f64>) -> Option<Vec<ChunkLevel>> {
-    chunk_levels_body(ch, reference, top, buf)
+unsafe fn chunk_levels_avx2(
+    ch: &[f64],
+    reference: f64,
+    top: usize,
+    order: u32,
+    buf: &mut Vec<f64>,
+) -> Option<Vec<ChunkLevel>> {
+    chunk_levels_body(ch, reference, top, order, buf)
 }
 
 /// [`chunk_levels`]: level 0 is the samples themselves (the reference cancels in the differences), level 1 the
 /// pairs less twice the reference, each next level the pairs of the one before, in the two halves of `buf`.
 #[inline(always)]
-fn chunk_levels_body(ch: &[f64], reference: f64, top: usize, buf: &mut Vec<f64>) -> Option<Vec<ChunkLevel>> {
-    if !((sum8(ch) - ch.len() as f64 * reference).abs() <= MAX_SAMPLE) {
-        return None;
-    }
+fn chunk_levels_body(
+    ch: &[f64],
+    reference: f64,
+    top: usize,
+    order: u32,
+    buf: &mut Vec<f64>,
+) -> Option<Vec<ChunkLevel>> {
     let mut out = Vec::with_capacity(top + 1);
-    out.push(level(ch));
-    if top == 0 {
-        return Some(out);
-    }
+    out.push(level(ch, order));
     let half = ch.len() / 2;
     if buf.len() < 2 * half.max(1) {
         buf.resize(2 * half.max(1), 0.0);
@@ -196,7 +204,15 @@ fn chunk_levels_body(ch: &[f64], reference: f64, top: usize, buf: &mut Vec<f64>)
     for (o, p) in lo[..half].iter_mut().zip(ch.chunks_exact(2)) {
         *o = (p[0] + p[1]) - r2;
     }
-    out.push(level(&lo[..half]));
+    // The chunk's sum less the reference, from the pairs (and an odd last sample).
+    let odd = if ch.len() % 2 == 1 { ch[ch.len() - 1] - reference } else { 0.0 };
+    if !((sum8(&lo[..half]) + odd).abs() <= MAX_SAMPLE) {
+        return None;
+    }
+    if top == 0 {
+        return Some(out);
+    }
+    out.push(level(&lo[..half], order));
     // Level j from level j - 1, alternating between the halves.
     let (mut src, mut dst) = (lo, hi);
     let mut len = half;
@@ -205,17 +221,18 @@ fn chunk_levels_body(ch: &[f64], reference: f64, top: usize, buf: &mut Vec<f64>)
         for (o, p) in dst[..len].iter_mut().zip(src.chunks_exact(2)) {
             *o = p[0] + p[1];
         }
-        out.push(level(&dst[..len]));
+        out.push(level(&dst[..len], order));
         std::mem::swap(&mut src, &mut dst);
     }
     Some(out)
 }
 
-/// One level of a chunk from its blocks `b`.
+/// One level of a chunk from its blocks `b`: the sums of the differences of `order` 2 (ADEV) or 3 (HDEV).
 #[inline(always)]
-fn level(b: &[f64]) -> ChunkLevel {
+fn level(b: &[f64], order: u32) -> ChunkLevel {
     let len = b.len();
-    let mut c = ChunkLevel { d1: d1(b), d2: d2(b), blocks: len, ..Default::default() };
+    let (d1, d2) = if order == 2 { (d1(b), 0.0) } else { (0.0, d2(b)) };
+    let mut c = ChunkLevel { d1, d2, blocks: len, ..Default::default() };
     c.head[..len.min(2)].copy_from_slice(&b[..len.min(2)]);
     if len >= 2 {
         c.tail = [b[len - 2], b[len - 1]];

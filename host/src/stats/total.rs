@@ -96,15 +96,25 @@ unsafe fn run_avx2<const RA: bool, const RC: bool>(a: &[f64], b: &[f64], c: &[f6
                 _mm256_fnmadd_pd(two, _mm256_loadu_pd(pb.add($t)), ac)
             }};
         }
-        let (mut acc0, mut acc1) = (_mm256_setzero_pd(), _mm256_setzero_pd());
-        while t + 8 <= len {
-            let (v0, v1) = (term!(t), term!(t + 4));
-            acc0 = _mm256_fmadd_pd(v0, v0, acc0);
-            acc1 = _mm256_fmadd_pd(v1, v1, acc1);
-            t += 8;
+        // Four accumulators: the FMA's latency does not bound the loop.
+        let mut acc = [_mm256_setzero_pd(); 4];
+        while t + 16 <= len {
+            for (k, a) in acc.iter_mut().enumerate() {
+                let v = term!(t + 4 * k);
+                *a = _mm256_fmadd_pd(v, v, *a);
+            }
+            t += 16;
+        }
+        while t + 4 <= len {
+            let v = term!(t);
+            acc[0] = _mm256_fmadd_pd(v, v, acc[0]);
+            t += 4;
         }
         let mut lanes = [0.0f64; 4];
-        _mm256_storeu_pd(lanes.as_mut_ptr(), _mm256_add_pd(acc0, acc1));
+        _mm256_storeu_pd(
+            lanes.as_mut_ptr(),
+            _mm256_add_pd(_mm256_add_pd(acc[0], acc[1]), _mm256_add_pd(acc[2], acc[3])),
+        );
         s += (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
     }
     let tail = len - t;
