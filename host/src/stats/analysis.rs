@@ -30,7 +30,11 @@ use super::deviation::{estimate, estimate_many, RawDeviation, Statistic};
 use super::error::StatsError;
 use super::noise_id::{acf_noise_id, b1_noise_id_with, NoiseMethod};
 use super::point::{row, DevPoint, Options};
-use super::series::{DataKind, Series};
+use super::series::{DataKind, Series, GROUP_LEN};
+
+/// Records from this many samples on take the OADEV sums of the smaller averaging factors in the pass that
+/// builds the phase.
+const FUSED_MIN_SAMPLES: usize = 4 * GROUP_LEN;
 
 use super::taus::{averaging_factors, TauSpec};
 
@@ -54,8 +58,15 @@ pub fn analyze(
             return rows;
         }
     }
-    let series = if stat == Statistic::Oadev && opts.parallel {
-        // The smaller averaging factors are summed in the pass that builds the phase.
+    if matches!(stat, Statistic::Adev | Statistic::Hdev) && kind == DataKind::Frequency {
+        // Gap-free records at power-of-two taus: block sums of the samples (see `blocks`).
+        if let Some(rows) = super::blocks::analyze_blocks(data, tau0_s, stat, taus, opts) {
+            return rows;
+        }
+    }
+    let series = if stat == Statistic::Oadev && opts.parallel && data.len() >= FUSED_MIN_SAMPLES {
+        // The smaller averaging factors are summed in the pass that builds the phase (a shorter record has too
+        // few groups of that pass to keep every core busy: the blocked kernel takes them all).
         Series::with_oadev(data, kind, tau0_s, |n_phase| {
             averaging_factors(taus, stat.stop_ratio(), stat.m_limit(n_phase), n_phase, tau0_s)
                 .map(|ms| ms.iter().map(|&m| m as usize).collect())

@@ -4,7 +4,8 @@
 //! - ADEV (eq. 7) / OADEV (eq. 11): `sum (x[i+2m] - 2x[i+m] + x[i])^2 / (2 n tau^2)`, stride m / stride 1,
 //!   n = floor((N-1)/m) - 1 / N - 2m;
 //! - MDEV (eq. 14): `sum (sum_{i=j}^{j+m-1} x[i+2m] - 2x[i+m] + x[i])^2 / (2 m^2 n tau^2)`, n = N - 3m + 1, with
-//!   the inner sums from double-double prefix sums (O(1) per term); TDEV = tau MDEV / sqrt(3) (eq. 15);
+//!   the inner sums as running sums of third differences ([`super::modified`]; with gaps, from double-double
+//!   prefix sums), O(1) per term; TDEV = tau MDEV / sqrt(3) (eq. 15);
 //! - HDEV (eq. 18) / OHDEV (eq. 20): `sum (x[i+3m] - 3x[i+2m] + 3x[i+m] - x[i])^2 / (6 n tau^2)`, stride m / 1,
 //!   n = floor((N-1)/m) - 2 / N - 3m;
 //! - TOTDEV (eq. 25): OADEV's terms over the record extended at both ends by odd reflection
@@ -14,9 +15,11 @@
 
 use rayon::prelude::*;
 
-use super::kernel::{oadev_sums, sumsq_o2, sumsq_o3, BLOCK};
+use super::kernel::{oadev_sums, sumsq_o2, sumsq_o3, BLOCK, FEW_BLOCKS, LEVEL_GROUP};
+use super::modified::mdev_sums;
 use super::ordered::ordered_sums;
 use super::series::Series;
+use super::total::totdev_sums;
 
 /// A statistic of the Allan family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -135,36 +138,32 @@ pub fn estimate(series: &Series, stat: Statistic, m: usize) -> Option<RawDeviati
     if m == 0 {
         return None;
     }
-    let tau = m as f64 * series.tau0_s;
-    let (sum, n, norm) = match stat {
-        Statistic::Adev => {
-            let (s, n) = diff_sumsq(series, m, m, 2);
-            (s, n, 2.0)
+    let (sum, n) = match stat {
+        Statistic::Adev => diff_sumsq(series, m, m, 2),
+        Statistic::Oadev => diff_sumsq(series, m, 1, 2),
+        Statistic::Hdev => diff_sumsq(series, m, m, 3),
+        Statistic::Ohdev => diff_sumsq(series, m, 1, 3),
+        Statistic::Mdev | Statistic::Tdev if series.bad.is_none() => {
+            (mdev_sums(&series.x, &[m])[0], stat.terms(series.n_phase(), m))
         }
-        Statistic::Oadev => {
-            let (s, n) = diff_sumsq(series, m, 1, 2);
-            (s, n, 2.0)
-        }
-        Statistic::Hdev => {
-            let (s, n) = diff_sumsq(series, m, m, 3);
-            (s, n, 6.0)
-        }
-        Statistic::Ohdev => {
-            let (s, n) = diff_sumsq(series, m, 1, 3);
-            (s, n, 6.0)
-        }
-        Statistic::Mdev | Statistic::Tdev => {
-            let (s, n) = mod_sumsq(series, m);
-            (s, n, 2.0 * (m as f64) * (m as f64))
-        }
-        Statistic::Totdev => {
-            let (s, n) = tot_sumsq(series, m);
-            (s, n, 2.0)
-        }
+        Statistic::Mdev | Statistic::Tdev => mod_sumsq(series, m),
+        Statistic::Totdev if series.bad.is_none() => (totdev_sums(&series.x, &[m])[0], stat.terms(series.n_phase(), m)),
+        Statistic::Totdev => tot_sumsq(series, m),
     };
+    from_sum(stat, m, series.tau0_s, sum, n)
+}
+
+/// The deviation from the sum of the squared terms and their number n (None when n is 0).
+pub(crate) fn from_sum(stat: Statistic, m: usize, tau0_s: f64, sum: f64, n: usize) -> Option<RawDeviation> {
     if n == 0 {
         return None;
     }
+    let tau = m as f64 * tau0_s;
+    let norm = match stat {
+        Statistic::Adev | Statistic::Oadev | Statistic::Totdev => 2.0,
+        Statistic::Hdev | Statistic::Ohdev => 6.0,
+        Statistic::Mdev | Statistic::Tdev => 2.0 * (m as f64) * (m as f64),
+    };
     let mut dev = (sum / (norm * n as f64)).sqrt() / tau;
     if stat == Statistic::Tdev {
         dev *= tau / 3f64.sqrt();
@@ -172,64 +171,71 @@ pub fn estimate(series: &Series, stat: Statistic, m: usize) -> Option<RawDeviati
     Some(RawDeviation { dev, n })
 }
 
-/// The fully overlapping estimates (OADEV, OHDEV) at many averaging factors in one cache-blocked pass: the
-/// record is cut into blocks of `MANY_BLOCK` start indices, and each block (processed in parallel) adds its terms
-/// for every m while its phase points are still in cache. Falls back to one pass per m for other statistics or
-/// records with gaps. Returns None for an m without terms.
+/// The estimates at many averaging factors, each in one pass over the record shared by all of them where the
+/// statistic allows: OADEV from the cache-blocked multi-level kernel (and the sums taken while the series was
+/// built), OHDEV from cache-blocked passes, MDEV and TDEV from running sums ([`super::modified`]), TOTDEV from
+/// OADEV's kernel and the reflected ends ([`super::total`]). ADEV and HDEV (O(N/m) each) and records with gaps
+/// take one pass per m. Returns None for an m without terms.
 pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Option<RawDeviation>> {
-    let d = match stat {
-        Statistic::Oadev => 2,
-        Statistic::Ohdev => 3,
-        _ => return ms.par_iter().map(|&m| estimate(series, stat, m)).collect(),
-    };
-    if series.bad.is_some() || ms.contains(&0) {
+    if series.bad.is_some() || ms.contains(&0) || matches!(stat, Statistic::Adev | Statistic::Hdev) {
         return ms.par_iter().map(|&m| estimate(series, stat, m)).collect();
     }
     let x = &series.x;
     let n_phase = x.len();
-    if d == 2 {
-        // Sums taken while the series was built are reused; the rest is summed here.
-        let fused = |m: usize| series.oadev_fused.iter().find(|f| f.0 == m).map(|f| f.1);
-        let rest: Vec<usize> = ms.iter().map(|&m| if fused(m).is_some() { 0 } else { m }).collect();
-        let mut sums = oadev_sums(x, &rest);
-        for (s, &m) in sums.iter_mut().zip(ms) {
-            if let Some(f) = fused(m) {
-                *s = f;
+    let sums = match stat {
+        Statistic::Oadev => {
+            // Sums taken while the series was built are reused (sorted by m); the rest is summed here.
+            let fused = |m: usize| {
+                let f = &series.oadev_fused;
+                f.binary_search_by_key(&m, |e| e.0).ok().map(|k| f[k].1)
+            };
+            let rest: Vec<usize> = ms.iter().map(|&m| if fused(m).is_some() { 0 } else { m }).collect();
+            let mut sums = oadev_sums(x, &rest);
+            for (s, &m) in sums.iter_mut().zip(ms) {
+                if let Some(f) = fused(m) {
+                    *s = f;
+                }
             }
+            sums
         }
-        return ms
-            .iter()
-            .zip(&sums)
-            .map(|(&m, &s)| {
-                let n = n_phase.saturating_sub(2 * m);
-                (n > 0).then(|| RawDeviation { dev: (s / (2.0 * n as f64)).sqrt() / (m as f64 * series.tau0_s), n })
-            })
-            .collect();
-    }
-    let counts: Vec<usize> = ms.iter().map(|&m| n_phase.saturating_sub(d * m)).collect();
-    let max_count = counts.iter().copied().max().unwrap_or(0);
-    let blocks = max_count.div_ceil(MANY_BLOCK);
-    let sums = ordered_sums((0..blocks).into_par_iter(), ms.len(), |acc, b| {
-        let i0 = b * MANY_BLOCK;
-        for (k, &m) in ms.iter().enumerate() {
-            let end = (i0 + MANY_BLOCK).min(counts[k]);
-            if end > i0 {
-                acc[k] += if d == 2 { sumsq_o2(&x[i0..], m, end - i0) } else { sumsq_o3(&x[i0..], m, end - i0) };
-            }
-        }
-    });
-    let norm = if d == 2 { 2.0 } else { 6.0 };
-    ms.iter()
-        .zip(&counts)
-        .zip(&sums)
-        .map(|((&m, &n), &s)| {
-            (n > 0).then(|| RawDeviation { dev: (s / (norm * n as f64)).sqrt() / (m as f64 * series.tau0_s), n })
-        })
-        .collect()
+        Statistic::Ohdev => ohdev_sums(x, ms),
+        Statistic::Mdev | Statistic::Tdev => mdev_sums(x, ms),
+        Statistic::Totdev => totdev_sums(x, ms),
+        Statistic::Adev | Statistic::Hdev => unreachable!("one pass per m above"),
+    };
+    ms.iter().zip(sums).map(|(&m, s)| from_sum(stat, m, series.tau0_s, s, stat.terms(n_phase, m))).collect()
 }
 
-/// Start indices per block of [`estimate_many`]: with the largest small-m windows it stays within L2.
-const MANY_BLOCK: usize = 1 << 14;
+/// OHDEV's sums `sum_i (x[i+3m] - 3x[i+2m] + 3x[i+m] - x[i])^2` for every m of `ms`, in blocks of
+/// [`MANY_BLOCK`] start indices processed in parallel, each adding its terms for every m while its phase points
+/// are still in cache.
+fn ohdev_sums(x: &[f64], ms: &[usize]) -> Vec<f64> {
+    let n_phase = x.len();
+    let count = |m: usize| n_phase.saturating_sub(3 * m);
+    let max_count = ms.iter().map(|&m| count(m)).max().unwrap_or(0);
+    // A short record has few blocks: its levels are split into groups as well, so that every core has work.
+    let group = if max_count.div_ceil(MANY_BLOCK) >= FEW_BLOCKS { ms.len().max(1) } else { LEVEL_GROUP };
+    let groups: Vec<Vec<f64>> = ms
+        .par_chunks(group)
+        .map(|g| {
+            let top = g.iter().map(|&m| count(m)).max().unwrap_or(0);
+            ordered_sums((0..top.div_ceil(MANY_BLOCK)).into_par_iter(), g.len(), |acc, b| {
+                let i0 = b * MANY_BLOCK;
+                for (k, &m) in g.iter().enumerate() {
+                    let end = (i0 + MANY_BLOCK).min(count(m));
+                    if end > i0 {
+                        acc[k] += sumsq_o3(&x[i0..], m, end - i0);
+                    }
+                }
+            })
+        })
+        .collect();
+    groups.concat()
+}
+
+/// Start indices per block of OHDEV's blocked pass: a block's four runs of points at every octave level fit in
+/// L2 together, so each point is read from memory about once for all of them.
+const MANY_BLOCK: usize = 1 << 12;
 
 /// Sum of squared differences of order `d` (2 or 3) at lag m, every `stride` points, and the number of terms.
 fn diff_sumsq(series: &Series, m: usize, stride: usize, d: usize) -> (f64, usize) {

@@ -19,6 +19,11 @@ pub(crate) const PREFETCH_ROWS: usize = 6;
 const NEAR_BLOCK: usize = 4096;
 /// Levels summed together by one pass of the kernel (registers: one accumulator each).
 const GROUP: usize = 8;
+/// Below this many blocks of start indices, the levels are split into groups of [`LEVEL_GROUP`] for the
+/// parallel passes ([`oadev_sums`], OHDEV's blocked pass).
+pub(crate) const FEW_BLOCKS: usize = 8;
+/// Levels per group when a record has few blocks.
+pub(crate) const LEVEL_GROUP: usize = 32;
 
 /// The fully overlapping Allan sums `sum_i (x[i+2m] - 2x[i+m] + x[i])^2`, i < N - 2m, for every m of `ms` (any
 /// order; 0 for an m without terms), in two passes that each read the phase from memory once:
@@ -43,11 +48,20 @@ pub(crate) fn oadev_sums(x: &[f64], ms: &[usize]) -> Vec<f64> {
     let near_sums = if near_ms.is_empty() {
         Vec::new()
     } else {
-        let count0 = n - 2 * near_ms[0];
-        ordered_sums((0..count0.div_ceil(NEAR_BLOCK)).into_par_iter(), near_ms.len(), |acc, b| {
-            let i0 = b * NEAR_BLOCK;
-            oadev_range_sums(x, &near_ms, i0, (i0 + NEAR_BLOCK).min(count0), acc);
-        })
+        // A short record has few blocks: its levels are split into groups as well, so that every core has work.
+        let blocks = (n - 2 * near_ms[0]).div_ceil(NEAR_BLOCK);
+        let group = if blocks >= FEW_BLOCKS { near_ms.len() } else { LEVEL_GROUP };
+        let groups: Vec<Vec<f64>> = near_ms
+            .par_chunks(group)
+            .map(|g| {
+                let count0 = n - 2 * g[0];
+                ordered_sums((0..count0.div_ceil(NEAR_BLOCK)).into_par_iter(), g.len(), |acc, b| {
+                    let i0 = b * NEAR_BLOCK;
+                    oadev_range_sums(x, g, i0, (i0 + NEAR_BLOCK).min(count0), acc);
+                })
+            })
+            .collect();
+        groups.concat()
     };
     let far_sums = far_sums(n, &far_ms, |r0, buf| gather_column(x, r0, buf));
     let mut out = vec![0.0f64; ms.len()];
@@ -312,7 +326,8 @@ pub(crate) fn sumsq_o2_body(x: &[f64], m: usize, count: usize) -> f64 {
     total
 }
 
-/// sum over i < count of (x[i+3m] - 3x[i+2m] + 3x[i+m] - x[i])^2, as [`sumsq_o2`].
+/// sum over i < count of (x[i+3m] - 3x[i+2m] + 3x[i+m] - x[i])^2, as [`sumsq_o2_body`] (whole chunks of eight:
+/// no bounds checks in the loop, so it vectorises).
 #[inline(always)]
 fn sumsq_o3_body(x: &[f64], m: usize, count: usize) -> f64 {
     let a = &x[..count];
@@ -320,26 +335,22 @@ fn sumsq_o3_body(x: &[f64], m: usize, count: usize) -> f64 {
     let c = &x[2 * m..2 * m + count];
     let e = &x[3 * m..3 * m + count];
     let mut total = 0.0;
-    let mut start = 0;
-    while start < count {
-        let end = (start + BLOCK).min(count);
+    for (((ab, bb), cb), eb) in a.chunks(BLOCK).zip(b.chunks(BLOCK)).zip(c.chunks(BLOCK)).zip(e.chunks(BLOCK)) {
         let mut acc = [0.0f64; 8];
-        let mut i = start;
-        while i + 8 <= end {
+        let (mut ai, mut bi, mut ci, mut ei) =
+            (ab.chunks_exact(8), bb.chunks_exact(8), cb.chunks_exact(8), eb.chunks_exact(8));
+        for (((a8, b8), c8), e8) in (&mut ai).zip(&mut bi).zip(&mut ci).zip(&mut ei) {
             for k in 0..8 {
-                let v = e[i + k] - 3.0 * c[i + k] + 3.0 * b[i + k] - a[i + k];
+                let v = (e8[k] - a8[k]) + 3.0 * (b8[k] - c8[k]);
                 acc[k] += v * v;
             }
-            i += 8;
         }
         let mut s: f64 = acc.iter().sum();
-        while i < end {
-            let v = e[i] - 3.0 * c[i] + 3.0 * b[i] - a[i];
+        for (((av, bv), cv), ev) in ai.remainder().iter().zip(bi.remainder()).zip(ci.remainder()).zip(ei.remainder()) {
+            let v = (ev - av) + 3.0 * (bv - cv);
             s += v * v;
-            i += 1;
         }
         total += s;
-        start = end;
     }
     total
 }

@@ -2,18 +2,22 @@
 //!
 //! - [`series`]: input preparation (frequency to phase, precision, NaN gaps);
 //! - [`taus`]: tau lists (octave, decade, all, N per decade, explicit) with Stable32's stop ratios;
-//! - [`deviation`]: ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, TOTDEV in O(N) per tau;
+//! - [`deviation`]: ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, TOTDEV in O(N) per tau; `modified` (MDEV's running
+//!   sums) and `total` (TOTDEV's reflected ends) hold the gap-free many-tau passes of two of them;
 //! - [`noise_id`]: power-law noise identification (lag-1 autocorrelation, B1/R(n) fallback);
 //! - [`edf`]: equivalent degrees of freedom (Greenhall's algorithm, SP 1065 formulas) and chi-square intervals;
 //! - `octave`: OADEV of long frequency records without the phase array (the path [`analyze`] takes there);
+//! - `blocks`: ADEV and HDEV of frequency records at octave taus from block sums, without the phase array;
 //! - [`analysis`]: all of it in one call, one row per tau, like a Stable32 table.
 
 pub mod analysis;
+mod blocks;
 pub mod deviation;
 pub mod edf;
 pub mod error;
 mod kernel;
 pub mod linalg;
+mod modified;
 pub mod noise_id;
 mod octave;
 mod ordered;
@@ -23,6 +27,7 @@ pub mod series;
 pub mod streamed;
 pub mod strided;
 pub mod taus;
+mod total;
 
 pub use analysis::{analyze, analyze_series, identify};
 pub use deviation::{estimate, RawDeviation, Statistic};

@@ -9,7 +9,7 @@
 //! statistic here, so it is removed first: frequency data lose their mean before integration, phase data lose the
 //! straight line through their end points. The integration is a plain running sum (the mean removed first keeps it small;
 //! each parallel chunk starts from the offset its chunk sum gives), and the prefix sums of the
-//! phase that MDEV/TDEV use are kept as double-double, so long records keep their precision.
+//! phase that MDEV/TDEV use on a record with gaps are kept as double-double, so long records keep their precision.
 //!
 //! # Gaps (NaN)
 //! NaN marks a missing sample. Leading and trailing NaNs are trimmed. Inside the record, a NaN frequency sample
@@ -173,7 +173,7 @@ pub struct Series {
     /// `bad[k]`: number of gap elements before k (phase: bad points in [0, k); frequency: bad intervals in [0, k)),
     /// or None when the record has no gap.
     pub(crate) bad: Option<Vec<u32>>,
-    /// Prefix sums of x as double-double (hi, lo), built on first use by MDEV/TDEV.
+    /// Prefix sums of x as double-double (hi, lo), built on first use by MDEV/TDEV on a record with gaps.
     pub(crate) prefix: std::sync::OnceLock<(Vec<f64>, Vec<f64>)>,
     /// Sums of x over consecutive blocks of [`COARSE`] points, built on first use by [`Series::mvar_coarse`].
     pub(crate) coarse: std::sync::OnceLock<Vec<f64>>,
