@@ -374,7 +374,12 @@ impl Search<'_, '_> {
             data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
         let significant = rank::gap_of(&self.eval.training) > rank::SIGNIFICANT_GAP;
         let mut chosen = None;
-        for mut fit in evidence::named(remaining, &candidates, &training) {
+        // Spikes are named on their own evidence only in the samples as recorded: once a step has taken jumps, a
+        // lattice or a response out, what it leaves at a flip or a step is that step's residue, one or two samples
+        // wide, which the spike law would take for spikes.
+        let remaining: Vec<Effect> =
+            remaining.iter().copied().filter(|&e| e != Effect::Outliers || self.steps.is_empty()).collect();
+        for mut fit in evidence::named(&remaining, &candidates, &training) {
             let Some(ev) = evidence::of(&fit) else { continue };
             let m = self.model.with(&fit);
             let known = self.known_with(data, &fit);
