@@ -1,7 +1,7 @@
 //! The `octavar` command from the outside: exit codes, error messages that locate the fault, pipelines.
 
 mod common;
-use common::{octavar, stderr, stdout};
+use common::{octavar, sinusoid_record, stderr, stdout};
 
 #[test]
 fn accumulate_rejects_bad_codes_with_the_line() {
@@ -210,17 +210,7 @@ fn gap_predictive_holdout_check_is_in_the_json() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("rec.csv");
     let json = dir.path().join("gap.json");
-    let mut s: u64 = 3;
-    let mut text = String::from("g\n");
-    for i in 0..16_384 {
-        let mut a = 0.0;
-        for _ in 0..12 {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            a += (s >> 11) as f64 / (1u64 << 53) as f64;
-        }
-        let t = i as f64 / 10.0;
-        text.push_str(&format!("{}\n", 0.1 * (a - 6.0) + 0.05 * (std::f64::consts::TAU * t / 50.0).sin()));
-    }
+    let text = sinusoid_record(3);
     std::fs::write(&csv, text).unwrap();
     let (c, j) = (csv.to_str().unwrap(), json.to_str().unwrap());
     let args =

@@ -5,7 +5,7 @@
 //! committed.
 
 mod common;
-use common::{octavar, stderr};
+use common::{octavar, sinusoid_record, stderr};
 
 /// Every key path of `v`, sorted: `a.b` for an object's member, `a[].b` for a member of any element of an array.
 fn key_paths(v: &serde_json::Value) -> String {
@@ -33,18 +33,7 @@ fn key_paths(v: &serde_json::Value) -> String {
 
 /// White noise plus a 50 s sinusoid, 16384 samples at 10 Hz, in one column `g`.
 fn record() -> String {
-    let mut s = 7u64;
-    let mut text = String::from("g\n");
-    for i in 0..16_384 {
-        let mut a = 0.0;
-        for _ in 0..12 {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            a += (s >> 11) as f64 / (1u64 << 53) as f64;
-        }
-        let t = i as f64 / 10.0;
-        text.push_str(&format!("{}\n", 0.1 * (a - 6.0) + 0.05 * (std::f64::consts::TAU * t / 50.0).sin()));
-    }
-    text
+    sinusoid_record(7)
 }
 
 /// Run `args` with the record on stdin and `--json FILE` appended; the document.

@@ -32,3 +32,21 @@ pub fn stdout(o: &Output) -> String {
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
+
+/// A one-column CSV (header `g`) of 16,384 samples at 10 Hz: white noise of sd 0.1 (a sum of twelve uniforms from
+/// a linear congruential generator seeded with `seed`) plus a sinusoid of amplitude 0.05 and period 50 s, a gap
+/// the diagnosis names `sinusoid`. Its bytes depend on nothing but `seed`.
+pub fn sinusoid_record(seed: u64) -> String {
+    let mut s = seed;
+    let mut text = String::from("g\n");
+    for i in 0..16_384 {
+        let mut a = 0.0;
+        for _ in 0..12 {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            a += (s >> 11) as f64 / (1u64 << 53) as f64;
+        }
+        let t = i as f64 / 10.0;
+        text.push_str(&format!("{}\n", 0.1 * (a - 6.0) + 0.05 * (std::f64::consts::TAU * t / 50.0).sin()));
+    }
+    text
+}
