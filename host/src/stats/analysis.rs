@@ -28,7 +28,7 @@ use rayon::prelude::*;
 
 use super::deviation::{estimate, estimate_many, RawDeviation, Statistic};
 use super::error::StatsError;
-use super::noise_id::{acf_noise_id, b1_noise_id_with, NoiseMethod};
+use super::noise_id::identify_with;
 use super::point::{row, DevPoint, Options};
 use super::series::{DataKind, Series, GROUP_LEN};
 
@@ -114,30 +114,6 @@ pub fn analyze_series(
 /// One row at averaging factor m.
 fn point(series: &Series, stat: Statistic, m: usize, est: RawDeviation, opts: &Options) -> DevPoint {
     row(m, series.tau0_s(), series.n_phase(), stat, est, opts, || identify_with(series, stat, m, Some(est.dev)))
-}
-
-/// The noise type at averaging factor m for the interval of `stat`, and how it was found.
-pub fn identify(series: &Series, stat: Statistic, m: usize) -> (i32, NoiseMethod) {
-    identify_with(series, stat, m, None)
-}
-
-/// As [`identify`], given the deviation of `stat` at m when it is known (saves a pass over the record).
-fn identify_with(series: &Series, stat: Statistic, m: usize, dev: Option<f64>) -> (i32, NoiseMethod) {
-    let d = stat.difference_order();
-    let min_alpha = if d == 3 { -4 } else { -2 };
-    if let Some((a, _)) = acf_noise_id(series, m, d) {
-        return (a.clamp(min_alpha, 2), NoiseMethod::Acf);
-    }
-    let avar_stat = match stat {
-        Statistic::Adev | Statistic::Hdev => Statistic::Adev,
-        _ => Statistic::Oadev,
-    };
-    // The deviation is the B1 denominator's when the statistic is that Allan variance itself.
-    let known = dev.filter(|_| stat == avar_stat);
-    match b1_noise_id_with(series, m, avar_stat, min_alpha, known) {
-        Some(a) => (a.clamp(min_alpha, 2), NoiseMethod::B1),
-        None => (0, NoiseMethod::Default),
-    }
 }
 
 #[cfg(test)]

@@ -67,7 +67,7 @@ pub(crate) fn analyze_blocks(
         Some(row(m, tau0_s, n_phase, stat, est, opts, || {
             // The noise identification reads the phase: built once, when a row first needs it.
             let s = series.get_or_init(|| Series::new(data, DataKind::Frequency, tau0_s).ok());
-            s.as_ref().map_or((0, NoiseMethod::Default), |s| super::analysis::identify(s, stat, m))
+            s.as_ref().map_or((0, NoiseMethod::Default), |s| super::noise_id::identify(s, stat, m))
         }))
     };
     let rows: Vec<DevPoint> =

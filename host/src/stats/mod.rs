@@ -29,10 +29,10 @@ pub mod strided;
 pub mod taus;
 mod total;
 
-pub use analysis::{analyze, analyze_series, identify};
+pub use analysis::{analyze, analyze_series};
 pub use deviation::{estimate, RawDeviation, Statistic};
 pub use error::StatsError;
-pub use noise_id::NoiseMethod;
+pub use noise_id::{identify, NoiseMethod};
 pub use point::{edf_for, strided_avar_edf, DevPoint, NoiseSpec, Options};
 pub use series::{DataKind, Series};
 pub use taus::TauSpec;
