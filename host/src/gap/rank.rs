@@ -293,6 +293,14 @@ pub fn explains(score: f64, total_before: f64) -> bool {
     score - RIGHT_MODEL_GAP < EXPLAINS * (total_before - RIGHT_MODEL_GAP)
 }
 
+/// Whether `c` is a temperature coupling below its estimator's own test (proposed from 3 standard errors, named on
+/// its own from 5: [`super::evidence::test`]). Such a coupling is taken only for a gap the temperature view
+/// locates: a gap elsewhere (the heavy-tailed Allan differences of a warm-up) that a weak coupling also happens to
+/// lower on the training part is not its evidence.
+fn weak_coupling(c: &CandidateResult) -> bool {
+    c.effect == Effect::Temperature && c.fit.as_ref().and_then(super::evidence::of).is_some_and(|ev| !ev.names())
+}
+
 /// The candidate that explains the current model's gap (see the module doc), by its index in `candidates`;
 /// `None` when none removes a quarter of the total `total_before`. `loc` is where the gap lies.
 ///
@@ -303,7 +311,10 @@ pub fn explains(score: f64, total_before: f64) -> bool {
 /// judged there on what it leaves, which a 4% error in the coefficient over ten cycles already shows, while a
 /// sinusoid is judged on the raw coherence.
 pub fn choose(candidates: &[CandidateResult], total_before: f64, loc: Option<&Location>) -> Option<usize> {
-    let explains = |c: &CandidateResult| c.score.is_some_and(|s| explains(s, total_before));
+    let in_temperature_view = loc.is_some_and(|l| l.view == ViewKind::Temperature);
+    let explains = |c: &CandidateResult| {
+        c.score.is_some_and(|s| explains(s, total_before)) && (in_temperature_view || !weak_coupling(c))
+    };
     let best = candidates
         .iter()
         .enumerate()

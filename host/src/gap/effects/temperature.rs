@@ -198,10 +198,10 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     })
 }
 
-/// The candidate is proposed when its coefficient is this many standard errors from zero. It is named only when
-/// the views judge that it takes away a significant gap, or where no view's gap is significant, by its own test
-/// at 5 standard errors (`crate::gap::evidence::test`): two tests where the first alone would need the stricter
-/// bar. A coupling at 4.6 standard errors over two temperature cycles can show plainly in the temperature view
+/// The candidate is proposed when its coefficient is this many standard errors from zero. Below 5 it is named only
+/// when the views judge that it takes away a significant gap that the temperature view locates
+/// (`crate::gap::rank::choose`); where no view's gap is significant, only by its own test at 5 standard errors
+/// (`crate::gap::evidence::test`): two tests where the first alone would need the stricter bar. A coupling at 4.6 standard errors over two temperature cycles can show plainly in the temperature view
 /// (coherence 0.9 real against 0.4 simulated).
 const T_PROPOSE: f64 = 3.0;
 
