@@ -18,6 +18,7 @@ use rayon::prelude::*;
 use super::deviation::{from_sum, Statistic};
 use super::error::StatsError;
 use super::noise_id::NoiseMethod;
+use super::octave::sum8;
 use super::point::{row, DevPoint, Options};
 use super::series::{DataKind, Series, MAX_SAMPLE};
 use super::taus::{averaging_factors, TauSpec};
@@ -283,19 +284,6 @@ fn d2(b: &[f64]) -> f64 {
         s += v * v;
     }
     s
-}
-
-/// The sum of `x`, eight lanes.
-#[inline(always)]
-fn sum8(x: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let mut it = x.chunks_exact(8);
-    for c in &mut it {
-        for k in 0..8 {
-            acc[k] += c[k];
-        }
-    }
-    acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
 }
 
 #[cfg(test)]

@@ -314,8 +314,9 @@ fn integrate_pieces(o: &mut [MaybeUninit<f64>], y: &[f64], off: &[f64; LANES + 1
     }
 }
 
-/// The sum of `x`, eight lanes (vectorises).
-fn sum8(x: &[f64]) -> f64 {
+/// The sum of `x`, eight lanes (vectorises; inlined, so that it takes the caller's target features).
+#[inline(always)]
+pub(super) fn sum8(x: &[f64]) -> f64 {
     let mut acc = [0.0f64; 8];
     let mut it = x.chunks_exact(8);
     for c in &mut it {
