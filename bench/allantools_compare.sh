@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 N=${1:-10000000}
 # The venv .ci/run makes (allantools==2024.6 + numpy), reused when present.
 . bench/ref_venv.sh
-cargo build --release -q -p octavar
+cargo build --release -q -p octavar-cli
 cargo bench -q -p octavar --bench analyze --no-run 2>/dev/null
 TARGET=${CARGO_TARGET_DIR:-$PWD/target}
 BENCH=$(ls -t "$TARGET"/release/deps/analyze-* | grep -v '\.d$' | head -1)

@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 N=${1:-10000000}
 # The reference venv .ci/run makes (allantools, pandas).
 . bench/ref_venv.sh
-cargo build --release -q -p octavar
+cargo build --release -q -p octavar-cli
 TARGET=${CARGO_TARGET_DIR:-$PWD/target}
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT

@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 N=${1:-10000000}
 . bench/ref_venv.sh
-cargo build --release -q -p octavar
+cargo build --release -q -p octavar-cli
 TARGET=${CARGO_TARGET_DIR:-$PWD/target}
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT

@@ -14,7 +14,7 @@ if [ ! -x "$PY" ]; then
     .venv-ref/bin/pip install --quiet allantools==2024.6 numpy
     PY=.venv-ref/bin/python
 fi
-cargo build --release -q -p octavar
+cargo build --release -q -p octavar-cli
 BIN=${CARGO_TARGET_DIR:-target}/release/octavar
 WORK=${BENCH_DIR:-$(mktemp -d)}
 DATA="$WORK/rate_$N.$FORMAT"

@@ -32,7 +32,7 @@
 //! except on rare events (a bias step, a flip, an outlier, a ziggurat tail). The block methods
 //! ([`VirtualGyro::fill_codes_at`], [`Bench::fill_block`]) run a loop with the state in registers, and a gyro with
 //! only the base terms (N, B, K, temperature, bandwidth) skips the checks of the others: about 230 instructions
-//! per sample for the demo's channel. Criterion bench `host/benches/sim.rs`. A [`VirtualGyro`] is about 1.1 KiB, a
+//! per sample for the demo's channel. Criterion bench `crates/octavar/benches/sim.rs`. A [`VirtualGyro`] is about 1.1 KiB, a
 //! [`Bench`] of up to eight channels about 10 KiB. On the Cortex-M4 the `f64`
 //! arithmetic is software, so a channel costs a few thousand cycles per sample: enough for a self-test at a few
 //! kS/s, not for five channels at 2 kS/s while the firmware does its real work.

@@ -1,0 +1,52 @@
+//! The chain of effects: which effects a record holds beyond the base model, found one step at a time.
+//!
+//! A real bench record often carries more than one effect (a temperature coupling and a resonance, a Gauss-Markov
+//! hump and outliers). Each step of the chain starts from the model so far ([`Model`]): its ensemble is the
+//! comparison the step ranks against, and its estimators see the training samples less the model's deterministic
+//! part ([`deterministic_part`]: the temperature response, the sinusoids, the warm-up) and less the realisations
+//! that earlier steps recovered ([`StepData::take_out`]: the bistable bias's levels, the bias steps, the spikes),
+//! with the model itself as their base, so that the effect they add is added to every effect found before. The
+//! IEEE base terms are re-fitted on those samples for the estimators that need a base fit.
+//!
+//! A step names an effect by one of two routes ([`search`], [`NamedBy`]):
+//! - **the views**: while a significant gap remains, the remaining candidates are ranked on the model so far and
+//!   the best is added when it removes at least a quarter of the gap's excess over what a right model leaves
+//!   ([`crate::rank::explains`]). When no single candidate does, two effects may share the gap, each too
+//!   small alone to take a quarter of it (a sinusoid beside a filter corner): the best-scored candidates are
+//!   tried in pairs, the second estimated on the model with the first, and a pair that explains the gap is
+//!   added as two steps.
+//! - **the estimators**: an effect whose own test names it beyond a threshold calibrated on effect-free records
+//!   ([`crate::evidence`]) is added where the views name nothing: a warm-up over the first minutes, a small
+//!   temperature coupling beside a larger effect.
+//!
+//! Each step reports where the gap lay on the model before it, the gap there before and after on both parts, its
+//! ranking and what named it; the held-out check of the whole chain compares the base model with the last one,
+//! every parameter frozen from training.
+//!
+//! Effects found one after the other are each read with only the ones before them in place: a filter corner read
+//! with a resonance still in the record takes part of the bump for its knee, and the resonance is then read on
+//! that corner. [`backfit`] estimates each effect again on the final model less itself; the search runs it when
+//! a later step's candidate explains too little on the chain as found, and once over the whole chain, keeping it
+//! where the fit improves, and [`learn`] repeats it where the diagnosis did.
+//!
+//! Once the steps are found, the base terms and every effect of the chain are re-estimated together ([`joint`]):
+//! the deterministic effects by least squares in the time domain, the stochastic ones with the base terms on the
+//! Allan curve, GMWM-style. The round is kept where the views find the model no worse and it does not turn a
+//! significant gap into none. It runs after the search, not between steps: between steps, the freedom of the
+//! effects found so far covers part of the gap the next one leaves (a resonance widened over a filter's
+//! roll-off), and that effect then goes unnamed.
+//!
+//! `model` holds the types, `data` what a step learns from, `backfit` the re-estimation of one effect at a time,
+//! `joint` the joint one and `search` the steps.
+
+mod backfit;
+mod data;
+pub mod joint;
+mod model;
+mod search;
+
+pub use backfit::{backfit, learn, without};
+pub use data::{deterministic_part, StepData};
+pub use model::{Model, NamedBy, Rounds, Step, MAX_STEPS};
+pub use search::ProgressFn;
+pub(crate) use search::{search, Found, Progress};

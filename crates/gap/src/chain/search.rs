@@ -1,0 +1,597 @@
+//! The search for the chain: each step ranks the remaining candidates on the model so far and adds the effect
+//! the views or its own estimator name (see the module doc of [`crate::chain`]).
+
+use std::ops::Range;
+use std::rc::Rc;
+
+use rayon::prelude::*;
+
+use super::backfit::backfit;
+use super::data::StepData;
+use super::joint;
+use super::model::{Model, NamedBy, Step, MAX_STEPS};
+use crate::compare::ViewGap;
+use crate::effects::{self, Effect, EffectFit};
+use crate::error::GapError;
+use crate::evidence;
+use crate::fill::{fill_gaps, gap_runs};
+use crate::judge::{Evaluated, Judge};
+use crate::rank::{self, CandidateResult, Location, PartGap};
+use octavar_stats::fit::NoiseFit;
+
+/// Candidates of a later step that get a second chance with the chain backfitted around them, best score first.
+const SECOND_CHANCES: usize = 2;
+
+/// The best-scored candidates tried first in pairs when no single one explains the gap.
+const PAIR_POOL: usize = 2;
+
+/// Progress: `(stage, done, total)`, called after each ensemble.
+pub type ProgressFn<'a> = dyn Fn(&str, usize, usize) + Sync + 'a;
+
+/// Counts the ensembles run against the ones expected, for a progress bar.
+pub(crate) struct Progress<'a> {
+    report: &'a ProgressFn<'a>,
+    /// Ensembles run.
+    pub done: usize,
+    /// Ensembles expected.
+    pub total: usize,
+}
+
+impl<'a> Progress<'a> {
+    /// A count of `total` expected ensembles, none run.
+    pub fn new(report: &'a ProgressFn<'a>, total: usize) -> Self {
+        Progress { report, done: 0, total }
+    }
+
+    /// One more ensemble run, of `stage`.
+    pub fn tick(&mut self, stage: &str) {
+        self.done += 1;
+        self.total = self.total.max(self.done);
+        (self.report)(stage, self.done, self.total);
+    }
+
+    /// `stage` begins, with `more` ensembles expected beyond those counted.
+    pub fn expect(&mut self, stage: &str, more: usize) {
+        self.total += more;
+        (self.report)(stage, self.done, self.total);
+    }
+}
+
+/// What the search found.
+pub(crate) struct Found {
+    /// The steps, in the order found.
+    pub steps: Vec<Step>,
+    /// The first step's candidates, in vocabulary order.
+    pub first_candidates: Vec<CandidateResult>,
+    /// The candidates tried on the chain's model when none explained what it left.
+    pub last_tried: Vec<CandidateResult>,
+    /// The final model.
+    pub model: Model,
+    /// Its comparison with the record.
+    pub eval: Evaluated,
+}
+
+/// The search's fixed inputs and its state between steps.
+struct Search<'a, 'p> {
+    judge: &'a Judge<'a>,
+    base_fit: &'a NoiseFit,
+    temp: Option<&'a [f64]>,
+    rate_hz: f64,
+    /// The runs of missing or masked training samples.
+    gaps: Vec<Range<usize>>,
+    /// The training samples, gaps filled (shared: the estimators read them beside the search's own state).
+    filled: Rc<[f64]>,
+    progress: &'a mut Progress<'p>,
+    /// The training samples less the realisations the steps so far recovered (what the next step learns from).
+    series: Vec<f64>,
+    /// What the steps recovered of their effects' realisations (`filled - series`); `None` before any.
+    realised: Option<Vec<f64>>,
+    /// The part of `realised` that the sensor's filter shapes ([`StepData::shaped_with`]); `None` before any.
+    shaped: Option<Vec<f64>>,
+    steps: Vec<Step>,
+    model: Model,
+    eval: Evaluated,
+}
+
+/// The chain of `effects` on the training samples `training` (gaps as NaN) and their temperature, from the base
+/// model `base` (fitted as `base_fit`) whose comparison is `base_eval`.
+///
+/// # Errors
+/// [`GapError::Sim`]: the simulator rejects a candidate's model.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn search<'p>(
+    judge: &Judge,
+    effects: &[Effect],
+    base: Model,
+    base_eval: Evaluated,
+    base_fit: &NoiseFit,
+    training: &[f64],
+    temp: Option<&[f64]>,
+    rate_hz: f64,
+    progress: &mut Progress<'p>,
+) -> Result<Found, GapError> {
+    let filled = fill_gaps(training);
+    let mut s = Search {
+        judge,
+        base_fit,
+        temp,
+        rate_hz,
+        gaps: gap_runs(training),
+        series: filled.clone(),
+        filled: filled.into(),
+        progress,
+        realised: None,
+        shaped: None,
+        steps: Vec::new(),
+        model: base,
+        eval: base_eval,
+    };
+    let mut first_candidates = Vec::new();
+    let mut last_tried = Vec::new();
+    while s.steps.len() < MAX_STEPS {
+        let first = s.steps.is_empty();
+        let significant = rank::gap_of(&s.eval.training) > rank::SIGNIFICANT_GAP;
+        let remaining: Vec<Effect> =
+            effects.iter().copied().filter(|e| !s.steps.iter().any(|st| st.effect == *e)).collect();
+        let Some(location) = rank::locate(&s.eval.training) else { break };
+        if remaining.is_empty() {
+            break;
+        }
+        let data = s.step_data(first);
+        // The views' route (the first step always ranks the candidates, for the report).
+        let mut candidates = Vec::new();
+        if first || significant {
+            candidates = s.rank(&remaining, &data, &location)?;
+            if first {
+                first_candidates = candidates.clone();
+            }
+            if significant && s.view_step(&data, &mut candidates, &location, first)? {
+                last_tried.clear();
+                continue;
+            }
+            if !first {
+                last_tried = candidates.clone();
+            }
+        }
+        // The estimators' route.
+        if s.evidence_step(&remaining, &data, candidates, &location, first.then_some(&mut first_candidates))? {
+            last_tried.clear();
+            continue;
+        }
+        break;
+    }
+    s.final_backfit()?;
+    if !s.steps.is_empty() {
+        s.joint_round()?;
+    }
+    Ok(Found { steps: s.steps, first_candidates, last_tried, model: s.model, eval: s.eval })
+}
+
+impl Search<'_, '_> {
+    /// What this step's estimators learn from.
+    fn step_data(&self, first: bool) -> StepData {
+        let (model, shaped) = (&self.model.gyro, self.shaped.as_deref());
+        StepData::new(model, &self.series, shaped, &self.gaps, self.temp, self.rate_hz, self.base_fit, first)
+    }
+
+    /// The realisations known on the model with `fit` added to this step's model (`data` its data).
+    fn known_with(&self, data: &StepData, fit: &EffectFit) -> Option<Vec<f64>> {
+        data.realised_with(self.realised.as_deref(), fit).or_else(|| self.realised.clone())
+    }
+
+    /// `m` compared with the record (`known`: the realisations recovered so far), one ensemble.
+    fn evaluate(&mut self, m: &Model, known: Option<&[f64]>, stage: &str) -> Result<Evaluated, GapError> {
+        let e = self.judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), known, stage)?;
+        self.progress.tick(stage);
+        Ok(e)
+    }
+
+    /// Every remaining effect estimated on `data`, added to the model and compared with the record.
+    fn rank(
+        &mut self,
+        remaining: &[Effect],
+        data: &StepData,
+        location: &Location,
+    ) -> Result<Vec<CandidateResult>, GapError> {
+        if !self.steps.is_empty() {
+            self.progress.expect("chain", remaining.len());
+        }
+        let training =
+            data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
+        let fits: Vec<(Effect, Option<EffectFit>)> =
+            remaining.par_iter().map(|&e| (e, effects::estimate(e, &training))).collect();
+        let mut candidates = Vec::with_capacity(fits.len());
+        for (effect, fit) in fits {
+            let eval = match &fit {
+                Some(f) => {
+                    let m = self.model.with(f);
+                    let known = self.known_with(data, f);
+                    Some(self.evaluate(&m, known.as_deref(), effect.name())?)
+                }
+                None => None,
+            };
+            candidates.push(CandidateResult::new(effect, fit, eval, Some(location)));
+        }
+        Ok(candidates)
+    }
+
+    /// The views' route: the candidate that explains the significant gap, alone, with the chain backfitted
+    /// around it (a later step), or in a pair; adds its step (two for a pair) and says whether it did.
+    fn view_step(
+        &mut self,
+        data: &StepData,
+        candidates: &mut [CandidateResult],
+        location: &Location,
+        first: bool,
+    ) -> Result<bool, GapError> {
+        let total_before = rank::total_of(&self.eval.training);
+        if let Some(i) = rank::choose(candidates, total_before, Some(location)) {
+            let (Some(fit), Some(after)) = (candidates[i].fit.clone(), candidates[i].eval.clone()) else {
+                return Ok(false);
+            };
+            self.model = self.model.with(&fit);
+            self.add(data, fit, after, candidates.to_vec(), location, NamedBy::View, None);
+            return Ok(true);
+        }
+        if !first {
+            if let Some((i, model, refits)) = self.second_chance(data, candidates, location, total_before)? {
+                let (Some(fit), Some(after)) = (candidates[i].fit.clone(), candidates[i].eval.clone()) else {
+                    return Ok(false);
+                };
+                self.model = model;
+                self.add(data, fit, after, candidates.to_vec(), location, NamedBy::View, Some(refits));
+                if let Some(last) = self.steps.last_mut() {
+                    last.backfitted = true;
+                }
+                return Ok(true);
+            }
+        }
+        self.pair_step(data, candidates, location, total_before)
+    }
+
+    /// A later step whose best candidates explain too little alone: each gets a second chance with the chain
+    /// backfitted around it (an effect read before the one under it took part of it: a bandwidth's corner read
+    /// low under a resonance). Returns the index of the candidate that then explains the gap (its entry replaced
+    /// by the backfitted one), the backfitted model and the earlier steps' refits.
+    #[allow(clippy::type_complexity)]
+    fn second_chance(
+        &mut self,
+        data: &StepData,
+        candidates: &mut [CandidateResult],
+        location: &Location,
+        total_before: f64,
+    ) -> Result<Option<(usize, Model, Vec<Option<EffectFit>>)>, GapError> {
+        for i in by_score(candidates).into_iter().take(SECOND_CHANCES) {
+            let Some(f) = candidates[i].fit.clone() else { continue };
+            let mut taken = self.series.clone();
+            data.take_out(&mut taken, &f);
+            let mut fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
+            fits.push(&f);
+            let shaped = data.shaped_with(self.shaped.as_deref(), &f);
+            let (m, refits) = backfit(
+                &self.model.with(&f),
+                &fits,
+                &self.filled,
+                &taken,
+                shaped.as_deref(),
+                &self.gaps,
+                self.temp,
+                self.rate_hz,
+                self.base_fit,
+            );
+            if refits.iter().all(Option::is_none) {
+                continue;
+            }
+            let known = self.known_with(data, &f);
+            self.progress.expect("backfit", 1);
+            let e = self.evaluate(&m, known.as_deref(), f.effect.name())?;
+            let fit = refits.last().cloned().flatten().unwrap_or(f);
+            let c = CandidateResult::new(candidates[i].effect, Some(fit), Some(e), Some(location));
+            if rank::choose(std::slice::from_ref(&c), total_before, Some(location)).is_some() {
+                candidates[i] = c;
+                let earlier = refits[..refits.len() - 1].to_vec();
+                return Ok(Some((i, m, earlier)));
+            }
+        }
+        Ok(None)
+    }
+
+    /// Two effects that share the gap, neither removing a quarter of it alone: each candidate of [`pair_pool`]
+    /// first, and every other effect estimated on the model with it (the first's realisation taken out); the best
+    /// pair that explains the gap (the parameters of both paid for) is added as two steps. A second effect whose
+    /// part of the gap the first hid from every view (outliers diluted by a sinusoid the base fit read as white
+    /// noise) need not score well alone to be found.
+    fn pair_step(
+        &mut self,
+        data: &StepData,
+        candidates: &[CandidateResult],
+        location: &Location,
+        total_before: f64,
+    ) -> Result<bool, GapError> {
+        let pool = pair_pool(candidates, &self.eval.training);
+        let mut best: Option<(f64, usize, EffectFit, Evaluated)> = None;
+        for (k, &i) in pool.iter().enumerate() {
+            let Some(a) = candidates[i].fit.as_ref() else { continue };
+            let with_a = self.model.with(a);
+            let mut series_a = self.series.clone();
+            data.take_out(&mut series_a, a);
+            let known_a = self.known_with(data, a);
+            let shaped_a = data.shaped_with(self.shaped.as_deref(), a);
+            let data_a = StepData::new(
+                &with_a.gyro,
+                &series_a,
+                shaped_a.as_deref(),
+                &self.gaps,
+                self.temp,
+                self.rate_hz,
+                self.base_fit,
+                false,
+            );
+            let recorded = Rc::clone(&self.filled);
+            let training_a = data_a.training(&recorded, &with_a.gyro, with_a.channel.as_ref(), self.temp, self.rate_hz);
+            // The second: every other effect, learnt on the model with the first (one the first hid may show now),
+            // but for the firsts already tried with this one.
+            for j in (0..candidates.len()).filter(|&j| j != i && !pool[..k].contains(&j)) {
+                let Some(b) = effects::estimate(candidates[j].effect, &training_a) else { continue };
+                let m = with_a.with(&b);
+                let known = data_a.realised_with(known_a.as_deref(), &b).or_else(|| known_a.clone());
+                self.progress.expect("pair", 1);
+                let e = self.evaluate(&m, known.as_deref(), b.effect.name())?;
+                let score = rank::score(rank::total_of(&e.training), a.n_params + b.n_params);
+                if rank::explains(score, total_before) && best.as_ref().is_none_or(|(s, ..)| score < *s) {
+                    best = Some((score, i, b, e));
+                }
+            }
+        }
+        let Some((_, i, b, e)) = best else { return Ok(false) };
+        let (Some(a), Some(a_eval)) = (candidates[i].fit.clone(), candidates[i].eval.clone()) else {
+            return Ok(false);
+        };
+        self.model = self.model.with(&a);
+        self.add(data, a, a_eval, candidates.to_vec(), location, NamedBy::View, None);
+        // The second step learns from the samples less the first's realisation, on the model with it.
+        let data_b = self.step_data(false);
+        let c = CandidateResult::new(b.effect, Some(b.clone()), Some(e.clone()), Some(location));
+        self.model = self.model.with(&b);
+        self.add(&data_b, b, e, vec![c], location, NamedBy::View, None);
+        Ok(true)
+    }
+
+    /// The estimators' route: the remaining effect whose own test names it most strongly beyond its calibrated
+    /// threshold, added when the views find the model with it no worse (the next strongest tried where not); says
+    /// whether it added one. `candidates`
+    /// are the step's ranking where it ranked (their fits are reused), and `first_candidates` the report's first
+    /// ranking when this is the first step.
+    fn evidence_step(
+        &mut self,
+        remaining: &[Effect],
+        data: &StepData,
+        mut candidates: Vec<CandidateResult>,
+        location: &Location,
+        first_candidates: Option<&mut Vec<CandidateResult>>,
+    ) -> Result<bool, GapError> {
+        let training =
+            data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
+        let significant = rank::gap_of(&self.eval.training) > rank::SIGNIFICANT_GAP;
+        let mut chosen = None;
+        // Spikes are named on their own evidence only in the samples as recorded: once a step has taken jumps, a
+        // lattice or a response out, what it leaves at a flip or a step is that step's residue, one or two samples
+        // wide, which the spike law would take for spikes.
+        let remaining: Vec<Effect> =
+            remaining.iter().copied().filter(|&e| e != Effect::Outliers || self.steps.is_empty()).collect();
+        for mut fit in
+            evidence::named(&remaining, |e| candidates.iter().find(|c| c.effect == e).map(|c| c.fit.clone()), &training)
+        {
+            let Some(ev) = evidence::of(&fit) else { continue };
+            let m = self.model.with(&fit);
+            let known = self.known_with(data, &fit);
+            self.progress.expect("evidence", 1);
+            let mut after = self.evaluate(&m, known.as_deref(), fit.effect.name())?;
+            let mut m = m;
+            // Named on its own test, it must still leave the views no worse than it found them, and a curve's test
+            // beside a significant gap must take that gap below significance.
+            let allowed = evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training);
+            let worse_than_before = |e: &Evaluated| rank::total_of(&e.training) > allowed;
+            let mut worse = worse_than_before(&after);
+            // The estimator refitted the base terms alone beside its effect, on a curve whose other effects it took
+            // as known; where that leaves the views worse, the model's stochastic terms re-estimated together with
+            // the new effect in place may not.
+            if worse {
+                if let Some(j) = self.reestimated(&m) {
+                    self.progress.expect("evidence", 1);
+                    let joint = self.evaluate(&j, known.as_deref(), fit.effect.name())?;
+                    if !worse_than_before(&joint) {
+                        fit = EffectFit { params: fit.params.reestimated(&j.gyro), gyro: j.gyro.clone(), ..fit };
+                        (m, after, worse) = (j, joint, false);
+                    }
+                }
+            }
+            let clears = rank::band_gap(&after.training, location).is_some_and(|g| g < rank::SIGNIFICANT_GAP);
+            // A curve's test names an effect only where the views find the model with it better: beside a
+            // significant gap, below significance in the gap's band; elsewhere, a total lower by more than the
+            // ensemble's draw moves it (a filter corner read into a Gauss-Markov process's roll-off lowers the
+            // curve's chi-square and nothing else).
+            let curve_test = evidence::needs_a_fitting_model(fit.effect);
+            let better =
+                evidence::VIEWS_TOLERANCE * rank::total_of(&after.training) < rank::total_of(&self.eval.training);
+            if worse || (curve_test && if significant { !clears } else { !better }) {
+                continue;
+            }
+            chosen = Some((fit, ev, m, after));
+            break;
+        }
+        let Some((fit, ev, m, after)) = chosen else { return Ok(false) };
+        let c = CandidateResult::new(fit.effect, Some(fit.clone()), Some(after.clone()), Some(location));
+        match candidates.iter_mut().find(|x| x.effect == fit.effect) {
+            Some(x) => *x = c,
+            None => candidates.push(c),
+        }
+        if let Some(f) = first_candidates {
+            *f = candidates.clone();
+        }
+        self.model = m;
+        self.add(data, fit, after, candidates, location, NamedBy::Estimator(ev), None);
+        Ok(true)
+    }
+
+    /// Add a step whose model is already `self.model`: `fit` learnt from `data`, `after` its comparison, its
+    /// realisation (if it recovered one) taken out of what the next step learns from, and where a backfitting
+    /// round chose it, each earlier step's refit.
+    #[allow(clippy::too_many_arguments)]
+    fn add(
+        &mut self,
+        data: &StepData,
+        fit: EffectFit,
+        after: Evaluated,
+        candidates: Vec<CandidateResult>,
+        location: &Location,
+        named_by: NamedBy,
+        refits: Option<Vec<Option<EffectFit>>>,
+    ) {
+        let chosen = candidates.iter().find(|c| c.effect == fit.effect);
+        let gap_after = chosen.and_then(|c| c.gap_after).unwrap_or(0.0);
+        let holdout_after = chosen.and_then(|c| c.holdout_after);
+        let training = PartGap::new(rank::band_gap(&self.eval.training, location).unwrap_or(0.0), gap_after);
+        let holdout = rank::band_gap(&self.eval.holdout, location).map(|b| PartGap::new(b, holdout_after.unwrap_or(b)));
+        if fit.cleaned.is_some() {
+            self.shaped = data.shaped_with(self.shaped.as_deref(), &fit);
+            data.take_out(&mut self.series, &fit);
+            self.realised = Some(self.filled.iter().zip(&self.series).map(|(f, s)| f - s).collect());
+        }
+        for (s, r) in self.steps.iter_mut().zip(refits.into_iter().flatten()) {
+            if r.is_some() {
+                s.refit = r;
+            }
+        }
+        self.steps.push(Step {
+            effect: fit.effect,
+            named_by,
+            fit,
+            eval: after.clone(),
+            location: location.clone(),
+            training,
+            holdout,
+            candidates,
+            refit: None,
+            backfitted: false,
+            joint: false,
+        });
+        self.eval = after;
+    }
+
+    /// A joint re-estimation of the chain's model once its steps are found ([`joint::reestimate`]): the base
+    /// terms and every effect so
+    /// far fitted together on the training samples less the recovered realisations, kept when the views find the
+    /// model no worse and it does not turn a significant gap into none; each step's parameters are then read
+    /// from it.
+    fn joint_round(&mut self) -> Result<(), GapError> {
+        let shaped = self.shaped.as_deref();
+        let Some(m) = joint::reestimate(&self.model, &self.series, shaped, &self.gaps, self.temp, self.rate_hz) else {
+            return Ok(());
+        };
+        self.progress.expect("joint", 1);
+        let realised = self.realised.clone();
+        let after = self.evaluate(&m, realised.as_deref(), "joint")?;
+        // A round that turns a significant gap into none has not re-estimated the chain's effects but covered the
+        // next one with their freedom (a resonance widened over a filter's roll-off): the chain's steps name that
+        // one, and the report's verdict must not be bought by the re-fit.
+        let significant = |e: &Evaluated| rank::gap_of(&e.training) > rank::SIGNIFICANT_GAP;
+        let hides_a_gap = significant(&self.eval) && !significant(&after);
+        if rank::total_of(&after.training) <= rank::total_of(&self.eval.training) && !hides_a_gap {
+            for s in self.steps.iter_mut() {
+                s.refit = Some(s.final_fit().reestimated(&m.gyro));
+            }
+            if let Some(last) = self.steps.last_mut() {
+                last.joint = true;
+            }
+            self.model = m;
+            self.eval = after;
+        }
+        Ok(())
+    }
+
+    /// `m` jointly re-estimated ([`joint::reestimate`]) on the training samples less the realisations the chain
+    /// recovered; `None` where nothing changes.
+    fn reestimated(&self, m: &Model) -> Option<Model> {
+        joint::reestimate(m, &self.series, self.shaped.as_deref(), &self.gaps, self.temp, self.rate_hz)
+    }
+
+    /// A backfitting round over a chain of two or more whose last step had none: kept when the final model's
+    /// training total falls.
+    fn final_backfit(&mut self) -> Result<(), GapError> {
+        if self.steps.len() < 2 || self.steps.last().is_some_and(|s| s.backfitted) {
+            return Ok(());
+        }
+        let fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
+        let (refitted, refits) = backfit(
+            &self.model,
+            &fits,
+            &self.filled,
+            &self.series,
+            self.shaped.as_deref(),
+            &self.gaps,
+            self.temp,
+            self.rate_hz,
+            self.base_fit,
+        );
+        if refits.iter().all(Option::is_none) {
+            return Ok(());
+        }
+        self.progress.expect("backfit", 1);
+        let realised = self.realised.clone();
+        let after = self.evaluate(&refitted, realised.as_deref(), "backfit")?;
+        if rank::total_of(&after.training) < rank::total_of(&self.eval.training) {
+            for (s, r) in self.steps.iter_mut().zip(refits) {
+                if r.is_some() {
+                    s.refit = r;
+                }
+            }
+            if let Some(last) = self.steps.last_mut() {
+                last.backfitted = true;
+            }
+            self.model = refitted;
+            self.eval = after;
+        }
+        Ok(())
+    }
+}
+
+/// The candidates tried first in pairs: the [`PAIR_POOL`] best-scored, and for each view the one that takes the most
+/// of its gap (`before`, the views of the model so far) where it takes a quarter or more. Two effects that share
+/// the gap each take their own view's part and leave the other's, so neither need score well alone: a bistable
+/// bias beside a strong sinusoid clears the distribution view and leaves the spectrum's line, and scores behind
+/// effects that touch nothing.
+fn pair_pool(candidates: &[CandidateResult], before: &[ViewGap]) -> Vec<usize> {
+    let mut pool: Vec<usize> = by_score(candidates).into_iter().take(PAIR_POOL).collect();
+    for v in before {
+        let after = |c: &CandidateResult| {
+            c.eval.as_ref()?.training.iter().find(|w| w.view == v.view).map(|w| w.gap).filter(|g| g.is_finite())
+        };
+        let best = (0..candidates.len())
+            .filter_map(|i| Some((i, after(&candidates[i])?)))
+            .filter(|&(_, g)| g < PAIR_VIEW_SHARE * v.gap && v.gap > rank::SIGNIFICANT_GAP)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((i, _)) = best {
+            if !pool.contains(&i) && candidates[i].score.is_some() {
+                pool.push(i);
+            }
+        }
+    }
+    // The better-scored of each pair goes first.
+    pool.sort_by(|&a, &b| {
+        candidates[a].score.unwrap_or(f64::INFINITY).total_cmp(&candidates[b].score.unwrap_or(f64::INFINITY))
+    });
+    pool
+}
+
+/// The share of a significant view's gap a candidate must leave at most to join the pairs for that view.
+const PAIR_VIEW_SHARE: f64 = 0.75;
+
+/// The indices of the candidates that have a score, best (lowest) first.
+fn by_score(candidates: &[CandidateResult]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..candidates.len()).filter(|&i| candidates[i].score.is_some()).collect();
+    order.sort_by(|&a, &b| {
+        candidates[a].score.unwrap_or(f64::INFINITY).total_cmp(&candidates[b].score.unwrap_or(f64::INFINITY))
+    });
+    order
+}

@@ -1,0 +1,391 @@
+//! The bistable candidate: a bias that flips between two levels at random (random telegraph noise, popcorn noise),
+//! found as jumps of one size that alternate in sign.
+//!
+//! Its Allan variance is exactly a Gauss-Markov process's (correlation time `1 / (l1 + l2)`), so the Allan curve
+//! cannot tell the two apart; nor can the jump scan of the bias-steps candidate alone, which sees a jump either
+//! way. What only a bistable bias has: every jump is the same size, and an up-jump is always followed by a down-jump
+//! (the bias returns to the level it left), where random bias steps (a random walk of Gaussian jumps) go up or down
+//! at random and by any amount.
+
+use super::params::BistableParams;
+use octavar_shared::sim::{BistableSim, GyroSim};
+use std::sync::Arc;
+
+use super::bias_steps::mosum_scan;
+use super::common::*;
+use super::curve::{
+    base_columns, filtered_gm_avar, joint_fit, joint_fit_keeping, less_known, with_base_terms, CURVE_DELTA_CHI2,
+};
+use super::{Effect, EffectFit, EffectKind, TrainingData};
+
+/// Fewest jumps detected at the chosen window: with missed jumps and a false one or two, a few cycles are needed
+/// before the alternation means anything.
+const MIN_JUMPS: usize = 12;
+/// Family-wise error of the alternation test over the windows tried: the chance that the signs of a random walk's
+/// detected jumps (independent, each way with probability 1/2) alternate as often as seen.
+const ALTERNATION_ALPHA: f64 = 1e-4;
+/// Largest spread of the jumps' refined sizes (robust coefficient of variation): a bistable bias has one size;
+/// random steps big enough to be seen spread by at least this much.
+const MAX_SIZE_SPREAD: f64 = 0.35;
+
+/// What the scan at one window found.
+#[derive(Clone, Debug)]
+struct Flips {
+    /// Window, samples.
+    window: usize,
+    /// Jumps in time order: sample index and signed size (the window's mean difference), deg/s.
+    jumps: Vec<(usize, f64)>,
+    /// Consecutive pairs of opposite sign.
+    alternating: usize,
+    /// The binomial tail of that many alternations or more among the pairs, at 1/2 each.
+    p_value: f64,
+    /// The scan's threshold on the mean difference, deg/s.
+    threshold: f64,
+}
+
+/// `P(X >= k)` for X binomial with `n` trials of probability 1/2.
+fn binomial_half_tail(n: usize, k: usize) -> f64 {
+    if k == 0 {
+        return 1.0;
+    }
+    // Sum in the log domain: ln C(n, j) - n ln 2.
+    let ln_choose = |j: usize| -> f64 { (1..=j).map(|i| ((n - j + i) as f64).ln() - (i as f64).ln()).sum::<f64>() };
+    (k..=n).map(|j| (ln_choose(j) - n as f64 * std::f64::consts::LN_2).exp()).sum::<f64>().min(1.0)
+}
+
+/// The scan at window `l`, its jumps put in time order and their alternation counted.
+fn flips_at(x: &[f64], l: usize) -> Option<Flips> {
+    let scan = mosum_scan(x, l)?;
+    let mut jumps = scan.steps;
+    jumps.sort_by_key(|j| j.0);
+    let pairs = jumps.len().saturating_sub(1);
+    let alternating = jumps.windows(2).filter(|w| w[0].1 * w[1].1 < 0.0).count();
+    Some(Flips {
+        window: l,
+        p_value: binomial_half_tail(pairs, alternating),
+        jumps,
+        alternating,
+        threshold: scan.threshold,
+    })
+}
+
+/// A jump: sample index, signed size (deg/s), and whether the scan saw it (else it was put back).
+type Jump = (usize, f64, bool);
+
+/// The jumps with the ones the scan missed between two of the same sign put back: the scan keeps one jump of
+/// any two closer than two windows, so a short excursion shows one of its two jumps. Between consecutive jumps of
+/// one sign the missing opposite one is where the mean difference over windows bounded by the two (at most the
+/// scan's) is most opposite; its size is the opposite of the first's. Before the first jump and after the last the
+/// record's end stands in for the missing neighbour: a short excursion there shows only its inner jump, and the
+/// stretch to the end would take the wrong state. The missing jump is put back where the opposite mean
+/// difference passes the scan's threshold.
+fn repaired(x: &[f64], f: &Flips) -> Vec<Jump> {
+    let mut pre = Vec::with_capacity(x.len() + 1);
+    let mut acc = 0.0;
+    pre.push(0.0);
+    for v in x {
+        acc += v;
+        pre.push(acc);
+    }
+    let avg = |a: usize, b: usize| (pre[b] - pre[a]) / (b - a) as f64;
+    let l = f.window;
+    let mut out = Vec::with_capacity(f.jumps.len() * 2);
+    // The most opposite change of level within `lo..hi` against a jump of `size`, where it passes the threshold,
+    // with half a window or more on each side of it.
+    let opposite_within = |lo: usize, hi: usize, size: f64| -> Option<usize> {
+        (lo + l / 2..hi.saturating_sub(l / 2))
+            .map(|t| {
+                let d = avg(t, (t + l).min(hi)) - avg(t.saturating_sub(l).max(lo), t);
+                (t, -d * size.signum())
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .filter(|&(_, d)| d > f.threshold)
+            .map(|(t, _)| t)
+    };
+    if let Some(&first) = f.jumps.first() {
+        if let Some(t) = opposite_within(0, first.0, first.1) {
+            out.push((t, -first.1, false));
+        }
+    }
+    for (i, &j) in f.jumps.iter().enumerate() {
+        out.push((j.0, j.1, true));
+        let Some(&next) = f.jumps.get(i + 1) else { continue };
+        if j.1 * next.1 > 0.0 && next.0 > j.0 + 2 {
+            let best = (j.0 + 1..next.0)
+                .map(|t| {
+                    let d = avg(t, (t + l).min(next.0)) - avg(t.saturating_sub(l).max(j.0), t);
+                    (t, -d * j.1.signum())
+                })
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((t, _)) = best {
+                out.push((t, -j.1, false));
+            }
+        }
+    }
+    if let Some(&last) = f.jumps.last() {
+        if let Some(t) = opposite_within(last.0, x.len(), last.1) {
+            out.push((t, -last.1, false));
+        }
+    }
+    out
+}
+
+/// The sizes of `jumps` measured again over the longest stretches their neighbours allow (up to 16 windows `l`
+/// each side, half a window kept clear of each jump), signed.
+fn refined_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
+    let cap = 16 * l;
+    let margin = l / 2;
+    (0..jumps.len())
+        .map(|i| {
+            let t = jumps[i].0;
+            let prev = if i > 0 { jumps[i - 1].0 + margin } else { 0 };
+            let next = jumps.get(i + 1).map_or(x.len(), |j| j.0.saturating_sub(margin));
+            let a1 = t.saturating_sub(margin).max(1);
+            let a0 = t.saturating_sub(cap).max(prev).min(a1 - 1);
+            let b0 = (t + margin).min(x.len() - 1);
+            let b1 = (t + cap).min(next).clamp(b0 + 1, x.len());
+            mean(&x[b0..b1]) - mean(&x[a0..a1])
+        })
+        .collect()
+}
+
+/// The dwells read again from the Allan curve, where it tells them better than the count of jumps. A telegraph of
+/// step `s` spending a share `p` of the time high is, in its Allan variance, a Gauss-Markov process of variance
+/// `s^2 p (1 - p)` and correlation time `T = dwell_low dwell_high / (dwell_low + dwell_high)`; the counted dwells
+/// miss the excursions shorter than the scan's window, and the correction for them is approximate where the
+/// shorter dwell is a few windows. So with the step held (the jumps measure it well), that variance and `T` are
+/// fitted with the base terms on the OADEV of the record (T within a factor of 4 of the counted one), and the
+/// dwells `T / p` and `T / (1 - p)` replace the counted ones where they lower the curve's chi-square by
+/// [`CURVE_DELTA_CHI2`]; `p` takes the root on the counted dwells' side of one half, or where that root is within
+/// a quarter of one half, the share of time the record spends high (`occupancy`).
+///
+/// Returns the dwells (low, high) and the base terms' squares fitted beside that telegraph on the same curve: a
+/// jump missed or put at the wrong sample leaves a level error in the record less the levels, which an IEEE fit of
+/// that record reads as a random walk, while the curve less the telegraph's exact Allan variance has none. `None`
+/// when the curve has too few points or no fit.
+fn telegraph_on_curve(
+    d: &TrainingData,
+    step: f64,
+    dwell_low: f64,
+    dwell_high: f64,
+    occupancy: f64,
+) -> Option<(f64, f64, Vec<f64>)> {
+    let rate_hz = d.rate_hz;
+    let bw = d.base.bandwidth_hz;
+    let pts = less_known(&gapped_oadev_points(d.rate_dps, d.gaps, rate_hz), d.base, bw, rate_hz, d.lattice_dps);
+    if pts.len() < 6 {
+        return None;
+    }
+    let with_q = d.base.q_deg > 0.0;
+    let base_cols = base_columns(&pts, rate_hz, bw, with_q);
+    let column = |t: f64| -> Vec<f64> { pts.iter().map(|p| filtered_gm_avar(t, bw, p.tau_s, rate_hz)).collect() };
+    // The counted dwells' telegraph, its variance held, with the base terms free.
+    let t0 = dwell_low * dwell_high / (dwell_low + dwell_high);
+    let p0 = dwell_high / (dwell_low + dwell_high);
+    let var0 = step * step * p0 * (1.0 - p0);
+    let col0 = column(t0);
+    let counted: Vec<_> = pts
+        .iter()
+        .zip(&col0)
+        .map(|(p, c)| octavar_stats::fit::FitPoint { avar: (p.avar - var0 * c).max(0.1 * p.avar), ..*p })
+        .collect();
+    let at_counted = joint_fit(&counted, &base_cols)?;
+    let keep = 1u32 << base_cols.len();
+    let fit_at = |t: f64| {
+        let mut cols = base_cols.clone();
+        cols.push(column(t));
+        joint_fit_keeping(&pts, &cols, keep)
+    };
+    let (t, chi) = log_search(t0 / 4.0, t0 * 4.0, 24, |t| fit_at(t).map_or(f64::INFINITY, |j| j.chi2));
+    let counted_result = (dwell_low, dwell_high, at_counted.theta.clone());
+    if !(chi + CURVE_DELTA_CHI2 < at_counted.chi2) {
+        return Some(counted_result);
+    }
+    let Some(j) = fit_at(t) else { return Some(counted_result) };
+    let var = j.theta[base_cols.len()];
+    let disc = 1.0 - 4.0 * var / (step * step);
+    if !(var > 0.0 && disc > 0.0) {
+        return Some(counted_result);
+    }
+    // p from the variance is ill-conditioned near one half (dp/dvar = 1 / (s^2 |1 - 2p|)): there the share of
+    // time spent high, which missed short excursions hardly move, is the better estimate.
+    let root = 0.5 * (1.0 - disc.sqrt());
+    let p_high = match disc.sqrt() > 0.5 {
+        true if p0 < 0.5 => root,
+        true => 1.0 - root,
+        false => occupancy,
+    };
+    Some((t / p_high, t / (1.0 - p_high), j.theta))
+}
+
+/// The bistable effect: [`bistable`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Bistable;
+    type Params = BistableParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        bistable(data)
+    }
+}
+
+/// A bias flipping between two levels (random telegraph noise).
+///
+/// Method: the bias-steps candidate's moving-sum scan (means of a window L after and before each instant, robust
+/// threshold) at windows L on an octave grid from 8 samples to a 64th of the record; at each, the jumps found are
+/// put in time order and the consecutive pairs of opposite sign counted. Under a random walk of steps (or noise)
+/// each pair alternates with probability 1/2; the window whose count is least likely so is kept, and the process
+/// counts when that binomial tail, times the windows tried, is below [`ALTERNATION_ALPHA`], there are at least
+/// [`MIN_JUMPS`] jumps, and their sizes, measured again over the longest stretches the neighbouring jumps allow,
+/// spread by at most [`MAX_SIZE_SPREAD`] (robust coefficient of variation). The step is their mean size. Where two
+/// consecutive jumps have the same sign, the scan (which keeps one of two jumps closer than 2L) missed the one of
+/// a short excursion between them, and it is put back ([`repaired`]). The state between two jumps is the sign of
+/// the jump into it; a dwell's mean in each state is that state's time over its
+/// completed dwells (the first and last, cut by the record's ends, add time but no count), corrected for the
+/// excursions too short to be seen (about a window: each one merges two dwells of the other state into one,
+/// `d_obs = d / (e^{-c/d_low} + e^{-c/d_high} - 1)`, solved by iteration). The base terms are re-fitted on the record
+/// less the reconstructed two-level bias (the base fit took its Gauss-Markov-like Allan variance for flicker or
+/// random walk).
+pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
+    let x = d.rate_dps;
+    let n = x.len();
+    let rate_hz = d.rate_hz;
+    let mut windows = Vec::new();
+    let mut l = 8usize;
+    while l <= n / 64 {
+        windows.push(l);
+        l *= 2;
+    }
+    if windows.is_empty() {
+        return None;
+    }
+    let tried = windows.len() as f64;
+    let best = windows
+        .iter()
+        .filter_map(|&l| flips_at(x, l))
+        .filter(|f| f.jumps.len() >= MIN_JUMPS)
+        .min_by(|a, b| a.p_value.total_cmp(&b.p_value).then(b.jumps.len().cmp(&a.jumps.len())))?;
+    if !(best.p_value * tried < ALTERNATION_ALPHA) {
+        return None;
+    }
+    let jumps = repaired(x, &best);
+    // The step from the jumps the scan saw (one put back is measured over its short excursion).
+    let abs: Vec<f64> =
+        refined_sizes(x, &jumps, best.window).iter().zip(&jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect();
+    let step = median(&abs);
+    let spread = 1.4826 * median(&abs.iter().map(|a| (a - step).abs()).collect::<Vec<_>>()) / step;
+    if !(step > 0.0 && spread <= MAX_SIZE_SPREAD) {
+        return None;
+    }
+    let step = mean(&abs);
+    let step_se =
+        (abs.iter().map(|a| (a - step).powi(2)).sum::<f64>() / (abs.len() - 1) as f64 / abs.len() as f64).sqrt();
+    // States between jumps, from the sign of the jump into each stretch; the stretch before the first jump is the
+    // other state.
+    let (mut time_high, mut time_low, mut count_high, mut count_low) = (0.0, 0.0, 0usize, 0usize);
+    let first_high = jumps[0].1 < 0.0;
+    let mut edges: Vec<(usize, usize, bool)> = vec![(0, jumps[0].0, first_high)];
+    for (i, j) in jumps.iter().enumerate() {
+        let end = jumps.get(i + 1).map_or(n, |k| k.0);
+        edges.push((j.0, end, j.1 > 0.0));
+    }
+    let last = edges.len() - 1;
+    for (i, &(a, b, high)) in edges.iter().enumerate() {
+        let dt = (b - a) as f64 / rate_hz;
+        let complete = i > 0 && i < last;
+        if high {
+            time_high += dt;
+            count_high += usize::from(complete);
+        } else {
+            time_low += dt;
+            count_low += usize::from(complete);
+        }
+    }
+    if count_high == 0 || count_low == 0 {
+        return None;
+    }
+    let (obs_high, obs_low) = (time_high / count_high as f64, time_low / count_low as f64);
+    // An excursion shows in the scan when its mean difference, `step min(1, w / L)` for a width w, passes the
+    // threshold: shorter ones go unseen, and each merges two dwells of the other state.
+    let c = best.window as f64 * (best.threshold / step).min(1.0) / rate_hz;
+    let (mut dwell_high, mut dwell_low) = (obs_high, obs_low);
+    for _ in 0..50 {
+        let seen = ((-c / dwell_low).exp() + (-c / dwell_high).exp() - 1.0).max(0.2);
+        dwell_high = obs_high * seen;
+        dwell_low = obs_low * seen;
+    }
+    // The record less the two zero-mean levels, for the base terms' re-fit.
+    let p_high = time_high / (time_high + time_low);
+    let on_curve = telegraph_on_curve(d, step, dwell_low, dwell_high, p_high);
+    let (dwell_low, dwell_high) = on_curve.as_ref().map_or((dwell_low, dwell_high), |c| (c.0, c.1));
+    let (high, low) = (step * (1.0 - p_high), -step * p_high);
+    let mut cleaned = x.to_vec();
+    for &(a, b, is_high) in &edges {
+        let v = if is_high { high } else { low };
+        for c in &mut cleaned[a..b] {
+            *c -= v;
+        }
+    }
+    let refit = match &on_curve {
+        Some((_, _, theta)) => with_base_terms(d.base, theta),
+        None => refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0),
+    };
+    let gyro = GyroSim {
+        bistable: Some(BistableSim { step_dps: step, dwell_low_s: dwell_low, dwell_high_s: dwell_high }),
+        ..refit
+    };
+    Some(EffectFit {
+        effect: Effect::Bistable,
+        params: BistableParams {
+            step_dps: step,
+            dwell_low_s: dwell_low,
+            dwell_high_s: dwell_high,
+            step_se_dps: step_se,
+            dwell_low_se_s: dwell_low / (count_low as f64).sqrt(),
+            dwell_high_se_s: dwell_high / (count_high as f64).sqrt(),
+            jumps: best.jumps.len(),
+            alternating: best.alternating,
+            window_s: best.window as f64 / rate_hz,
+            shortest_seen_s: c,
+            p_value: best.p_value,
+            size_spread: spread,
+        }
+        .into(),
+        n_params: 3,
+        gyro,
+        channel: None,
+        spread: None,
+        cleaned: Some(Arc::new(cleaned)),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A short excursion cut by each end of the record shows only its inner jump to the scan: the outer one is put
+    /// back at its place, with the opposite sign, and the jumps the scan saw are kept as they were.
+    #[test]
+    fn excursions_cut_by_the_records_ends_are_put_back() {
+        let n = 10_000;
+        let noise = octavar_stats::test_signals::white(n, 3);
+        let level = |i: usize| if (200..260).contains(&i) || (5_000..9_940).contains(&i) { 1.0 } else { 0.0 };
+        let x: Vec<f64> = (0..n).map(|i| level(i) + 0.01 * noise[i]).collect();
+        let seen =
+            Flips { window: 100, jumps: vec![(260, -1.0), (5_000, 1.0)], alternating: 1, p_value: 0.5, threshold: 0.3 };
+        let jumps = repaired(&x, &seen);
+        assert_eq!(jumps.len(), 4, "{jumps:?}");
+        let (t0, s0, seen0) = jumps[0];
+        assert!(t0.abs_diff(200) <= 2 && s0 == 1.0 && !seen0, "{jumps:?}");
+        assert_eq!(&jumps[1..3], &[(260, -1.0, true), (5_000, 1.0, true)]);
+        let (t3, s3, seen3) = jumps[3];
+        assert!(t3.abs_diff(9_940) <= 2 && s3 == -1.0 && !seen3, "{jumps:?}");
+        // Without an excursion at the ends nothing is added there.
+        let plain: Vec<f64> =
+            (0..n).map(|i| if (260..5_000).contains(&i) { -1.0 } else { 0.0 } + 0.01 * noise[i]).collect();
+        let seen =
+            Flips { window: 100, jumps: vec![(260, -1.0), (5_000, 1.0)], alternating: 1, p_value: 0.5, threshold: 0.3 };
+        assert_eq!(repaired(&plain, &seen), [(260, -1.0, true), (5_000, 1.0, true)]);
+    }
+}

@@ -1,0 +1,282 @@
+//! Small helpers the estimators share: means and medians, block means, the octave OADEV as fit points, the
+//! IEEE re-fit of a cleaned record, the normal tail, one-dimensional searches (golden section, log grid) and the
+//! FFT.
+
+use std::cell::RefCell;
+use std::ops::Range;
+use std::sync::Arc;
+
+use octavar_shared::sim::noise::LowPass;
+use octavar_shared::sim::GyroSim;
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftPlanner};
+
+use super::curve::less_known;
+use super::TrainingData;
+use crate::fill::with_gaps;
+pub(super) use crate::spectral::{block_means, sine_tapers};
+use octavar_stats::fit::{fit, fit_input, octave_oadev, FitOptions, FitPoint, Term};
+use octavar_stats::{DataKind, Options, Series};
+
+pub(super) fn mean(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    x.iter().sum::<f64>() / x.len() as f64
+}
+
+pub(super) use octavar_stats::robust::median;
+
+/// The overlapping Allan variance at octave tau, with Greenhall EDFs, as fit points.
+pub(super) fn oadev_points(x: &[f64], rate_hz: f64) -> Vec<FitPoint> {
+    let Ok(s) = Series::new(x, DataKind::Frequency, 1.0 / rate_hz) else {
+        return Vec::new();
+    };
+    octave_oadev(&s, Options::default().confidence).map(|rows| fit_input(&rows)).unwrap_or_default()
+}
+
+/// [`oadev_points`] of `x` with the runs `gaps` (filled in `x`) taken as gaps: a stretch filled by a line has no
+/// noise, and would read the short-tau Allan deviation low by the share of the record it spans.
+pub(super) fn gapped_oadev_points(x: &[f64], gaps: &[Range<usize>], rate_hz: f64) -> Vec<FitPoint> {
+    if gaps.is_empty() {
+        return oadev_points(x, rate_hz);
+    }
+    oadev_points(&with_gaps(x, gaps), rate_hz)
+}
+
+/// The samples of `x` outside the runs `gaps` (in order; the few differences across a join are the only ones
+/// that span a gap).
+pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borrow::Cow<'a, [f64]> {
+    if gaps.is_empty() {
+        return std::borrow::Cow::Borrowed(x);
+    }
+    let mut out = Vec::with_capacity(x.len());
+    let mut at = 0;
+    for r in gaps {
+        let (a, b) = (r.start.min(x.len()), r.end.min(x.len()));
+        if a > at {
+            out.extend_from_slice(&x[at..a]);
+        }
+        at = at.max(b);
+    }
+    out.extend_from_slice(&x[at.min(x.len())..]);
+    std::borrow::Cow::Owned(out)
+}
+
+/// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component (the
+/// step's data `d` otherwise): the base model with its Q, N, B, K, R replaced by the fitted terms of that fit, and
+/// the fit's squares.
+///
+/// The rate ramp R enters only when the base fit has one: a ramp is a deterministic drift, and taking an
+/// effect's component out of the record cannot create one. Where the re-fit found one anyway, it was the
+/// remainder of an imperfectly fitted component at the last one or two Allan points (a sinusoid of a few
+/// cycles per record whose amplitude is read 27% high), and a ramp extrapolated over the holdout is a gap of
+/// its own.
+///
+/// `gaps` are the runs of samples that were missing or masked (filled in `cleaned`): the Allan deviation is taken
+/// with them as gaps, as the base fit took it. The stochastic effects the base already carries (a Gauss-Markov
+/// process, a resonance) and the quantisation noise of the model's ADC lattice ([`less_known`]) are taken off the
+/// curve first, so that the IEEE terms do not absorb them a second time.
+pub(super) fn refit_base(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, [f64; 5])> {
+    let (base, rate_hz) = (d.base, d.rate_hz);
+    let pts = gapped_oadev_points(cleaned, d.gaps, rate_hz);
+    let pts = less_known(&pts, base, base.bandwidth_hz, rate_hz, d.lattice_dps);
+    let terms = Term::ALL.into_iter().filter(|t| *t != Term::R || base.r_dps_per_s != 0.0).collect();
+    let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
+    let f = fit(&pts, &opts).ok()?;
+    Some((f.sim_terms(base.clone()), f.squares))
+}
+
+/// `x`, samples that bias jumps `shaped` were taken out of sharp, with those jumps taken out through the sensor's
+/// first-order low-pass at `bandwidth_hz` instead, as the simulator passes them ([`LowPass`]): `x + s - lp(s)`.
+pub(crate) fn jumps_through_filter(x: &[f64], shaped: &[f64], bandwidth_hz: f64, rate_hz: f64) -> Vec<f64> {
+    let mut lp = LowPass::new(bandwidth_hz, rate_hz);
+    x.iter().zip(shaped).map(|(&v, &s)| v + s - lp.next(s)).collect()
+}
+
+/// The powers of `gyro`'s IEEE noise terms that stay in the samples, `[Q^2, N^2, B^2, K^2]`: deg^2, (deg/s)^2 s,
+/// (deg/s)^2 and (deg/s)^2/s (the ramp is a trend, not noise).
+pub(super) fn ieee_squares(gyro: &GyroSim) -> [f64; 4] {
+    [gyro.q_deg, gyro.n_deg_per_rt_s, gyro.b_dps, gyro.k_dps_per_rt_s].map(|v| v * v)
+}
+
+/// The standard normal upper tail.
+pub(super) fn normal_sf(z: f64) -> f64 {
+    0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)
+}
+
+/// Golden-section minimisation of `f` on [lo, hi].
+pub(super) fn golden(mut lo: f64, mut hi: f64, iters: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let mut x1 = hi - g * (hi - lo);
+    let mut x2 = lo + g * (hi - lo);
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..iters {
+        if f1 <= f2 {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = f(x1);
+        } else {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = f(x2);
+        }
+    }
+    if f1 <= f2 {
+        (x1, f1)
+    } else {
+        (x2, f2)
+    }
+}
+
+/// Brent's minimisation of `f` on [lo, hi]: parabolic steps through the three best points where they fall inside
+/// the bracket and shrink it, golden sections where not, until the minimum is placed to `tol` (absolute, in x) or
+/// `max_evals` evaluations are spent. On a smooth minimum it needs a few evaluations where [`golden`] needs one per
+/// factor 0.618 of the bracket; NaN counts as worse than any number.
+pub(super) fn brent(lo: f64, hi: f64, tol: f64, max_evals: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    const CGOLD: f64 = 0.381_966_011_250_105_1;
+    let (mut a, mut b) = (lo.min(hi), lo.max(hi));
+    let tol1 = tol.max(f64::EPSILON * (a.abs() + b.abs()));
+    let tol2 = 2.0 * tol1;
+    let mut x = a + CGOLD * (b - a);
+    let (mut w, mut v) = (x, x);
+    let mut fx = f(x);
+    let (mut fw, mut fv) = (fx, fx);
+    let (mut d, mut e) = (0.0f64, 0.0f64);
+    for _ in 1..max_evals {
+        let xm = 0.5 * (a + b);
+        if (x - xm).abs() <= tol2 - 0.5 * (b - a) {
+            break;
+        }
+        let mut parabolic = false;
+        if e.abs() > tol1 {
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            }
+            q = q.abs();
+            let e_before = e;
+            e = d;
+            if p.abs() < (0.5 * q * e_before).abs() && p > q * (a - x) && p < q * (b - x) {
+                d = p / q;
+                let u = x + d;
+                if u - a < tol2 || b - u < tol2 {
+                    d = tol1.copysign(xm - x);
+                }
+                parabolic = true;
+            }
+        }
+        if !parabolic {
+            e = if x >= xm { a - x } else { b - x };
+            d = CGOLD * e;
+        }
+        let u = if d.abs() >= tol1 { x + d } else { x + tol1.copysign(d) };
+        let fu = f(u);
+        if fu <= fx {
+            if u >= x {
+                a = x;
+            } else {
+                b = x;
+            }
+            (v, fv, w, fw, x, fx) = (w, fw, x, fx, u, fu);
+        } else {
+            if u < x {
+                a = u;
+            } else {
+                b = u;
+            }
+            if fu <= fw || w == x {
+                (v, fv, w, fw) = (w, fw, u, fu);
+            } else if fu <= fv || v == x || v == w {
+                (v, fv) = (u, fu);
+            }
+        }
+    }
+    (x, fx)
+}
+
+/// Grid search over `ln x` on [lo, hi] (n points), then golden refinement between the best point's neighbours.
+pub(super) fn log_search(lo: f64, hi: f64, n: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    let (l0, l1) = (lo.ln(), hi.ln());
+    let grid: Vec<f64> = (0..n).map(|i| l0 + (l1 - l0) * i as f64 / (n - 1) as f64).collect();
+    let vals: Vec<f64> = grid.iter().map(|&u| f(u.exp())).collect();
+    let (ib, _) = vals.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).unwrap_or((0, &f64::INFINITY));
+    let a = grid[ib.saturating_sub(1)];
+    let b = grid[(ib + 1).min(n - 1)];
+    let (u, v) = golden(a, b, 24, |u| f(u.exp()));
+    if v <= vals[ib] {
+        (u.exp(), v)
+    } else {
+        (grid[ib].exp(), vals[ib])
+    }
+}
+
+thread_local! {
+    /// Each thread's FFT planner: rustfft keeps the plans it made, so a length planned once (a million-point
+    /// transform builds its twiddles in about as long as it runs) is not planned again.
+    static PLANNER: RefCell<FftPlanner<f64>> = RefCell::new(FftPlanner::new());
+}
+
+/// The forward FFT of `len` points, from this thread's planner.
+pub(super) fn forward_plan(len: usize) -> Arc<dyn Fft<f64>> {
+    PLANNER.with(|p| p.borrow_mut().plan_fft_forward(len))
+}
+
+/// In-place forward FFT of the complex sequence `re + i im` (rustfft; any length).
+pub(super) fn fft(re: &mut [f64], im: &mut [f64]) {
+    let mut buf: Vec<Complex<f64>> = re.iter().zip(im.iter()).map(|(&r, &i)| Complex::new(r, i)).collect();
+    forward_plan(buf.len()).process(&mut buf);
+    for ((r, i), c) in re.iter_mut().zip(im.iter_mut()).zip(&buf) {
+        *r = c.re;
+        *i = c.im;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::Cell;
+
+    use super::brent;
+
+    /// `f` with a count of its evaluations.
+    fn counted(f: impl Fn(f64) -> f64) -> (impl Fn(f64) -> f64, std::rc::Rc<Cell<usize>>) {
+        let n = std::rc::Rc::new(Cell::new(0));
+        let m = n.clone();
+        (
+            move |x| {
+                m.set(m.get() + 1);
+                f(x)
+            },
+            n,
+        )
+    }
+
+    #[test]
+    fn brent_places_a_smooth_minimum_in_few_evaluations() {
+        // A smooth, asymmetric minimum at ln 2 (d/dx of exp(x) - 2x).
+        let (f, evals) = counted(|x: f64| x.exp() - 2.0 * x);
+        let (x, fx) = brent(-1.0, 3.0, 1e-9, 100, f);
+        assert!((x - 2f64.ln()).abs() < 1e-8, "{x}");
+        assert!((fx - (2.0 - 2.0 * 2f64.ln())).abs() < 1e-12);
+        // Golden sections need ln(4e9 / 2) / ln(1 / 0.618) = 45 steps for the same bracket; Brent half as many.
+        assert!(evals.get() <= 23, "{} evaluations", evals.get());
+    }
+
+    #[test]
+    fn brent_falls_back_to_golden_sections_where_parabolas_fail() {
+        // A kink (no parabola fits it), a minimum at the bracket's edge, and NaN on half the bracket.
+        let (x, _) = brent(0.0, 1.0, 1e-7, 200, |x: f64| (x - 0.77).abs());
+        assert!((x - 0.77).abs() < 1e-6, "{x}");
+        let (x, _) = brent(0.0, 1.0, 1e-7, 200, |x: f64| x);
+        assert!(x < 1e-6, "{x}");
+        let (x, fx) = brent(0.0, 1.0, 1e-7, 200, |x: f64| if x > 0.5 { f64::NAN } else { (x - 0.2).powi(2) });
+        assert!((x - 0.2).abs() < 1e-6 && fx.is_finite(), "{x} {fx}");
+    }
+}

@@ -1,0 +1,384 @@
+//! The outliers candidate: spikes on a share of the samples, from rare isolated ones to epsilon-contaminated noise
+//! (up to a fifth of the samples), one by one or in short runs.
+//!
+//! # Method
+//! - **Residual.** Each sample less the median of its eight neighbours (four each side, the sample itself left
+//!   out): drifts, steps and sinusoids slower than a few samples leave next to nothing, and a spike is not shrunk
+//!   by its own value. Eight neighbours keep the median close where spikes come in runs of up to three or are
+//!   dense (at a 20% contamination, four of eight neighbours are spikes in under 6% of windows). Two passes: the
+//!   second (where the magnitudes' centre stands [`SECOND_PASS_SIGMAS`] out) leaves the spikes the first flagged
+//!   out of the windows, so a spike's partner in its run does not pull
+//!   the median (in runs of two at 6-13 sds it read the magnitudes 2% low, which the base N, fitted on what the
+//!   spikes leave of the Allan variance, took up as 8%). Samples whose window touches a gap are left out.
+//! - **Mixture.** The residuals' magnitudes are fitted by maximum likelihood as a Gaussian core plus spikes whose
+//!   magnitude is uniform on `centre +- spread` ([`mixture`]): the core's scale is read where the core dominates,
+//!   not inflated by the contamination as a MAD would be, and spikes too small to stand above any threshold are
+//!   counted in the share by their shape. The share, the centre and the spread are the model's `per_sample`,
+//!   `size_dps` and `spread_dps`: a spike adds its magnitude to the residual, so the law is read in deg/s.
+//! - **Evidence.** A process is kept when twice the log-likelihood gained over the Gaussian alone exceeds
+//!   [`MIN_LR`], the centre stands at least [`MIN_CENTRE_SIGMAS`] core sds out (a light or slightly heavy core is
+//!   not a spike process), at least [`MIN_SPIKES`] residuals beyond [`TAIL_SIGMAS`] core sds are more than the
+//!   core explains, and the flagged spikes are not most of them within [`CLUSTER_SPAN`] of the record (what a burst
+//!   leaves is an event, not a steady process).
+//! - **Runs.** A residual is flagged where the spike component is the likelier (and beyond [`FLAG_SIGMAS`]).
+//!   Flagged pairs k samples apart with one sign come from a run or by chance; chance gives as many of opposite
+//!   signs. The same-sign excess over `n eps D^2` (D the chance that a spike is flagged, from the fitted law) is
+//!   `rho_k`, the probability that the sample k after a spike is of its run: the mean run length is
+//!   `1 / (1 - rho_1)`, and `rho_2 / rho_1` the probability that a run of two goes on (the two parameters of
+//!   [`Outliers`]' run law, which holds runs of one or two as well as geometric ones).
+//! - **Base terms.** The spikes' own Allan variance (autocovariance `eps E s^2` at lag 0, `eps centre^2 rho_k` at
+//!   lag k: runs share a sign) is taken off the OADEV and the base terms are re-fitted on what is left, each
+//!   point's degrees of freedom scaled by the share left squared (its sampling error is the whole variance's). The flagged spikes, replaced by their neighbours' median, are the realisation
+//!   the chain's later steps learn without.
+
+use octavar_shared::sim::{GyroSim, Outliers};
+use std::sync::Arc;
+
+use super::common::*;
+use super::curve::{ar1_avar, refit_base_terms};
+use super::params::OutliersParams;
+use super::{Effect, EffectFit, EffectKind, TrainingData};
+use octavar_stats::robust::mad_scale_in_place;
+
+mod mixture;
+#[cfg(test)]
+mod tests;
+
+/// Neighbours each side of the median a residual is taken from.
+const HALF_WINDOW: usize = 4;
+
+/// Twice the log-likelihood a mixture must gain over the Gaussian core alone.
+pub(crate) const MIN_LR: f64 = 50.0;
+
+/// The magnitude law's centre must stand this many core sds out: a core a little lighter or heavier than a
+/// Gaussian fits as a "contamination" buried in it.
+const MIN_CENTRE_SIGMAS: f64 = 2.5;
+
+/// The tail where spikes must outnumber what the core explains, core sds.
+const TAIL_SIGMAS: f64 = 5.0;
+
+/// Fewest spikes that make a rate: two or three events are not a process.
+const MIN_SPIKES: usize = 5;
+
+/// The residuals are taken again without the flagged spikes in the windows when the magnitudes' centre stands
+/// this many core sds out.
+const SECOND_PASS_SIGMAS: f64 = 5.0;
+
+/// A residual is flagged as a spike only beyond this many core sds (and where the spike is the likelier).
+const FLAG_SIGMAS: f64 = 3.5;
+
+/// Spikes of a steady process are spread over the record: when more than half of them fall within this fraction
+/// of it, they are a cluster (what a burst leaves), not a rate. For five spikes at uniform times, three or more
+/// within a fiftieth of the record happen about once in a hundred records.
+const CLUSTER_SPAN: f64 = 0.02;
+
+/// The median of a few values (the mean of the middle two of an even count).
+fn median_small(v: &mut [f64]) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    let k = v.len() / 2;
+    if v.len().is_multiple_of(2) {
+        0.5 * (v[k - 1] + v[k])
+    } else {
+        v[k]
+    }
+}
+
+/// Each sample less the median of its [`HALF_WINDOW`] neighbours each side, leaving out the neighbours marked in
+/// `skip` (spikes flagged by a first pass) while at least half of them remain; NaN at the ends and where the
+/// window touches a sample in `gap` (true: missing or masked).
+///
+/// Where the level steps between the two sides (the medians of the left and right neighbours differ by more than
+/// [`STEP_SIGMAS`] residual sds: a bias jump, a bistable bias's flip), the sample belongs to one side's level, and
+/// its residual is the smaller of the two one-sided ones: against both sides at once, every sample at a jump
+/// would stand half a step out and read as a spike.
+fn residuals(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Vec<f64> {
+    let n = x.len();
+    let h = HALF_WINDOW;
+    let mut r = vec![f64::NAN; n];
+    let mut sides = vec![(f64::NAN, f64::NAN); n];
+    let mut prefix = vec![0usize; n + 1];
+    for i in 0..n {
+        prefix[i + 1] = prefix[i] + usize::from(gap[i]);
+    }
+    // The median of the neighbours at `at`, without the skipped ones where at least `least` remain.
+    let median_of = |at: &mut dyn Iterator<Item = usize>, least: usize, w: &mut [f64]| -> f64 {
+        let (mut k, mut all) = (0, 0);
+        for j in at {
+            if skip.is_none_or(|s| !s[j]) {
+                w[k] = x[j];
+                k += 1;
+            }
+            // The whole window, kept past the unskipped ones for the case too few remain.
+            w[2 * HALF_WINDOW + all] = x[j];
+            all += 1;
+        }
+        if k < least {
+            w.copy_within(2 * HALF_WINDOW..2 * HALF_WINDOW + all, 0);
+            k = all;
+        }
+        median_small(&mut w[..k])
+    };
+    let mut w = [0.0; 4 * HALF_WINDOW];
+    for i in h..n.saturating_sub(h) {
+        if prefix[i + h + 1] - prefix[i - h] > 0 {
+            continue;
+        }
+        r[i] = x[i] - median_of(&mut (i - h..i).chain(i + 1..=i + h), h, &mut w);
+        let left = median_of(&mut (i - h..i), h / 2, &mut w);
+        let right = median_of(&mut (i + 1..i + h + 1), h / 2, &mut w);
+        sides[i] = (x[i] - left, x[i] - right);
+    }
+    let mut valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+    if valid.is_empty() {
+        return r;
+    }
+    let (_, scale) = mad_scale_in_place(&mut valid);
+    if !(scale > 0.0) {
+        return r;
+    }
+    for (ri, &(l, rt)) in r.iter_mut().zip(&sides) {
+        if ri.is_finite() && (l - rt).abs() > STEP_SIGMAS * scale {
+            *ri = if l.abs() < rt.abs() { l } else { rt };
+        }
+    }
+    r
+}
+
+/// Spikes whose fitted magnitude law starts this many core sds out stand clear of the core: every one of them is
+/// flagged.
+const CLEAR_SIGMAS: f64 = 10.0;
+
+/// Fewest flagged spikes whose quartiles give the magnitude law ([`clear_law`]).
+const QUARTILE_SPIKES: usize = 8;
+
+/// The magnitude law of spikes that stand clear of the core, from the quartiles of the flagged magnitudes: where
+/// the fitted law's lower edge is [`CLEAR_SIGMAS`] core sds out, the flagged spikes are the whole sample of it,
+/// and a uniform law on `centre +- spread` has its quartiles at `centre +- spread / 2`. The likelihood's uniform
+/// support must cover every flagged magnitude, so one stray spike at half the others' size (a spike on a bias
+/// flip) stretches it to twice the width, and the simulated spikes lose a third of their fourth moment; the
+/// quartiles do not move. Elsewhere (spikes buried in the core, or too few) the likelihood's law stands.
+fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)]) -> mixture::Mixture {
+    if flagged.len() < QUARTILE_SPIKES || m.centre - m.spread < CLEAR_SIGMAS * m.sigma {
+        return m;
+    }
+    let mut mags: Vec<f64> = flagged.iter().map(|f| f.1.abs()).collect();
+    mags.sort_by(f64::total_cmp);
+    let quantile = |p: f64| {
+        let at = p * (mags.len() - 1) as f64;
+        let (i, frac) = (at.floor() as usize, at.fract());
+        mags[i] + frac * (mags[(i + 1).min(mags.len() - 1)] - mags[i])
+    };
+    let (q1, q3) = (quantile(0.25), quantile(0.75));
+    mixture::Mixture { centre: 0.5 * (q1 + q3), spread: q3 - q1, ..m }
+}
+
+/// How far apart, in residual sds, the medians of a sample's left and right neighbours must be for the level to
+/// have stepped between them: their difference has an sd of about one residual sd on noise alone.
+const STEP_SIGMAS: f64 = 6.0;
+
+/// What the estimator reads off a record: the fitted mixture, the spikes it flags, the run law.
+#[derive(Clone, Debug)]
+pub(super) struct Contamination {
+    /// The fitted core and magnitude law, in deg/s.
+    pub mix: mixture::Mixture,
+    /// Flagged samples and their residuals.
+    pub flagged: Vec<(usize, f64)>,
+    /// Probability that the sample after a spike is of its run (`rho_1`).
+    pub rho1: f64,
+    /// Probability that a run of two or more goes on (`rho_2 / rho_1`).
+    pub cont_next: f64,
+    /// Residuals beyond [`TAIL_SIGMAS`] core sds, and how many the core explains.
+    pub tail: (usize, f64),
+}
+
+impl Contamination {
+    /// Whether the evidence makes a spike process ([`MIN_LR`], [`MIN_CENTRE_SIGMAS`], [`MIN_SPIKES`] beyond
+    /// [`TAIL_SIGMAS`], not a cluster).
+    pub fn is_process(&self, n: usize) -> bool {
+        let m = &self.mix;
+        let excess = self.tail.0 as f64 - self.tail.1;
+        let hits: Vec<usize> = self.flagged.iter().map(|f| f.0).collect();
+        m.lr >= MIN_LR
+            && m.centre >= MIN_CENTRE_SIGMAS * m.sigma
+            && excess >= MIN_SPIKES as f64 + 3.0 * self.tail.1.sqrt()
+            && hits.len() >= MIN_SPIKES
+            && !clustered(&hits, n)
+    }
+
+    /// The mean run length, samples.
+    pub fn run_mean(&self) -> f64 {
+        1.0 / (1.0 - self.rho1)
+    }
+}
+
+/// Read the contamination of `x` (deg/s; `gap` marks missing or masked samples); `None` without a residual scale.
+pub(super) fn read(x: &[f64], gap: &[bool]) -> Option<Contamination> {
+    let first = read_with(x, gap, None)?;
+    // Spikes that stand clear of the core are flagged nearly all and nothing else; small dense ones are flagged
+    // in part and with the core's own extremes, and leaving those out would bend the core: one pass.
+    if first.mix.centre < SECOND_PASS_SIGMAS * first.mix.sigma {
+        return Some(first);
+    }
+    let mut skip = vec![false; x.len()];
+    for &(i, _) in &first.flagged {
+        skip[i] = true;
+    }
+    read_with(x, gap, Some(&skip))
+}
+
+/// One pass of [`read`]: the residuals (their windows without the samples in `skip`), the mixture, the flags.
+fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Option<Contamination> {
+    let r = residuals(x, gap, skip);
+    let mut valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+    if valid.len() < 64 {
+        return None;
+    }
+    let k = valid.len() / 2;
+    let med = *valid.select_nth_unstable_by(k, f64::total_cmp).1;
+    let abs: Vec<f64> = valid.iter().map(|v| (v - med).abs()).collect();
+    let mix = mixture::fit(&abs)?;
+    let n_valid = abs.len();
+    // Flag where the spike is the likelier, from FLAG_SIGMAS out.
+    let mut flag = FLAG_SIGMAS * mix.sigma;
+    while flag < 100.0 * mix.sigma && mix.spike_odds(flag) < 1.0 {
+        flag += 0.05 * mix.sigma;
+    }
+    let flagged: Vec<(usize, f64)> =
+        r.iter().enumerate().filter(|(_, v)| (**v - med).abs() > flag).map(|(i, v)| (i, v - med)).collect();
+    // Runs: flagged pairs k apart of one sign beyond those of opposite signs, against n eps D^2.
+    let d = mix.spike_sf(flag);
+    let pairs = n_valid as f64 * mix.eps * d * d;
+    let rho = |k: usize| {
+        let (mut same, mut opposite) = (0.0f64, 0.0f64);
+        for (j, &(i, v)) in flagged.iter().enumerate() {
+            for &(i2, v2) in flagged[j + 1..].iter().take_while(|f| f.0 <= i + k) {
+                if i2 == i + k {
+                    if v * v2 > 0.0 {
+                        same += 1.0;
+                    } else {
+                        opposite += 1.0;
+                    }
+                }
+            }
+        }
+        let significant = same - opposite > 3.0 * (same + opposite).sqrt() && pairs > 0.0;
+        if significant {
+            ((same - opposite) / pairs).clamp(0.0, 0.9)
+        } else {
+            0.0
+        }
+    };
+    let rho1 = rho(1);
+    let cont_next = if rho1 > 0.0 { (rho(2) / rho1).clamp(0.0, 0.9) } else { 0.0 };
+    let beyond = abs.iter().filter(|&&v| v > TAIL_SIGMAS * mix.sigma).count();
+    let expected = n_valid as f64 * (1.0 - mix.eps) * 2.0 * normal_sf(TAIL_SIGMAS);
+    Some(Contamination { mix, flagged, rho1, cont_next, tail: (beyond, expected) })
+}
+
+/// The outliers effect: [`outliers`] and its parameters.
+pub(super) struct Kind;
+
+impl EffectKind for Kind {
+    const EFFECT: Effect = Effect::Outliers;
+    type Params = OutliersParams;
+
+    fn estimate(data: &TrainingData) -> Option<EffectFit> {
+        outliers(data)
+    }
+
+    fn test_statistic(p: &OutliersParams) -> Option<f64> {
+        Some(p.lr)
+    }
+}
+
+/// Spikes on a share of the samples ([module docs](self)).
+pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
+    let x = d.rate_dps;
+    let n = x.len();
+    let mut gap = vec![false; n];
+    for g in d.gaps {
+        for v in &mut gap[g.start.min(n)..g.end.min(n)] {
+            *v = true;
+        }
+    }
+    let c = read(x, &gap)?;
+    if !c.is_process(n) {
+        return None;
+    }
+    let m = clear_law(c.mix, &c.flagged);
+    let run_mean = c.run_mean();
+    let spikes = Outliers {
+        per_sample: m.eps,
+        size_dps: m.centre,
+        spread_dps: m.spread,
+        run_mean: if c.rho1 > 0.0 { run_mean } else { 0.0 },
+        run_continue: c.cont_next,
+        ..Default::default()
+    };
+    let refit = refit_without(d, &spikes);
+    let mut cleaned = x.to_vec();
+    for &(i, r) in &c.flagged {
+        cleaned[i] = x[i] - r;
+    }
+    Some(EffectFit {
+        effect: Effect::Outliers,
+        params: OutliersParams {
+            per_sample: m.eps,
+            size_dps: m.centre,
+            spread_dps: m.spread,
+            run_mean,
+            run_continue: c.cont_next,
+            count: c.flagged.len(),
+            robust_sigma_dps: m.sigma,
+            lr: c.mix.lr,
+        }
+        .into(),
+        n_params: 3 + usize::from(c.rho1 > 0.0) + usize::from(c.cont_next > 0.0),
+        gyro: GyroSim { outliers: Some(spikes), ..refit },
+        channel: None,
+        spread: None,
+        cleaned: Some(Arc::new(cleaned)),
+    })
+}
+
+/// The Allan variance of the spike process of `o` at `m` samples, from its autocovariance: `R0 = eps E s^2` and
+/// `R_k = R1 c2^(k-1)`, `R1 = eps centre^2 (1 - 1 / run_mean)` (a run's spikes share a sign). With `c2 > 0` that is
+/// white `R0 - R1 / c2` plus an AR(1) of pole c2 and variance `R1 / c2`; with `c2 = 0`, `(R0 + 2 R1) / m - 3 R1 / m^2`.
+fn spike_avar(o: &Outliers, m: f64) -> f64 {
+    let (c, w) = (o.size_dps, o.spread_dps);
+    let r0 = o.per_sample * (c * c + w * w / 3.0);
+    let r1 = o.per_sample * c * c * (1.0 - 1.0 / o.run_mean.max(1.0));
+    let c2 = o.run_continue;
+    if c2 > 1e-9 {
+        (r0 - r1 / c2) / m + r1 / c2 * ar1_avar(c2, m)
+    } else {
+        (r0 + 2.0 * r1) / m - 3.0 * r1 / (m * m)
+    }
+}
+
+/// The base terms re-fitted on the OADEV less the spikes' Allan variance (no ramp the base fit did not have);
+/// each point's EDF is scaled by the share left squared, since its sampling error is the whole variance's.
+fn refit_without(d: &TrainingData, o: &Outliers) -> GyroSim {
+    let rate_hz = d.rate_hz;
+    let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz)
+        .into_iter()
+        .filter_map(|mut p| {
+            let own = spike_avar(o, p.tau_s * rate_hz);
+            let left = (p.avar - own) / p.avar;
+            (left > 0.02).then(|| {
+                p.avar -= own;
+                p.edf *= left * left;
+                p
+            })
+        })
+        .collect();
+    refit_base_terms(d.base, &pts, rate_hz)
+}
+
+/// Whether more than half of the spikes at sample indices `hits` (sorted) lie within [`CLUSTER_SPAN`] of a record
+/// of `n` samples.
+fn clustered(hits: &[usize], n: usize) -> bool {
+    let span = (CLUSTER_SPAN * n as f64) as usize;
+    let need = hits.len() / 2 + 1;
+    hits.windows(need).any(|w| w[need - 1] - w[0] <= span)
+}

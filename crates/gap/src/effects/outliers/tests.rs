@@ -1,0 +1,267 @@
+//! The outliers estimator on contaminated records made here, without `shared::sim` (a Box-Muller Gaussian on the
+//! test LCG, spikes drawn apart), on Gaussian controls, and end to end through the diagnosis.
+
+use rayon::prelude::*;
+
+use super::*;
+use crate::effects::common::oadev_points;
+use crate::{diagnose, GapInput, GapOptions};
+use octavar_stats::test_signals::Lcg;
+
+/// A standard Gaussian by Box-Muller (its tails are a Gaussian's, where the sum of 12 uniforms stops at 6).
+fn gauss(g: &mut Lcg) -> f64 {
+    let u = 1.0 - g.uniform();
+    let v = g.uniform();
+    (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+}
+
+/// A contamination: a share `share` of the samples are spikes, magnitudes uniform on `lo..hi` white sds, in runs
+/// whose lengths are uniform on `1..=run_max` (one sign a run).
+#[derive(Clone, Copy, Debug)]
+struct Spec {
+    share: f64,
+    lo: f64,
+    hi: f64,
+    run_max: usize,
+}
+
+/// White noise of sd `sigma` with the spikes of `spec` (`None`: clean), and the realised share of spiked samples.
+fn contaminated(n: usize, sigma: f64, spec: Option<Spec>, seed: u64) -> (Vec<f64>, f64) {
+    let mut g = Lcg::new(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x5bd1);
+    let mut x: Vec<f64> = (0..n).map(|_| sigma * gauss(&mut g)).collect();
+    let Some(s) = spec else { return (x, 0.0) };
+    // A run starts with probability q at every sample outside a run (the next run may follow at once, with its
+    // own sign: independent events, as a numpy mask `rng.random(n) < q` draws them); mean run length L:
+    // share = qL / (1 - q + qL).
+    let l = (1 + s.run_max) as f64 / 2.0;
+    let q = s.share / (l - s.share * (l - 1.0));
+    let (mut i, mut hits) = (0, 0usize);
+    while i < n {
+        if g.uniform() < q {
+            let len = 1 + (g.uniform() * s.run_max as f64) as usize;
+            let sign = if g.uniform() < 0.5 { -1.0 } else { 1.0 };
+            for v in x.iter_mut().skip(i).take(len) {
+                *v += sign * sigma * (s.lo + (s.hi - s.lo) * g.uniform());
+                hits += 1;
+            }
+            i += len;
+        } else {
+            i += 1;
+        }
+    }
+    (x, hits as f64 / n as f64)
+}
+
+/// The contamination read off `x`, with no gaps.
+fn read_all(x: &[f64]) -> Option<Contamination> {
+    read(x, &vec![false; x.len()])
+}
+
+/// Whether the estimator names a process in `x`.
+fn found(x: &[f64]) -> bool {
+    read_all(x).is_some_and(|c| c.is_process(x.len()))
+}
+
+const N: usize = 1 << 20;
+const SIGMA: f64 = 0.1;
+
+/// Each scenario: the share within `share_tol` (relative) of the realised one, the magnitude law's centre within
+/// `size_tol` white sds and its half-width within `spread_tol` white sds, the mean run length where stated.
+fn recovered(spec: Spec, seed: u64, share_tol: f64, size_tol: f64, spread_tol: f64, run_mean: Option<(f64, f64)>) {
+    let (x, share) = contaminated(N, SIGMA, Some(spec), seed);
+    let c = read_all(&x).expect("a mixture");
+    assert!(c.is_process(N), "{spec:?}: {c:?}");
+    let m = c.mix;
+    let (centre, half) = (0.5 * (spec.lo + spec.hi), 0.5 * (spec.hi - spec.lo));
+    let got = (m.eps, m.centre / SIGMA, m.spread / SIGMA, c.run_mean());
+    eprintln!("{spec:?} seed {seed}: share {share:.5} -> {:.5}, centre {centre} -> {:.2}, half-width {half} -> {:.2}, run mean -> {:.2}, sigma {:.4}, lr {:.0}", got.0, got.1, got.2, got.3, m.sigma / SIGMA, m.lr);
+    assert!((m.eps / share - 1.0).abs() < share_tol, "share {share} read {}", m.eps);
+    assert!((got.1 - centre).abs() < size_tol, "centre {centre} read {}", got.1);
+    assert!((got.2 - half).abs() < spread_tol, "half-width {half} read {}", got.2);
+    if let Some((want, tol)) = run_mean {
+        assert!((got.3 - want).abs() < tol, "run mean {want} read {}", got.3);
+    }
+}
+
+/// numpy-like contamination: 2% and 12% of the samples, 4-9 sds, isolated: share within 10%, centre within 0.3
+/// sd, half-width within 0.5 sd, no runs read (mean run length within 0.1 of 1).
+#[test]
+fn numpy_like_contamination_is_recovered() {
+    for (share, seed) in [(0.02, 1), (0.05, 2), (0.12, 3)] {
+        let spec = Spec { share, lo: 4.0, hi: 9.0, run_max: 1 };
+        recovered(spec, seed, 0.10, 0.3, 0.5, Some((1.0, 0.1)));
+    }
+}
+
+/// XSens-like: 5% at 6-13 sds in runs of 1-2 (mean 1.5): share within 10%, centre within 0.3 sd, half-width
+/// within 0.5 sd, mean run length within 0.15.
+#[test]
+fn xsens_like_runs_are_recovered() {
+    let spec = Spec { share: 0.05, lo: 6.0, hi: 13.0, run_max: 2 };
+    recovered(spec, 4, 0.10, 0.3, 0.5, Some((1.5, 0.15)));
+}
+
+/// Rare spikes, 1e-4 of the samples at 10 sds (about 105 of them): share within 25% (a Poisson count of 100
+/// scatters by 10%), size within 0.2 sd, half-width under 1 sd (a uniform half-width w adds `w^2 / 3` to the
+/// magnitudes' variance of about 1.2 sd^2 from the noise: with 100 spikes, w of 1 is within one standard error).
+#[test]
+fn rare_spikes_are_recovered() {
+    let spec = Spec { share: 1e-4, lo: 10.0, hi: 10.0, run_max: 1 };
+    recovered(spec, 5, 0.25, 0.2, 1.0, Some((1.0, 1e-9)));
+}
+
+/// Dense small spikes, 20% at 3 sds: below any threshold one by one, read by their shape: share within 15%,
+/// centre within 0.3 sd, half-width under 0.6 sd.
+#[test]
+fn dense_small_contamination_is_recovered() {
+    let spec = Spec { share: 0.2, lo: 3.0, hi: 3.0, run_max: 1 };
+    recovered(spec, 6, 0.15, 0.3, 0.6, None);
+}
+
+/// Controls: no process on Gaussian white noise (60 records of 2^20 samples), on white + random walk + a
+/// flicker-like sum of AR(1)s (40 records), and on white noise through a coarse ADC (a step of 0.5-3 sds, 20
+/// records). Measured: none of the 120 is named.
+#[test]
+fn gaussian_controls_have_no_outliers() {
+    let white: Vec<u64> = (0..60).collect();
+    let named: Vec<u64> =
+        white.par_iter().copied().filter(|&s| found(&contaminated(N, SIGMA, None, 100 + s).0)).collect();
+    assert!(named.is_empty(), "white noise named outliers at seeds {named:?}");
+    let coloured: Vec<u64> = (0..40u64)
+        .into_par_iter()
+        .filter(|&s| {
+            let (mut x, _) = contaminated(N, SIGMA, None, 200 + s);
+            let mut g = Lcg::new(900 + s);
+            // A random walk and three AR(1)s at 0.1, 1 and 10 s at 100 Hz, each about the white sd at its time.
+            let (mut rw, mut ar) = (0.0, [0.0; 3]);
+            for v in x.iter_mut() {
+                rw += 2e-3 * SIGMA * gauss(&mut g);
+                let mut f = 0.0;
+                for (k, a) in ar.iter_mut().enumerate() {
+                    let pole = (-1.0 / (10f64.powi(k as i32 + 1))).exp();
+                    *a = pole * *a + 0.3 * SIGMA * (1.0 - pole * pole).sqrt() * gauss(&mut g);
+                    f += *a;
+                }
+                *v += rw + f;
+            }
+            found(&x)
+        })
+        .collect();
+    assert!(coloured.is_empty(), "white + flicker + random walk named outliers at seeds {coloured:?}");
+    let quantised: Vec<u64> = (0..20u64)
+        .into_par_iter()
+        .filter(|&s| {
+            let step = SIGMA * (0.5 + 2.5 * s as f64 / 19.0);
+            let (x, _) = contaminated(N, SIGMA, None, 300 + s);
+            let q: Vec<f64> = x.iter().map(|v| (v / step + 0.37).round() * step).collect();
+            found(&q)
+        })
+        .collect();
+    assert!(quantised.is_empty(), "quantised white noise named outliers at seeds {quantised:?}");
+}
+
+/// The effect through `estimate`: the model carries the mixture and the base N is the white noise's without the
+/// spikes' variance (within 3%).
+#[test]
+fn the_fitted_model_carries_the_mixture_and_the_clean_white_noise() {
+    let rate_hz = 100.0;
+    let spec = Spec { share: 0.05, lo: 6.0, hi: 13.0, run_max: 2 };
+    let (x, _) = contaminated(N, SIGMA, Some(spec), 7);
+    let pts = oadev_points(&x, rate_hz);
+    let f = octavar_stats::fit::fit(&pts, &octavar_stats::fit::FitOptions::default()).unwrap();
+    let base = crate::base_model(&f, &x);
+    let d = TrainingData {
+        rate_dps: &x,
+        recorded_dps: &x,
+        temp_c: None,
+        rate_hz,
+        base: &base,
+        base_fit: &f,
+        gaps: &[],
+        lattice_dps: None,
+        shaped_dps: None,
+    };
+    let e = outliers(&d).expect("outliers");
+    let o = e.gyro.outliers.unwrap();
+    let n_true = SIGMA / rate_hz.sqrt();
+    eprintln!("{:?}; N {} (truth {n_true}, base {})", e.params, e.gyro.n_deg_per_rt_s, base.n_deg_per_rt_s);
+    assert!((e.gyro.n_deg_per_rt_s / n_true - 1.0).abs() < 0.03, "N {}", e.gyro.n_deg_per_rt_s);
+    assert!(o.run_mean > 1.3 && o.spread_dps > 0.0);
+    let json = serde_json::to_value(&e.params).unwrap();
+    for key in ["per_sample", "size_dps", "spread_dps", "run_mean", "robust_sigma_dps", "count"] {
+        assert!(json[key].is_number(), "{key}");
+    }
+}
+
+/// A model.toml written before the mixture fields loads, as isolated spikes of one size.
+#[test]
+fn an_old_model_file_still_loads() {
+    let g: GyroSim =
+        toml::from_str("n_deg_per_rt_s = 0.01\noutliers = { per_sample = 1e-4, size_sigma = 8.0 }\n").unwrap();
+    let o = g.outliers.unwrap();
+    assert_eq!((o.per_sample, o.size_sigma, o.spread_dps, o.spread_sigma, o.run_mean), (1e-4, 8.0, 0.0, 0.0, 0.0));
+}
+
+/// End to end: an XSens-like record (white noise and a random walk, 5% of the samples spikes of 6-13 sds in runs
+/// of 1-2) is diagnosed `outliers`; after the chain the distribution view's training gap and the held-out gap are
+/// below 2.5, and no transient is masked (the spikes are a steady process, not bursts).
+///
+/// Ignored until it holds: today it is named `outliers` (training distribution gap 520.9 -> 1.64) but the held-out
+/// distribution gap after is 3.27 and the chain's held-out gap 2.82.
+#[test]
+#[ignore = "held-out gap after the chain 2.82 (distribution 3.27), above 2.5"]
+fn a_contaminated_record_is_diagnosed_outliers() {
+    let rate_hz = 100.0;
+    let n = 1 << 19;
+    let spec = Spec { share: 0.05, lo: 6.0, hi: 13.0, run_max: 2 };
+    let (mut x, _) = contaminated(n, SIGMA, Some(spec), 11);
+    let mut g = Lcg::new(77);
+    let mut rw = 0.0;
+    for v in x.iter_mut() {
+        rw += 1e-3 * SIGMA * gauss(&mut g);
+        *v += rw;
+    }
+    let input = GapInput::split(x, None, rate_hz, 0.5).unwrap();
+    let r = diagnose(&input, &GapOptions { seeds: 12, ..Default::default() }, &|_, _, _| {}).unwrap();
+    eprintln!("{}", r.text());
+    assert!(r.input.transients.is_empty(), "{:?}", r.input.transients);
+    assert_eq!(r.effect_name(), "outliers");
+    let dist = |views: &[crate::compare::ViewGap]| {
+        views.iter().find(|v| v.view.name() == "distribution").map(|v| v.gap).unwrap()
+    };
+    let (before, after) = (dist(&r.base.eval.training), dist(&r.final_eval().training));
+    let (h_before, h_after) = (dist(&r.base.eval.holdout), dist(&r.final_eval().holdout));
+    let total = r.holdout.total.unwrap();
+    eprintln!(
+        "distribution training {before:.2} -> {after:.2}, holdout {h_before:.2} -> {h_after:.2}; holdout total {:.2} -> {:.2}",
+        total.gap_before, total.gap_after
+    );
+    assert!(after < 2.5 && h_after < 2.5 && total.gap_after < 2.5);
+}
+
+/// The transient scan leaves steady contamination alone, however dense: numpy-like (2% and 12% at 4-9 sds),
+/// XSens-like (5% at 6-13 sds in runs of 1-2), 20% at 3 sds, and rare isolated spikes (2e-4 at 10-20 sds). A
+/// burst is a cluster far denser than the record's own spike rate; none of these has one. (Rare spikes in runs are
+/// not covered: the burst test counts each sample of a run as an event of its own.)
+#[test]
+fn steady_contamination_is_not_masked_as_bursts() {
+    let specs = [
+        Spec { share: 0.02, lo: 4.0, hi: 9.0, run_max: 1 },
+        Spec { share: 0.12, lo: 4.0, hi: 9.0, run_max: 1 },
+        Spec { share: 0.05, lo: 6.0, hi: 13.0, run_max: 2 },
+        Spec { share: 0.2, lo: 3.0, hi: 3.0, run_max: 1 },
+        Spec { share: 2e-4, lo: 10.0, hi: 20.0, run_max: 1 },
+    ];
+    let masked: Vec<String> = specs
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(k, spec)| {
+            (0..3u64).filter_map(move |s| {
+                let (x, _) = contaminated(1 << 19, SIGMA, Some(*spec), 500 + 10 * k as u64 + s);
+                let scan = crate::transients::scan(&x, 100.0);
+                (!scan.events.is_empty()).then(|| format!("{spec:?} seed {s}: {:?}", scan.events))
+            })
+        })
+        .collect();
+    assert!(masked.is_empty(), "{masked:#?}");
+}

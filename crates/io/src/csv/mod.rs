@@ -1,0 +1,498 @@
+//! Reading rate recordings from CSV (or CSV.gz, or stdin): any column, any unit, a time column or a fixed rate.
+//!
+//! The reader streams: rows are handed to a callback one at a time, so a 72-hour file never has to fit in memory
+//! ([`read_csv_stream`]); [`read_csv`] collects them for in-memory analysis. Empty cells, `NaN` and samples
+//! missing from the time column (a jump of more than 1.5 sample periods) become NaN gaps, never interpolated or
+//! averaged in; the statistics skip every difference that touches one. A cell that is not a number, a missing
+//! column, an unknown unit or an empty file is an error that names the file, the line and the column.
+
+mod lines;
+pub mod rows;
+mod timed;
+
+#[cfg(test)]
+mod tests;
+
+use std::io::BufRead;
+
+use crate::recording::{AccelUnit, RateUnit, Recording, StreamInfo, UnknownUnit};
+use lines::{task_ranges, Block, LineParser, Parsed, Skip};
+use octavar_stats::quantity::Quantity;
+use rows::{clean_header, split, Delimiter, Dialect};
+use timed::{Timed, TimedRow};
+
+/// What went wrong, and where.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordingError {
+    /// A requested column is not in the header.
+    #[error("{path}, line {line}: no column {column:?} (the header has: {available})")]
+    MissingColumn { path: String, line: u64, column: String, available: String },
+    /// A cell that should be a number is not.
+    #[error("{path}, line {line}, column {column:?}: {text:?} is not a number")]
+    NotANumber { path: String, line: u64, column: String, text: String },
+    /// A cell that reads as an infinity (`inf`, `1e999`): no sensor reports one, and it would poison every sum.
+    #[error(
+        "{path}, line {line}, column {column:?}: {text:?} is not a finite number (leave the cell empty or write NaN \
+         for a missing sample)"
+    )]
+    NotFinite { path: String, line: u64, column: String, text: String },
+    /// A cell with a comma that is not a number, in a file read with a decimal point.
+    #[error(
+        "{path}, line {line}, column {column:?}: {text:?} is not a number (a decimal comma? give --decimal-comma)"
+    )]
+    NotANumberDecimalComma { path: String, line: u64, column: String, text: String },
+    /// A row with more or fewer cells than the header.
+    #[error("{path}, line {line}: {found} fields where the header has {expected}{hint}")]
+    FieldCount { path: String, line: u64, found: usize, expected: usize, hint: String },
+    /// A column name that appears twice in the header.
+    #[error("{path}, line {line}: column {column:?} appears twice in the header (fields {first} and {second})")]
+    DuplicateColumn { path: String, line: u64, column: String, first: usize, second: usize },
+    /// A row that cannot be read.
+    #[error("{path}, line {line}: {message}")]
+    BadRow { path: String, line: u64, message: String },
+    /// Nothing to read.
+    #[error("{path}: no samples (the file is empty, or every row was filtered out)")]
+    Empty { path: String },
+    /// A unit octavar does not know.
+    #[error(transparent)]
+    UnknownUnit(#[from] UnknownUnit),
+    /// No sample rate: neither --rate nor a time column.
+    #[error("{path}: no sample rate: give --rate HZ or --time-column NAME")]
+    NoRate { path: String },
+    /// A time column that does not increase.
+    #[error("{path}, line {line}, column {column:?}: time {t} does not increase (previous {previous})")]
+    TimeNotIncreasing { path: String, line: u64, column: String, t: f64, previous: f64 },
+    /// A `--where` filter that is not `COLUMN=VALUE`.
+    #[error("filter {0:?} is not COLUMN=VALUE")]
+    BadFilter(String),
+    /// A sample rate that is not a positive number.
+    #[error("sample rate {0} Hz must be a positive number")]
+    BadRate(f64),
+    /// Reading failed.
+    #[error("reading {path}: {err}")]
+    Io { path: String, err: std::io::Error },
+}
+
+/// A row filter `COLUMN=VALUE`: keep rows whose cell equals VALUE (as text, or as a number).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RowFilter {
+    /// Column name.
+    pub column: String,
+    /// Value to match.
+    pub value: String,
+}
+
+impl RecordingError {
+    /// The line the error names, to move a parallel task's line numbers (counted from its first line) to the
+    /// file's.
+    fn line_mut(&mut self) -> Option<&mut u64> {
+        use RecordingError as E;
+        match self {
+            E::MissingColumn { line, .. }
+            | E::NotANumber { line, .. }
+            | E::NotANumberDecimalComma { line, .. }
+            | E::NotFinite { line, .. }
+            | E::FieldCount { line, .. }
+            | E::DuplicateColumn { line, .. }
+            | E::BadRow { line, .. }
+            | E::TimeNotIncreasing { line, .. } => Some(line),
+            _ => None,
+        }
+    }
+}
+
+impl RowFilter {
+    /// Parse `COLUMN=VALUE`.
+    ///
+    /// # Errors
+    /// [`RecordingError::BadFilter`].
+    pub fn parse(text: &str) -> Result<RowFilter, RecordingError> {
+        match text.split_once('=') {
+            Some((c, v)) if !c.trim().is_empty() => {
+                Ok(RowFilter { column: c.trim().to_string(), value: v.trim().to_string() })
+            }
+            _ => Err(RecordingError::BadFilter(text.to_string())),
+        }
+    }
+
+    fn matches(&self, cell: &str) -> bool {
+        let cell = cell.trim();
+        if cell == self.value {
+            return true;
+        }
+        matches!((cell.parse::<f64>(), self.value.parse::<f64>()), (Ok(a), Ok(b)) if a == b)
+    }
+}
+
+/// How to read a CSV recording.
+#[derive(Clone, Debug)]
+pub struct CsvOptions {
+    /// Rate columns to read (at least one of these or of `accel_columns`).
+    pub columns: Vec<String>,
+    /// Accelerometer columns to read after the rate columns (x, y, z in order), in `accel_unit`.
+    pub accel_columns: Vec<String>,
+    /// Unit of the accelerometer columns.
+    pub accel_unit: AccelUnit,
+    /// A temperature column to carry along (degC), if any.
+    pub temp_column: Option<String>,
+    /// Fixed sample rate, Hz (or use `time_column`).
+    pub rate_hz: Option<f64>,
+    /// A time column in seconds; the rate is its median step, and jumps become gaps.
+    pub time_column: Option<String>,
+    /// Unit of the rate columns.
+    pub unit: RateUnit,
+    /// Lines to skip before the header.
+    pub skip_rows: usize,
+    /// Keep only rows matching every filter.
+    pub filters: Vec<RowFilter>,
+    /// The delimiter, or `None` to detect it from the header.
+    pub delimiter: Option<Delimiter>,
+    /// Numbers with a decimal comma (`Some(true)`), with a point (`Some(false)`), or `None` to detect it from the
+    /// first rows (only where the delimiter is not a comma).
+    pub decimal_comma: Option<bool>,
+    /// Accept rows with more or fewer fields than the header (missing cells of a wanted column still fail).
+    pub flexible: bool,
+}
+
+impl Default for CsvOptions {
+    fn default() -> Self {
+        CsvOptions {
+            columns: Vec::new(),
+            accel_columns: Vec::new(),
+            accel_unit: AccelUnit::MPerS2,
+            temp_column: None,
+            rate_hz: None,
+            time_column: None,
+            unit: RateUnit::DegPerS,
+            skip_rows: 0,
+            filters: Vec::new(),
+            delimiter: None,
+            decimal_comma: None,
+            flexible: false,
+        }
+    }
+}
+
+impl CsvOptions {
+    /// Every column read, in the order of the samples' values: the rate columns, then the accelerometer columns.
+    pub fn read_columns(&self) -> Vec<String> {
+        self.columns.iter().chain(&self.accel_columns).cloned().collect()
+    }
+
+    /// What each column of [`CsvOptions::read_columns`] measures.
+    pub fn quantities(&self) -> Vec<Quantity> {
+        let accel = std::iter::repeat_n(Quantity::Acceleration, self.accel_columns.len());
+        std::iter::repeat_n(Quantity::AngularRate, self.columns.len()).chain(accel).collect()
+    }
+
+    /// The factor from each column's unit to its quantity's (deg/s, m/s^2).
+    fn scales(&self) -> Vec<f64> {
+        let accel = std::iter::repeat_n(self.accel_unit.to_m_per_s2(), self.accel_columns.len());
+        std::iter::repeat_n(self.unit.to_dps(), self.columns.len()).chain(accel).collect()
+    }
+}
+
+/// Read a whole CSV recording into memory.
+///
+/// # Errors
+/// See [`read_csv_stream`].
+pub fn read_csv<R: BufRead + Send>(reader: R, path: &str, opts: &CsvOptions) -> Result<Recording, RecordingError> {
+    read_csv_sized(reader, path, opts, None)
+}
+
+/// [`read_csv`] of an input of `input_bytes` bytes, when known (an uncompressed file): the channels are given
+/// room for all their samples at once.
+///
+/// # Errors
+/// See [`read_csv_stream`].
+pub fn read_csv_sized<R: BufRead + Send>(
+    reader: R,
+    path: &str,
+    opts: &CsvOptions,
+    input_bytes: Option<u64>,
+) -> Result<Recording, RecordingError> {
+    let n = opts.columns.len() + opts.accel_columns.len();
+    let mut channels: Vec<Vec<f64>> = vec![Vec::new(); n];
+    let mut temps: Vec<f64> = Vec::new();
+    let info = read_csv_rows(reader, path, opts, input_bytes, |rows, temp, expected_rows| {
+        if channels[0].capacity() == 0 && expected_rows > 0 {
+            for c in &mut channels {
+                c.reserve(expected_rows);
+            }
+            if temp.is_some() {
+                temps.reserve(expected_rows);
+            }
+        }
+        if n == 1 {
+            channels[0].extend_from_slice(rows);
+        } else {
+            for row in rows.chunks_exact(n) {
+                for (c, v) in channels.iter_mut().zip(row) {
+                    c.push(*v);
+                }
+            }
+        }
+        if let Some(t) = temp {
+            temps.extend_from_slice(t);
+        }
+    })?;
+    Ok(Recording {
+        source: path.to_string(),
+        names: info.columns.clone(),
+        channels,
+        quantities: opts.quantities(),
+        temp_c: opts.temp_column.as_ref().map(|_| temps),
+        rate_hz: info.rate_hz,
+        info,
+    })
+}
+
+/// Bytes of input parsed at a time (then as many whole lines as complete the last one): the memory a streamed
+/// read holds, whatever the file's size.
+const BLOCK_BYTES: usize = 8 << 20;
+/// Data lines looked at to detect a decimal comma.
+const DETECT_ROWS: usize = 20;
+
+/// Stream a CSV recording: `sink` gets each sample's values (deg/s, one per column, NaN for a gap) and the
+/// temperature when a temperature column was named. The rate is known before the first call.
+///
+/// The dialect is [`CsvOptions::delimiter`] and [`CsvOptions::decimal_comma`], or detected from the header and
+/// the first rows (see [`crate::csv::rows::Dialect`]). Lines are read in blocks of about 8 MB and parsed on
+/// every core while the next block is read; the samples are then handed on in order, so memory
+/// stays bounded (two blocks).
+///
+/// # Errors
+/// A missing or duplicated column, a cell that is not a number, a row whose field count differs from the
+/// header's (unless [`CsvOptions::flexible`]), a time column that does not increase, no rate, an empty result,
+/// text that is not UTF-8, or an I/O error; each names the file, line and column.
+pub fn read_csv_stream<R: BufRead + Send>(
+    reader: R,
+    path: &str,
+    opts: &CsvOptions,
+    mut sink: impl FnMut(&[f64], Option<f64>),
+) -> Result<StreamInfo, RecordingError> {
+    let n = opts.columns.len() + opts.accel_columns.len();
+    read_csv_rows(reader, path, opts, None, |rows, temps, _| {
+        for (k, row) in rows.chunks_exact(n).enumerate() {
+            sink(row, temps.map(|t| t[k]));
+        }
+    })
+}
+
+/// [`read_csv_stream`] with the rows handed on in batches: `sink` gets the values of consecutive rows (`ncols`
+/// per row, row after row), their temperatures when a temperature column was named, and the rows expected in
+/// all (from the first block and `input_bytes`, the input's size when known; 0 when not).
+fn read_csv_rows<R: BufRead + Send>(
+    mut reader: R,
+    path: &str,
+    opts: &CsvOptions,
+    input_bytes: Option<u64>,
+    mut sink: impl FnMut(&[f64], Option<&[f64]>, usize),
+) -> Result<StreamInfo, RecordingError> {
+    let io = |err| RecordingError::Io { path: path.to_string(), err };
+    let not_utf8 =
+        |line: u64| RecordingError::BadRow { path: path.to_string(), line, message: "not valid UTF-8".into() };
+    let mut line_no: u64 = 0;
+    let mut raw = Vec::new();
+    for _ in 0..opts.skip_rows {
+        raw.clear();
+        if reader.read_until(b'\n', &mut raw).map_err(io)? == 0 {
+            return Err(RecordingError::Empty { path: path.to_string() });
+        }
+        line_no += 1;
+    }
+    if let Some(r) = opts.rate_hz {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(RecordingError::BadRate(r));
+        }
+    }
+    raw.clear();
+    reader.read_until(b'\n', &mut raw).map_err(io)?;
+    line_no += 1;
+    let header_line = line_no;
+    let header_text = std::str::from_utf8(&raw).map_err(|_| not_utf8(header_line))?;
+    let header_text = clean_header(header_text);
+    if header_text.trim().is_empty() {
+        return Err(RecordingError::Empty { path: path.to_string() });
+    }
+    // `None`: a one-field header, which says nothing about the delimiter (read as a comma).
+    let detected = Dialect::detect_delimiter(header_text);
+    let one_field = opts.delimiter.is_none() && detected.is_none();
+    let mut delimiter = opts.delimiter.or(detected).unwrap_or(Delimiter::Byte(b','));
+    let (mut block, mut next) = (Block::default(), Block::default());
+    block.read(&mut reader).map_err(io)?;
+    let decimal_comma = match opts.decimal_comma {
+        Some(dc) => dc,
+        // No decimal comma is guessed where nothing is known of the delimiter.
+        None if one_field => false,
+        None => {
+            let text = String::from_utf8_lossy(&block.bytes()[..block.len.min(1 << 16)]);
+            let rows: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).take(DETECT_ROWS).collect();
+            Dialect::detect_decimal_comma(delimiter, &rows)
+        }
+    };
+    if decimal_comma && delimiter == Delimiter::Byte(b',') {
+        if one_field {
+            // One column: nothing separates cells, so no delimiter can clash with the comma.
+            delimiter = Delimiter::Byte(b';');
+        } else {
+            return Err(RecordingError::BadRow {
+                path: path.to_string(),
+                line: header_line,
+                message: "a decimal comma needs a delimiter other than the comma (give --delimiter)".to_string(),
+            });
+        }
+    }
+    let dialect = Dialect { delimiter, decimal_comma };
+    let mut header_cells = Vec::new();
+    split(header_text, delimiter, &mut header_cells).map_err(|e| RecordingError::BadRow {
+        path: path.to_string(),
+        line: header_line,
+        message: e.to_string(),
+    })?;
+    let headers: Vec<String> = header_cells.iter().map(|h| h.to_string()).collect();
+    for (i, h) in headers.iter().enumerate() {
+        if let Some(j) = headers[..i].iter().position(|g| g == h) {
+            return Err(RecordingError::DuplicateColumn {
+                path: path.to_string(),
+                line: header_line,
+                column: h.clone(),
+                first: j + 1,
+                second: i + 1,
+            });
+        }
+    }
+    let find = |name: &str| {
+        headers.iter().position(|h| h == name).ok_or_else(|| RecordingError::MissingColumn {
+            path: path.to_string(),
+            line: header_line,
+            column: name.to_string(),
+            available: format!("{}; split at {delimiter}", headers.join(", ")),
+        })
+    };
+    let columns = opts.read_columns();
+    let cols: Vec<usize> = columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
+    let temp_col = opts.temp_column.as_deref().map(find).transpose()?;
+    let time_col = opts.time_column.as_deref().map(find).transpose()?;
+    let filters: Vec<(usize, &RowFilter)> =
+        opts.filters.iter().map(|f| find(&f.column).map(|i| (i, f))).collect::<Result<_, _>>()?;
+    if opts.rate_hz.is_none() && time_col.is_none() {
+        return Err(RecordingError::NoRate { path: path.to_string() });
+    }
+    let parser = LineParser {
+        path,
+        dialect,
+        header_fields: headers.len(),
+        flexible: opts.flexible,
+        cols,
+        names: &columns,
+        temp: temp_col.zip(opts.temp_column.as_deref()),
+        time: time_col.zip(opts.time_column.as_deref()),
+        roles: None,
+        filters,
+        scales: opts.scales(),
+    };
+    let parser = LineParser { roles: parser.plain_roles(), ..parser };
+    let mut info = StreamInfo { columns: columns.clone(), ..Default::default() };
+    let ncols = parser.cols.len();
+    let with_temp = parser.temp.is_some();
+    // Without a time column the rows go on in batches; with one, row by row, with NaN rows for the samples
+    // missing from the time column, once the rate is known from the median step of the first rows (buffered).
+    let mut timed = parser.time.map(|_| Timed {
+        rate: opts.rate_hz.unwrap_or(0.0),
+        last_t: None,
+        pending: Vec::new(),
+        nan_row: vec![f64::NAN; ncols],
+        column: opts.time_column.as_deref().unwrap_or(""),
+    });
+    if timed.is_none() {
+        info.rate_hz = opts.rate_hz.unwrap_or(0.0);
+    }
+    let mut emit = |values: &[f64], temps: Option<&[f64]>, gaps: u64, expected_rows: usize, info: &mut StreamInfo| {
+        let rows = values.len() / ncols.max(1);
+        info.samples += rows as u64;
+        info.gaps += gaps;
+        sink(values, temps.filter(|_| with_temp), expected_rows);
+    };
+    let count_gaps = |values: &[f64]| values.iter().filter(|v| v.is_nan()).count() as u64;
+    // The tasks' outputs, kept from block to block.
+    let mut parts: Vec<Parsed> = Vec::new();
+    let mut expected_rows = 0;
+    while block.len > 0 {
+        // The block in byte ranges of whole lines, one per task; each task checks its UTF-8, finds its lines and
+        // parses them, numbering from 1; the numbers are made absolute after, in order.
+        // The next block is read (and decompressed) while this one is parsed.
+        let bytes = block.bytes();
+        let ranges = task_ranges(bytes, 4 * rayon::current_num_threads());
+        parts.resize_with(ranges.len(), Parsed::default);
+        let ((), read) = rayon::join(
+            || {
+                use rayon::prelude::*;
+                parts.par_iter_mut().zip(&ranges).for_each(|(part, &(a, b))| {
+                    part.clear();
+                    match std::str::from_utf8(&bytes[a..b]) {
+                        Ok(text) => parser.parse(text, part),
+                        Err(e) => {
+                            let line = 1 + memchr::memchr_iter(b'\n', &bytes[a..a + e.valid_up_to()]).count() as u64;
+                            part.error = Some(not_utf8(line));
+                        }
+                    }
+                })
+            },
+            || next.read(&mut reader),
+        );
+        if let (0, Some(total)) = (expected_rows, input_bytes) {
+            // The rows the whole input will give, from this first block, so that a collector can make room once.
+            let rows: u64 = parts.iter().map(|p| p.lines).sum();
+            expected_rows = (total as f64 / block.len as f64 * rows as f64 * 1.01) as usize + 16;
+        }
+        for part in &mut parts {
+            let first = line_no + 1;
+            let filtered = part.skips.iter().filter(|(_, k)| *k == Skip::Filtered).count() as u64;
+            info.filtered_out += filtered;
+            let rows = part.lines - part.skips.len() as u64 - u64::from(part.error.is_some());
+            let values = &part.values[..rows as usize * ncols];
+            let temps = &part.temps[..if with_temp { rows as usize } else { 0 }];
+            match &mut timed {
+                None => emit(values, Some(temps), part.gaps, expected_rows, &mut info),
+                Some(timed) => {
+                    // The file line of each row: the task's lines less its skipped ones.
+                    let mut skips = part.skips.iter().peekable();
+                    let mut line = first;
+                    for k in 0..rows as usize {
+                        while skips.peek().is_some_and(|(l, _)| first + l - 1 == line) {
+                            skips.next();
+                            line += 1;
+                        }
+                        let row = TimedRow {
+                            values: &values[k * ncols..(k + 1) * ncols],
+                            temp: with_temp.then(|| temps[k]),
+                            t: part.times[k],
+                            line,
+                        };
+                        timed.row(row, path, &mut |v, t| emit(v, t, count_gaps(v), expected_rows, &mut info))?;
+                        line += 1;
+                    }
+                    info.rate_hz = timed.rate;
+                }
+            }
+            if let Some(mut e) = part.error.take() {
+                if let Some(line) = e.line_mut() {
+                    *line += first - 1;
+                }
+                return Err(e);
+            }
+            line_no += part.lines;
+        }
+        read.map_err(io)?;
+        std::mem::swap(&mut block, &mut next);
+    }
+    if let Some(timed) = &mut timed {
+        timed.finish(path, &mut |v, t| emit(v, t, count_gaps(v), expected_rows, &mut info))?;
+        info.rate_hz = timed.rate;
+    }
+    if info.samples == 0 {
+        return Err(RecordingError::Empty { path: path.to_string() });
+    }
+    Ok(info)
+}
