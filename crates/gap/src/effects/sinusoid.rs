@@ -381,42 +381,97 @@ impl EffectKind for Kind {
 /// projection within +-1 bin; amplitudes and phases of up to four peaks come from one joint least-squares fit of sines and cosines (plus a quadratic trend). The base
 /// terms are re-fitted on the record without the sinusoids (the base fit covered their Allan bump with B or K).
 pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
-    let x = d.rate_dps;
-    let n0 = x.len();
-    let dec = n0.div_ceil(1 << 21).max(1);
-    let mu = mean(x);
-    let y: Vec<f64> = if dec == 1 {
-        x.iter().map(|v| v - mu).collect()
-    } else {
-        block_means(x, dec).iter().map(|v| v - mu).collect()
-    };
-    let n = y.len();
-    if n < 64 {
-        return None;
-    }
-    let dt = dec as f64 / d.rate_hz;
-    let t_off = (dec as f64 - 1.0) / 2.0 / d.rate_hz;
-    let nfft = n.next_power_of_two();
-    let pad = nfft as f64 / n as f64;
-    let mut re = vec![0.0; nfft];
-    let mut im = vec![0.0; nfft];
-    let wd = 2.0 * std::f64::consts::PI / n as f64;
-    for (i, v) in y.iter().enumerate() {
-        re[i] = v * 0.5 * (1.0 - (wd * i as f64).cos());
-    }
-    fft(&mut re, &mut im);
-    let half = nfft / 2;
-    let pw: Vec<f64> = (0..half).map(|k| re[k] * re[k] + im[k] * im[k]).collect();
-    drop(re);
-    drop(im);
-    let df = 1.0 / (nfft as f64 * dt);
-    let record = n as f64 * dt;
-    let k_lo = ((3.0 / record) / df).ceil().max(2.0) as usize;
+    let b = Blocks::of(d.rate_dps, d.rate_hz)?;
+    let p = Periodogram::of(&b.y, b.dt);
+    let half = p.pw.len();
+    let record = b.y.len() as f64 * b.dt;
+    let k_lo = ((3.0 / record) / p.df).ceil().max(2.0) as usize;
     let k_hi = half - 2;
     if k_lo + 8 >= k_hi {
         return None;
     }
-    // Background: band medians.
+    let bg = band_background(&p.pw, p.pad);
+    let (mut chosen, peak_excess) = periodogram_peaks(&p, &bg, k_lo, k_hi);
+    if chosen.len() < MAX_SINUSOIDS {
+        chosen.extend(long_period_peak(d, &b, &p, &chosen, k_lo.min(k_hi)));
+    }
+    // A rate component at a period where the recorded temperature has a cycle of its own is the temperature's
+    // response, left to the temperature estimator: the temperature explains it with a measured cause and two
+    // parameters, where a sinusoid would copy it with three and go on after the temperature changes its rhythm.
+    let n0 = d.rate_dps.len();
+    if let Some(temp) = d.temp_c.filter(|t| t.len() >= n0) {
+        let temp_blocks = if b.dec == 1 { temp[..n0].to_vec() } else { block_means(&temp[..n0], b.dec) };
+        chosen.retain(|&k| temperature_share(&temp_blocks, k as f64 * p.df, b.dt, b.t_off) < TEMPERATURE_CYCLE_SHARE);
+    }
+    if chosen.is_empty() {
+        return None;
+    }
+    let freqs = refined_frequencies(&b, &chosen, p.df);
+    let ls = sinusoid_ls(&b.y, &freqs, b.dt, b.t_off)?;
+    let found = found_sinusoids(&ls, &freqs, &chosen, &bg, &b, d.rate_hz);
+    Some(sinusoids_fit(d, &b, &ls, &freqs, found, peak_excess))
+}
+
+/// The record the periodogram is taken of: the mean-removed rate, block-averaged to at most 2^21 points.
+struct Blocks {
+    /// The mean-removed block means.
+    y: Vec<f64>,
+    /// Samples per block.
+    dec: usize,
+    /// The blocks' spacing, s.
+    dt: f64,
+    /// The first block's centre, s.
+    t_off: f64,
+}
+
+impl Blocks {
+    /// The blocks of the rate `x` sampled at `rate_hz`; `None` for fewer than 64.
+    fn of(x: &[f64], rate_hz: f64) -> Option<Blocks> {
+        let dec = x.len().div_ceil(1 << 21).max(1);
+        let mu = mean(x);
+        let y: Vec<f64> = if dec == 1 {
+            x.iter().map(|v| v - mu).collect()
+        } else {
+            block_means(x, dec).iter().map(|v| v - mu).collect()
+        };
+        if y.len() < 64 {
+            return None;
+        }
+        Some(Blocks { y, dec, dt: dec as f64 / rate_hz, t_off: (dec as f64 - 1.0) / 2.0 / rate_hz })
+    }
+}
+
+/// The Hann-windowed periodogram of a record zero-padded to a power of two.
+struct Periodogram {
+    /// Power per bin, from zero to below Nyquist.
+    pw: Vec<f64>,
+    /// The padded length over the record's.
+    pad: f64,
+    /// The bin width, Hz.
+    df: f64,
+}
+
+impl Periodogram {
+    /// The periodogram of `y`, spaced by `dt`.
+    fn of(y: &[f64], dt: f64) -> Periodogram {
+        let n = y.len();
+        let nfft = n.next_power_of_two();
+        let mut re = vec![0.0; nfft];
+        let mut im = vec![0.0; nfft];
+        let wd = 2.0 * std::f64::consts::PI / n as f64;
+        for (i, v) in y.iter().enumerate() {
+            re[i] = v * 0.5 * (1.0 - (wd * i as f64).cos());
+        }
+        fft(&mut re, &mut im);
+        let pw = (0..nfft / 2).map(|k| re[k] * re[k] + im[k] * im[k]).collect();
+        Periodogram { pw, pad: nfft as f64 / n as f64, df: 1.0 / (nfft as f64 * dt) }
+    }
+}
+
+/// The periodogram's background at each bin: the median of a band around it, +-16 bins (times the padding) at
+/// low frequency, log bands of 1/8 relative width above, interpolated in log-log.
+fn band_background(pw: &[f64], pad: f64) -> Vec<f64> {
+    let half = pw.len();
     let excl = (3.0 * pad).ceil() as usize;
     let w_low = (16.0 * pad).ceil() as usize;
     let switch = (8 * w_low).max(64);
@@ -451,6 +506,14 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             *b = v.exp();
         }
     }
+    bg
+}
+
+/// The bins of up to [`MAX_SINUSOIDS`] peaks in `k_lo..k_hi` beyond the look-elsewhere level plus 7 times their
+/// background mean, strongest first and 8 bins (times the padding) apart, and the strongest peak's excess over the
+/// look-elsewhere level (the estimator's own test statistic; NaN without a peak).
+fn periodogram_peaks(p: &Periodogram, bg: &[f64], k_lo: usize, k_hi: usize) -> (Vec<usize>, f64) {
+    let pw = &p.pw;
     // The look-elsewhere level: the largest of `bins` exponential ordinates is about ln(bins).
     let look_elsewhere = ((k_hi - k_lo) as f64).ln();
     let thr = look_elsewhere + 7.0;
@@ -460,10 +523,9 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         .filter(|&(_, z)| z > thr)
         .collect();
     peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
-    // The strongest peak's excess over the look-elsewhere level: the estimator's own test statistic.
     let peak_excess = peaks.first().map_or(f64::NAN, |p| p.1 - look_elsewhere);
     let mut chosen: Vec<usize> = Vec::new();
-    let sep = (8.0 * pad).ceil() as usize;
+    let sep = peak_separation(p.pad);
     for (k, _) in peaks {
         if chosen.iter().all(|&c| c.abs_diff(k) > sep) {
             chosen.push(k);
@@ -472,90 +534,125 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             }
         }
     }
-    // Periods beyond a third of the record, where red noise lifts the lowest bins above any band median, come from
-    // the least squares instead: the strongest local maximum down to 1.5 cycles is kept when its amplitude stands
-    // beyond LONG_PERIOD_Z of its own standard deviation under the base fit's noise (flicker and random walk
-    // leaking through the record's window included).
-    if chosen.len() < MAX_SINUSOIDS {
-        let k_long = ((LONG_PERIOD_CYCLES / record) / df).ceil().max(2.0) as usize;
-        let long = (k_long..k_lo.min(k_hi))
-            .filter(|&k| pw[k] >= pw[k - 1] && pw[k] >= pw[k + 1])
-            .max_by(|&a, &b| pw[a].total_cmp(&pw[b]))
-            .filter(|&k| chosen.iter().all(|&c| c.abs_diff(k) > sep));
-        if let Some(k) = long {
-            let f0 = k as f64 * df;
-            let (f, _) = brent((f0 - df).max(df * 0.5), f0 + df, HANN_TOL * df, 40, |f| -hann_power(&y, f, dt));
-            let z = sinusoid_ls(&y, &[f], dt, t_off).and_then(|ls| {
-                let sd = ls_amplitude_sd(&ls, n, dt, t_off, &[f], 0, &NoiseSpectrum::of(d.base, d.rate_hz))?.0;
-                Some(ls.coef[3].hypot(ls.coef[4]) / sd)
-            });
-            if z.is_some_and(|z| z > LONG_PERIOD_Z) {
-                chosen.push(k);
-            }
-        }
-    }
-    // A rate component at a period where the recorded temperature has a cycle of its own is the temperature's
-    // response, left to the temperature estimator: the temperature explains it with a measured cause and two
-    // parameters, where a sinusoid would copy it with three and go on after the temperature changes its rhythm.
-    if let Some(temp) = d.temp_c.filter(|t| t.len() >= n0) {
-        let temp_blocks = if dec == 1 { temp[..n0].to_vec() } else { block_means(&temp[..n0], dec) };
-        chosen.retain(|&k| temperature_share(&temp_blocks, k as f64 * df, dt, t_off) < TEMPERATURE_CYCLE_SHARE);
-    }
-    if chosen.is_empty() {
-        return None;
-    }
-    // Refine each frequency on the windowed projection.
-    let freqs: Vec<f64> = chosen
+    (chosen, peak_excess)
+}
+
+/// The least distance in bins between two peaks taken apart.
+fn peak_separation(pad: f64) -> usize {
+    (8.0 * pad).ceil() as usize
+}
+
+/// A peak at a period beyond a third of the record (bins below `k_lo`), where red noise lifts the lowest bins
+/// above any band median, so the least squares judges it instead: the strongest local maximum down to 1.5 cycles,
+/// kept when its amplitude stands beyond [`LONG_PERIOD_Z`] of its own standard deviation under the base fit's
+/// noise (flicker and random walk leaking through the record's window included).
+fn long_period_peak(d: &TrainingData, b: &Blocks, p: &Periodogram, chosen: &[usize], k_lo: usize) -> Option<usize> {
+    let (pw, df) = (&p.pw, p.df);
+    let record = b.y.len() as f64 * b.dt;
+    let k_long = ((LONG_PERIOD_CYCLES / record) / df).ceil().max(2.0) as usize;
+    let sep = peak_separation(p.pad);
+    let k = (k_long..k_lo)
+        .filter(|&k| pw[k] >= pw[k - 1] && pw[k] >= pw[k + 1])
+        .max_by(|&a, &b| pw[a].total_cmp(&pw[b]))
+        .filter(|&k| chosen.iter().all(|&c| c.abs_diff(k) > sep))?;
+    let f0 = k as f64 * df;
+    let (f, _) = brent((f0 - df).max(df * 0.5), f0 + df, HANN_TOL * df, 40, |f| -hann_power(&b.y, f, b.dt));
+    let z = sinusoid_ls(&b.y, &[f], b.dt, b.t_off).and_then(|ls| {
+        let noise = NoiseSpectrum::of(d.base, d.rate_hz);
+        let sd = ls_amplitude_sd(&ls, b.y.len(), b.dt, b.t_off, &[f], 0, &noise)?.0;
+        Some(ls.coef[3].hypot(ls.coef[4]) / sd)
+    });
+    z.is_some_and(|z| z > LONG_PERIOD_Z).then_some(k)
+}
+
+/// The frequencies of the `chosen` bins, refined first on the windowed projection, then on the whole record: the
+/// windowed projection gives away the record's ends, and a period learnt on 8 cycles 1.5% off has drifted by an
+/// eighth of a cycle over an equal holdout. Each frequency in turn minimises the residual of the joint least
+/// squares, within half a bin of where it is.
+fn refined_frequencies(b: &Blocks, chosen: &[usize], df: f64) -> Vec<f64> {
+    let mut freqs: Vec<f64> = chosen
         .iter()
         .map(|&k| {
             let f0 = k as f64 * df;
-            let (f, _) = brent((f0 - df).max(df * 0.5), f0 + df, HANN_TOL * df, 40, |f| -hann_power(&y, f, dt));
+            let (f, _) = brent((f0 - df).max(df * 0.5), f0 + df, HANN_TOL * df, 40, |f| -hann_power(&b.y, f, b.dt));
             f
         })
         .collect();
-    // The frequencies refined on the whole record: the windowed projection gives away the record's ends, and a
-    // period learnt on 8 cycles 1.5% off has drifted by an eighth of a cycle over an equal holdout. Each frequency
-    // in turn minimises the residual of the joint least squares below, within half a bin of where it is.
-    let mut freqs = freqs;
     for _ in 0..2 {
         for j in 0..freqs.len() {
             let f0 = freqs[j];
-            let varying = OneVarying::new(&y, &freqs, j, dt, t_off);
+            let varying = OneVarying::new(&b.y, &freqs, j, b.dt, b.t_off);
             let (f, _) = brent(f0 - 0.5 * df, f0 + 0.5 * df, RSS_TOL * df, 30, |f| varying.rss(f));
             freqs[j] = f;
         }
     }
-    let ls = sinusoid_ls(&y, &freqs, dt, t_off)?;
-    let record_s = n as f64 * dt;
-    // Each sinusoid with its first standard errors, its index in `freqs` and the block average's gain.
-    let mut list: Vec<(Sinusoid, [f64; 3], usize, f64)> = Vec::new();
+    freqs
+}
+
+/// A sinusoid found by the least squares: its first standard errors (amplitude, phase, frequency), its index in
+/// the frequencies and the block average's gain at its frequency.
+struct Found {
+    sinusoid: Sinusoid,
+    se: [f64; 3],
+    index: usize,
+    gain: f64,
+}
+
+/// The sinusoids of the joint least squares `ls` at `freqs` (found at the bins `chosen` over the background
+/// `bg`), largest first, with their first standard errors.
+fn found_sinusoids(
+    ls: &LeastSquares,
+    freqs: &[f64],
+    chosen: &[usize],
+    bg: &[f64],
+    b: &Blocks,
+    rate_hz: f64,
+) -> Vec<Found> {
+    let n = b.y.len();
+    let record_s = n as f64 * b.dt;
+    let mut list: Vec<Found> = Vec::new();
     for (j, &f) in freqs.iter().enumerate() {
-        let (a, b) = (ls.coef[3 + 2 * j], ls.coef[4 + 2 * j]);
+        let (a, bc) = (ls.coef[3 + 2 * j], ls.coef[4 + 2 * j]);
         // Block averaging scales a sinusoid by sin(pi f D/rate_hz) / (D sin(pi f/rate_hz)).
-        let g = if dec > 1 {
-            let u = std::f64::consts::PI * f / d.rate_hz;
-            ((u * dec as f64).sin() / (dec as f64 * u.sin())).abs().max(1e-3)
+        let g = if b.dec > 1 {
+            let u = std::f64::consts::PI * f / rate_hz;
+            ((u * b.dec as f64).sin() / (b.dec as f64 * u.sin())).abs().max(1e-3)
         } else {
             1.0
         };
         // a cos + b sin = A sin(w t + phi): a = A sin phi, b = A cos phi.
-        let amplitude = (a * a + b * b).sqrt() / g;
+        let amplitude = (a * a + bc * bc).sqrt() / g;
         // First standard errors from the noise's one-sided PSD at the peak, S1 = 16 dt E[P] / (3 n) for the
         // Hann periodogram P (whose mean is the background median / ln 2): var(a) = var(b) = S1 / T over a
         // record of T, so se(A) = sqrt(S1 / T) and se(phase at the centre) = se(A) / A; the frequency's is the
         // least-squares (Cramer-Rao) bound sqrt(3 S1 / (pi^2 A^2 T^3)). The amplitude's and phase's are taken
-        // again below under the noise model, and the frequency's scaled with them.
-        let s1 = 16.0 * dt * bg[chosen[j]] / std::f64::consts::LN_2 / (3.0 * n as f64) / (g * g);
+        // again under the noise model, and the frequency's scaled with them.
+        let s1 = 16.0 * b.dt * bg[chosen[j]] / std::f64::consts::LN_2 / (3.0 * n as f64) / (g * g);
         let se_a = (s1 / record_s).sqrt();
         let se_f = (3.0 * s1 / (std::f64::consts::PI.powi(2) * amplitude.powi(2) * record_s.powi(3))).sqrt();
         let se = [se_a, se_a / amplitude.max(1e-300), se_f];
-        list.push((Sinusoid { amplitude_dps: amplitude, period_s: 1.0 / f, phase_rad: a.atan2(b) }, se, j, g));
+        let sinusoid = Sinusoid { amplitude_dps: amplitude, period_s: 1.0 / f, phase_rad: a.atan2(bc) };
+        list.push(Found { sinusoid, se, index: j, gain: g });
     }
-    list.sort_by(|a, b| b.0.amplitude_dps.total_cmp(&a.0.amplitude_dps));
-    let (list, fitted): (Vec<Sinusoid>, Vec<_>) = list.into_iter().map(|(s, se, j, g)| (s, (se, j, g))).unzip();
-    // The base terms re-fitted without the sinusoids (the base fit covered their Allan bump with B or K).
+    list.sort_by(|a, b| b.sinusoid.amplitude_dps.total_cmp(&a.sinusoid.amplitude_dps));
+    list
+}
+
+/// The sinusoids' fit: the base terms re-fitted on the record without them (the base fit covered their Allan bump
+/// with B or K), and the least squares' own errors under that noise model, leakage of its red noise included (the
+/// Hann background sees only the noise at the peak's bins).
+fn sinusoids_fit(
+    d: &TrainingData,
+    b: &Blocks,
+    ls: &LeastSquares,
+    freqs: &[f64],
+    found: Vec<Found>,
+    peak_excess: f64,
+) -> EffectFit {
+    let list: Vec<Sinusoid> = found.iter().map(|f| f.sinusoid).collect();
     let two_pi = 2.0 * std::f64::consts::PI;
-    let cleaned: Vec<f64> = x
+    let cleaned: Vec<f64> = d
+        .rate_dps
         .iter()
         .enumerate()
         .map(|(i, &v)| {
@@ -565,16 +662,14 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         .collect();
     let mut gyro = refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0);
     let noise = NoiseSpectrum::of(&gyro, d.rate_hz);
-    // The least squares' own errors under the noise model, leakage of its red noise included; the Hann
-    // background above sees only the noise at the peak's bins.
-    let se: Vec<[f64; 3]> = fitted
+    let se: Vec<[f64; 3]> = found
         .iter()
-        .map(|&(e, j, g)| match ls_amplitude_sd(&ls, n, dt, t_off, &freqs, j, &noise) {
+        .map(|f| match ls_amplitude_sd(ls, b.y.len(), b.dt, b.t_off, freqs, f.index, &noise) {
             Some((sd_a, sd_p)) => {
-                let sd_a = sd_a / g;
-                [sd_a, sd_p, e[2] * sd_a / e[0].max(1e-300)]
+                let sd_a = sd_a / f.gain;
+                [sd_a, sd_p, f.se[2] * sd_a / f.se[0].max(1e-300)]
             }
-            None => e,
+            None => f.se,
         })
         .collect();
     gyro.sinusoids.clear();
@@ -594,7 +689,7 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
             period_se_s: e[2] * s.period_s * s.period_s,
         })
         .collect();
-    Some(EffectFit {
+    EffectFit {
         effect: Effect::Sinusoid,
         params: SinusoidsParams {
             amplitude_dps: s0.amplitude_dps,
@@ -608,9 +703,9 @@ pub(super) fn sinusoid(d: &TrainingData) -> Option<EffectFit> {
         n_params: 3 * list.len(),
         gyro,
         channel: None,
-        spread: Some(ParamSpread::Sinusoids { se, centre_s: n0 as f64 / d.rate_hz / 2.0 }),
+        spread: Some(ParamSpread::Sinusoids { se, centre_s: d.rate_dps.len() as f64 / d.rate_hz / 2.0 }),
         cleaned: None,
-    })
+    }
 }
 
 #[cfg(test)]

@@ -23,62 +23,9 @@ impl GapReport {
     /// The JSON document (see the module doc for its keys).
     pub fn document(&self) -> Document<'_> {
         let loc = self.base.location.as_ref();
-        let hb = self.holdout.first.map(|p| p.gap_before);
-        let candidates = self
-            .chain
-            .candidates
-            .iter()
-            .map(|c| {
-                let f = c.fit.as_ref();
-                CandidateDoc {
-                    effect: c.effect,
-                    params: f.map(|f| &f.params),
-                    n_params: f.map(|f| f.n_params),
-                    gap_after: c.gap_after,
-                    shrink: c.gap_after.map(|a| rank::shrink(self.training.gap_before, a)),
-                    total_after: c.total_after,
-                    score: c.score,
-                    holdout: CandidateHoldout {
-                        gap_after: c.holdout_after,
-                        shrink: c.holdout_after.zip(hb).map(|(a, b)| rank::shrink(b, a)),
-                    },
-                    worst_after: c.worst_after,
-                    holdout_worst_after: c.holdout_worst_after,
-                    chosen: Some(c.effect) == self.effect(),
-                    note: f.is_none().then_some("no trace of this effect in the training data"),
-                }
-            })
-            .collect();
-        let effects: Vec<StepDoc> = self
-            .chain
-            .steps
-            .iter()
-            .enumerate()
-            .map(|(i, s)| StepDoc {
-                effect: s.effect,
-                jointly_reestimated: self.chain.steps[i..].iter().any(|later| later.joint),
-                params: &s.final_fit().params,
-                found_params: s.moved().then_some(&s.fit.params),
-                backfitted: s.moved(),
-                evidence: s.named_by,
-                view: s.location.view,
-                band_s: s.location.band_s,
-                sign: s.location.sign,
-                gap_before: s.training.gap_before,
-                gap_after: s.training.gap_after,
-                holdout: s.holdout.map(|h| StepHoldout { gap_before: h.gap_before, gap_after: h.gap_after }),
-            })
-            .collect();
+        let candidates = self.candidate_docs();
+        let effects = self.step_docs();
         let first = self.chain.steps.first();
-        let size = || {
-            loc.map(|l| Size {
-                z_rms: l.z_rms,
-                points: l.points,
-                labels: &l.labels,
-                ratio: l.ratio,
-                correlation_real_sim: l.correlation,
-            })
-        };
         let missing_samples = Missing { training: self.input.missing[0], holdout: self.input.missing[1] };
         let model_channel = self.chain.model.channel.filter(|_| self.chain.model.channel != self.input.channel);
         let predictive = self.holdout.predictive.map(|h| PredictiveDoc {
@@ -88,30 +35,8 @@ impl GapReport {
             worst: self.holdout.predictive_worst.map(finite),
         });
         Document {
-            input: InputDoc {
-                fs_hz: self.input.rate_hz,
-                kind: self.input.quantity.kind(),
-                unit: self.input.quantity.unit(),
-                n_train: self.input.n_train,
-                n_holdout: self.input.n_holdout,
-                missing_samples,
-                transients: &self.input.transients,
-                seeds: self.input.seeds,
-                has_temperature: self.input.has_temperature,
-                channel: self.input.channel,
-            },
-            base: BaseDoc {
-                model: &self.base.gyro,
-                fit: &self.base.fit,
-                fit_strain: self.fit_strain(),
-                significant: self.base.significant,
-                view: loc.map(|l| l.view),
-                band_s: loc.map(|l| l.band_s),
-                sign: loc.map(|l| l.sign),
-                size: size(),
-                total: self.total[0],
-                worst: self.worst[0],
-            },
+            input: self.input_doc(missing_samples),
+            base: self.base_doc(),
             chain: ChainDoc {
                 effects: effects.clone(),
                 model: self.model(),
@@ -125,7 +50,7 @@ impl GapReport {
             view: loc.map(|l| l.view),
             band_s: loc.map(|l| l.band_s),
             sign: loc.map(|l| l.sign),
-            size: size(),
+            size: self.size(),
             gap_before: self.training.gap_before,
             gap_after: self.training.gap_after,
             shrink: self.training.shrink,
@@ -168,6 +93,102 @@ impl GapReport {
             rate_hz: self.input.rate_hz,
             seeds: self.input.seeds,
         }
+    }
+
+    /// The first step's candidates, each with its gaps after on training and held out.
+    fn candidate_docs(&self) -> Vec<CandidateDoc<'_>> {
+        let hb = self.holdout.first.map(|p| p.gap_before);
+        self.chain
+            .candidates
+            .iter()
+            .map(|c| {
+                let f = c.fit.as_ref();
+                CandidateDoc {
+                    effect: c.effect,
+                    params: f.map(|f| &f.params),
+                    n_params: f.map(|f| f.n_params),
+                    gap_after: c.gap_after,
+                    shrink: c.gap_after.map(|a| rank::shrink(self.training.gap_before, a)),
+                    total_after: c.total_after,
+                    score: c.score,
+                    holdout: CandidateHoldout {
+                        gap_after: c.holdout_after,
+                        shrink: c.holdout_after.zip(hb).map(|(a, b)| rank::shrink(b, a)),
+                    },
+                    worst_after: c.worst_after,
+                    holdout_worst_after: c.holdout_worst_after,
+                    chosen: Some(c.effect) == self.effect(),
+                    note: f.is_none().then_some("no trace of this effect in the training data"),
+                }
+            })
+            .collect()
+    }
+
+    /// The chain's steps.
+    fn step_docs(&self) -> Vec<StepDoc<'_>> {
+        self.chain
+            .steps
+            .iter()
+            .enumerate()
+            .map(|(i, s)| StepDoc {
+                effect: s.effect,
+                jointly_reestimated: self.chain.steps[i..].iter().any(|later| later.joint),
+                params: &s.final_fit().params,
+                found_params: s.moved().then_some(&s.fit.params),
+                backfitted: s.moved(),
+                evidence: s.named_by,
+                view: s.location.view,
+                band_s: s.location.band_s,
+                sign: s.location.sign,
+                gap_before: s.training.gap_before,
+                gap_after: s.training.gap_after,
+                holdout: s.holdout.map(|h| StepHoldout { gap_before: h.gap_before, gap_after: h.gap_after }),
+            })
+            .collect()
+    }
+
+    /// What the diagnosis was given.
+    fn input_doc(&self, missing_samples: Missing) -> InputDoc<'_> {
+        InputDoc {
+            fs_hz: self.input.rate_hz,
+            kind: self.input.quantity.kind(),
+            unit: self.input.quantity.unit(),
+            n_train: self.input.n_train,
+            n_holdout: self.input.n_holdout,
+            missing_samples,
+            transients: &self.input.transients,
+            seeds: self.input.seeds,
+            has_temperature: self.input.has_temperature,
+            channel: self.input.channel,
+        }
+    }
+
+    /// The base model and the gap it leaves.
+    fn base_doc(&self) -> BaseDoc<'_> {
+        let loc = self.base.location.as_ref();
+        BaseDoc {
+            model: &self.base.gyro,
+            fit: &self.base.fit,
+            fit_strain: self.fit_strain(),
+            significant: self.base.significant,
+            view: loc.map(|l| l.view),
+            band_s: loc.map(|l| l.band_s),
+            sign: loc.map(|l| l.sign),
+            size: self.size(),
+            total: self.total[0],
+            worst: self.worst[0],
+        }
+    }
+
+    /// The size of the base model's gap where it lies.
+    fn size(&self) -> Option<Size<'_>> {
+        self.base.location.as_ref().map(|l| Size {
+            z_rms: l.z_rms,
+            points: l.points,
+            labels: &l.labels,
+            ratio: l.ratio,
+            correlation_real_sim: l.correlation,
+        })
     }
 
     /// The JSON document as a value (see the module doc for its keys).

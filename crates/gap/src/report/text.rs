@@ -23,6 +23,18 @@ impl GapReport {
     /// A short text a person can read: what, where, how big, how sure, what the fix buys on held-out data.
     pub fn text(&self) -> String {
         let mut s = String::new();
+        self.input_lines(&mut s);
+        self.base_lines(&mut s);
+        self.view_lines(&mut s);
+        self.chain_lines(&mut s);
+        self.worst_holdout_line(&mut s);
+        self.diagnosis_lines(&mut s);
+        self.verdict_line(&mut s);
+        s
+    }
+
+    /// The record: its parts, what is missing and what was masked.
+    fn input_lines(&self, s: &mut String) {
         let missing = |m: usize| if m > 0 { format!(" ({m} missing)") } else { String::new() };
         let hold = if self.input.n_holdout > 0 {
             format!("{} held out{}", self.input.n_holdout, missing(self.input.missing[1]))
@@ -59,6 +71,10 @@ impl GapReport {
                 self.input.quantity.unit()
             );
         }
+    }
+
+    /// The base model's terms, and a note where its fit cannot follow the curve.
+    fn base_lines(&self, s: &mut String) {
         let b = &self.base;
         let q = self.input.quantity;
         let _ = writeln!(
@@ -81,6 +97,10 @@ impl GapReport {
                 "note: the IEEE five-term fit cannot follow the training curve (reduced chi-square {r:.1}, about 1 when it can): the record has a shape those terms lack"
             );
         }
+    }
+
+    /// Every view's gap on training and holdout, base and after the chain.
+    fn view_lines(&self, s: &mut String) {
         let _ = writeln!(s, "views (gap: the RMS z of real against the ensemble over the worst decade of tau; about 1 when they agree; base -> {}):", if self.chain.steps.is_empty() { "base" } else { "with the chain" });
         let after = self.final_eval();
         let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
@@ -96,6 +116,10 @@ impl GapReport {
                 f(gap(&after.holdout, g.view))
             );
         }
+    }
+
+    /// Where the gap lies, and each step's candidates.
+    fn chain_lines(&self, s: &mut String) {
         if let Some(l) = &self.base.location {
             let _ = writeln!(
                 s,
@@ -122,7 +146,7 @@ impl GapReport {
                 "candidates{} (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):",
                 if self.chain.steps.len() > 1 { format!(" of step {}", k + 1) } else { String::new() }
             );
-            candidate_lines(&mut s, &step.candidates, Some(step.effect));
+            candidate_lines(s, &step.candidates, Some(step.effect));
         }
         if !self.chain.last_tried.is_empty() {
             let _ = writeln!(
@@ -130,15 +154,19 @@ impl GapReport {
                 "candidates tried on the model with {} (none removes a quarter of the gap it leaves):",
                 chain_names(&self.chain.steps)
             );
-            candidate_lines(&mut s, &self.chain.last_tried, None);
+            candidate_lines(s, &self.chain.last_tried, None);
         }
         if self.chain.steps.is_empty() {
             let _ = writeln!(
                 s,
                 "candidates (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):"
             );
-            candidate_lines(&mut s, &self.chain.candidates, None);
+            candidate_lines(s, &self.chain.candidates, None);
         }
+    }
+
+    /// The worst view on the holdout.
+    fn worst_holdout_line(&self, s: &mut String) {
         if self.worst[2].is_finite() {
             let _ = writeln!(
                 s,
@@ -152,6 +180,10 @@ impl GapReport {
                 }
             );
         }
+    }
+
+    /// The chain's effects, each with its gap before and after on training and held out.
+    fn diagnosis_lines(&self, s: &mut String) {
         if let Some(first) = self.chain.steps.first() {
             let _ = write!(
                 s,
@@ -224,6 +256,10 @@ impl GapReport {
                 let _ = writeln!(s, "{note}");
             }
         }
+    }
+
+    /// The verdict where no effect explains the gap.
+    fn verdict_line(&self, s: &mut String) {
         match self.verdict() {
             Verdict::NoGap => {
                 let _ = writeln!(s, "diagnosis: none (the simulation of the fitted model agrees with the record)");
@@ -247,7 +283,6 @@ impl GapReport {
             }
             Verdict::Explained => {}
         }
-        s
     }
 }
 

@@ -294,49 +294,12 @@ pub fn scan(x: &[f64], rate_hz: f64) -> Scan {
     let p_floor = 2.0 * normal_sf(k1);
     let (bursts, spike_rate) = find_bursts(&exceed, n_valid, max_len, p_floor);
     out.spike_rate = spike_rate;
-
-    // Large samples outside bursts are spikes: replaced by the median of the nearer side for everything that
-    // follows; the block means see the bursts' samples replaced too.
-    let mut in_burst = vec![false; n];
-    for &(a, b) in &bursts {
-        in_burst[a..=b].iter_mut().for_each(|v| *v = true);
-    }
-    let mut despiked = x.to_vec();
-    let mut clean = x.to_vec();
-    let mut cores: Vec<Core> = bursts
-        .iter()
-        .map(|&(a, b)| {
-            let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
-            let large: Vec<f64> = exceed.iter().filter(|&&i| i >= a && i <= b).map(|&i| r1[i]).collect();
-            let up = large.iter().filter(|v| **v > 0.0).count() as f64 / large.len().max(1) as f64;
-            let spiky = (large.len() as f64) < 0.5 * (b + 1 - a) as f64 || (0.2..=0.8).contains(&up);
-            Core { start: a, end: b + 1, scale: 1, z, burst: true, spiky }
-        })
-        .collect();
-    // A large sample whose two neighbours both stand out on the same side is the peak of a short excursion (a
-    // swell of a few samples), not a spike: it stays in, as a core of its own.
-    let shouldered = |i: usize| {
-        i > 0
-            && i + 1 < n
-            && [r1[i - 1], r1[i + 1]].iter().all(|v| v.is_finite() && v * r1[i].signum() > SHOULDER_Z * s1)
-    };
-    for &i in &exceed {
-        if !in_burst[i] && shouldered(i) {
-            cores.push(Core { start: i - 1, end: i + 2, scale: 1, z: r1[i].abs() / s1, burst: false, spiky: false });
-            continue;
-        }
-        // The side nearer to the sample: x less its residual against that side.
-        let fill = x[i] - r1[i];
-        if !in_burst[i] {
-            despiked[i] = fill;
-            out.spikes += 1;
-        }
-        clean[i] = fill;
-    }
+    let Despiked { mut cores, despiked, clean, spikes } = despike(x, &r1, s1, &exceed, &bursts);
+    out.spikes = spikes;
 
     // Block lengths 2, 4, ...: block means (and energies) against the medians of their sides.
-    let l_max = prev_pow2((max_len / 2).min(n / 32)).max(2);
     let prefix = Prefix::new(&clean);
+    let l_max = prev_pow2((max_len / 2).min(n / 32)).max(2);
     // The energy of each sample against both its sides, in per-sample scales, capped so that no single sample
     // (a spike below the spike threshold) can make a block stand out; only where the noise dithers the lattice
     // (else the flips between two codes come and go with the analog level).
@@ -348,57 +311,31 @@ pub fn scan(x: &[f64], rate_hz: f64) -> Scan {
     });
     let mut l = 2;
     while l <= l_max {
-        let h = l / 2;
-        let nb = if n >= l { (n - l) / h + 1 } else { 0 };
-        let means: Vec<f64> = (0..nb).map(|j| prefix.mean(j * h, j * h + l, l / 2)).collect();
-        let (two, r) = residuals(&means, half, 1);
-        let s = robust_scale(&two, true).max(floor(l));
-        let kap = kappa(n_valid as f64 / l as f64);
-        let mut stat = ScaleStat {
-            len: l,
-            sigma_dps: s,
-            threshold: kap,
-            flagged: 0,
-            max_z: 0.0,
-            energy_flagged: 0,
-            energy_max_z: 0.0,
-        };
-        if s > 0.0 {
-            for (j, v) in r.iter().enumerate() {
-                let z = v.abs() / s;
-                stat.max_z = stat.max_z.max(z);
-                if z > kap {
-                    stat.flagged += 1;
-                    cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false, spiky: false });
-                }
-            }
-        }
-        if let Some(energy) = energy.as_ref().filter(|_| l >= MIN_ENERGY_BLOCK) {
-            // The cube root of a mean of squares is close to Gaussian (Wilson-Hilferty).
-            let g: Vec<f64> = (0..nb).map(|j| energy.mean(j * h, j * h + l, l / 2).cbrt()).collect();
-            let (two, r) = residuals(&g, half, 1);
-            let s = robust_scale(&two, true);
-            if s > 0.0 {
-                for (j, v) in r.iter().enumerate() {
-                    let z = v / s;
-                    stat.energy_max_z = stat.energy_max_z.max(z);
-                    if z > kap {
-                        stat.energy_flagged += 1;
-                        cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false, spiky: false });
-                    }
-                }
-            }
-        }
-        out.scales.push(stat);
+        let blocks = Blocks { n, len: l, n_valid: n_valid as f64, floor: floor(l) };
+        out.scales.push(blocks.scan(&prefix, energy.as_ref(), &mut cores));
         l *= 2;
     }
     cores.sort_by(|a, b| b.burst.cmp(&a.burst).then(b.z.total_cmp(&a.z)));
 
-    // Each core, strongest first, grown into an excursion and judged.
     let mut ctx = Ctx { x: &despiked, raw: x, prefix: &prefix, n_valid, sigma: s1, steps: HashMap::new() };
+    let found = judged(&mut ctx, &cores, max_len, n);
+    let mut events: Vec<Transient> = Vec::new();
+    for (t, reason) in found {
+        match reason {
+            Some(reason) => out.left_alone.push(LeftAlone { excursion: t, reason }),
+            None => events.push(t),
+        }
+    }
+    out.events = merge_and_pad(events, n);
+    out
+}
+
+/// Each core, strongest first, grown into an excursion and judged: kept (no reason) or left alone (why), in the
+/// record's order. A core inside an excursion already grown is skipped.
+fn judged(ctx: &mut Ctx, cores: &[Core], max_len: usize, n: usize) -> Vec<(Transient, Option<Reason>)> {
     let mut covered = vec![false; n];
     let mut found: Vec<(Transient, Option<Reason>)> = Vec::new();
-    for core in &cores {
+    for core in cores {
         if covered[core.start..core.end].iter().any(|&c| c) {
             continue;
         }
@@ -429,15 +366,126 @@ pub fn scan(x: &[f64], rate_hz: f64) -> Scan {
         found.push((t, reason));
     }
     found.sort_by_key(|f| f.0.start);
-    let mut events: Vec<Transient> = Vec::new();
-    for (t, reason) in found {
-        match reason {
-            Some(reason) => out.left_alone.push(LeftAlone { excursion: t, reason }),
-            None => events.push(t),
-        }
+    found
+}
+
+/// The record after its spikes are taken out, and the cores of excursions found on single samples.
+struct Despiked {
+    /// The bursts' cores, and the peaks of short swells.
+    cores: Vec<Core>,
+    /// The record with the spikes outside bursts replaced.
+    despiked: Vec<f64>,
+    /// The record with every large sample replaced, bursts' included: what the block means see.
+    clean: Vec<f64>,
+    /// The spikes replaced outside bursts.
+    spikes: usize,
+}
+
+/// Large samples outside bursts are spikes: replaced by the median of the nearer side for everything that
+/// follows; the block means see the bursts' samples replaced too. `r1` holds each sample's residual against the
+/// medians of its sides, `s1` their robust scale, `exceed` the samples beyond the threshold.
+fn despike(x: &[f64], r1: &[f64], s1: f64, exceed: &[usize], bursts: &[(usize, usize)]) -> Despiked {
+    let n = x.len();
+    let mut in_burst = vec![false; n];
+    for &(a, b) in bursts {
+        in_burst[a..=b].iter_mut().for_each(|v| *v = true);
     }
-    out.events = merge_and_pad(events, n);
-    out
+    let mut despiked = x.to_vec();
+    let mut clean = x.to_vec();
+    let mut spikes = 0;
+    let mut cores: Vec<Core> = bursts
+        .iter()
+        .map(|&(a, b)| {
+            let z = (a..=b).map(|i| r1[i].abs() / s1).filter(|v| v.is_finite()).fold(0.0, f64::max);
+            let large: Vec<f64> = exceed.iter().filter(|&&i| i >= a && i <= b).map(|&i| r1[i]).collect();
+            let up = large.iter().filter(|v| **v > 0.0).count() as f64 / large.len().max(1) as f64;
+            let spiky = (large.len() as f64) < 0.5 * (b + 1 - a) as f64 || (0.2..=0.8).contains(&up);
+            Core { start: a, end: b + 1, scale: 1, z, burst: true, spiky }
+        })
+        .collect();
+    // A large sample whose two neighbours both stand out on the same side is the peak of a short excursion (a
+    // swell of a few samples), not a spike: it stays in, as a core of its own.
+    let shouldered = |i: usize| {
+        i > 0
+            && i + 1 < n
+            && [r1[i - 1], r1[i + 1]].iter().all(|v| v.is_finite() && v * r1[i].signum() > SHOULDER_Z * s1)
+    };
+    for &i in exceed {
+        if !in_burst[i] && shouldered(i) {
+            cores.push(Core { start: i - 1, end: i + 2, scale: 1, z: r1[i].abs() / s1, burst: false, spiky: false });
+            continue;
+        }
+        // The side nearer to the sample: x less its residual against that side.
+        let fill = x[i] - r1[i];
+        if !in_burst[i] {
+            despiked[i] = fill;
+            spikes += 1;
+        }
+        clean[i] = fill;
+    }
+    Despiked { cores, despiked, clean, spikes }
+}
+
+/// One block length of the scan over a record of `n` samples.
+struct Blocks {
+    n: usize,
+    /// The block length, samples.
+    len: usize,
+    /// The record's valid samples.
+    n_valid: f64,
+    /// The least robust scale of a block mean (the ADC lattice's).
+    floor: f64,
+}
+
+impl Blocks {
+    /// The blocks (half-overlapping) whose means, or energies where `energy` is given, stand out against the
+    /// medians of their sides: each pushed to `cores`; the block length's figures returned.
+    fn scan(&self, prefix: &Prefix, energy: Option<&Prefix>, cores: &mut Vec<Core>) -> ScaleStat {
+        let (n, l) = (self.n, self.len);
+        let half = WINDOW_BLOCKS / 2;
+        let h = l / 2;
+        let nb = if n >= l { (n - l) / h + 1 } else { 0 };
+        let means: Vec<f64> = (0..nb).map(|j| prefix.mean(j * h, j * h + l, l / 2)).collect();
+        let (two, r) = residuals(&means, half, 1);
+        let s = robust_scale(&two, true).max(self.floor);
+        let kap = kappa(self.n_valid / l as f64);
+        let mut stat = ScaleStat {
+            len: l,
+            sigma_dps: s,
+            threshold: kap,
+            flagged: 0,
+            max_z: 0.0,
+            energy_flagged: 0,
+            energy_max_z: 0.0,
+        };
+        if s > 0.0 {
+            for (j, v) in r.iter().enumerate() {
+                let z = v.abs() / s;
+                stat.max_z = stat.max_z.max(z);
+                if z > kap {
+                    stat.flagged += 1;
+                    cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false, spiky: false });
+                }
+            }
+        }
+        if let Some(energy) = energy.filter(|_| l >= MIN_ENERGY_BLOCK) {
+            // The cube root of a mean of squares is close to Gaussian (Wilson-Hilferty).
+            let g: Vec<f64> = (0..nb).map(|j| energy.mean(j * h, j * h + l, l / 2).cbrt()).collect();
+            let (two, r) = residuals(&g, half, 1);
+            let s = robust_scale(&two, true);
+            if s > 0.0 {
+                for (j, v) in r.iter().enumerate() {
+                    let z = v / s;
+                    stat.energy_max_z = stat.energy_max_z.max(z);
+                    if z > kap {
+                        stat.energy_flagged += 1;
+                        cores.push(Core { start: j * h, end: j * h + l, scale: l, z, burst: false, spiky: false });
+                    }
+                }
+            }
+        }
+        stat
+    }
 }
 
 /// Set the samples of `events` to NaN (gaps).
