@@ -11,7 +11,7 @@
 
 use serde::Serialize;
 
-use super::compare::ViewGap;
+use super::compare::{PointZ, ViewGap};
 use super::rank::{Location, Sign, BAND_Z};
 use super::views::ViewKind;
 
@@ -48,26 +48,10 @@ pub struct GapShape {
 pub fn shape_of(views: &[ViewGap], loc: &Location) -> Option<GapShape> {
     let v = views.iter().find(|v| v.view == loc.view)?;
     let (a, b) = v.window;
-    let window = v.points.get(a..b).filter(|p| !p.is_empty())?;
-    // The core of the gap: the window's strongest point and its neighbours beyond BAND_Z of the same sign (the
-    // whole window when no point is that far out), so that a narrow bump is named by its own band.
-    let peak = a + window.iter().enumerate().max_by(|x, y| x.1.z.abs().total_cmp(&y.1.z.abs())).map_or(0, |m| m.0);
-    let strong = |i: usize| v.points[i].z.abs() >= BAND_Z && v.points[i].z.signum() == v.points[peak].z.signum();
-    let (a, b) = if strong(peak) && loc.view != ViewKind::Distribution {
-        let mut lo = peak;
-        while lo > 0 && strong(lo - 1) {
-            lo -= 1;
-        }
-        let mut hi = peak + 1;
-        while hi < v.points.len() && strong(hi) {
-            hi += 1;
-        }
-        (lo, hi)
-    } else {
-        (a, b)
-    };
+    v.points.get(a..b).filter(|p| !p.is_empty())?;
+    let (a, b) = core_band(v, (a, b), loc.view);
     let band = &v.points[a..b];
-    let diff = |p: &super::compare::PointZ| p.real - p.sim_mean;
+    let diff = |p: &PointZ| p.real - p.sim_mean;
     let mean_diff = band.iter().map(diff).sum::<f64>() / band.len() as f64;
     // The neighbours' mean difference on each side (up to two points each), where the view has points there.
     let side = |range: std::ops::Range<usize>| -> Option<f64> {
@@ -120,34 +104,7 @@ pub fn shape_of(views: &[ViewGap], loc: &Location) -> Option<GapShape> {
             let text = format!("{what} at tau {} s: {} the simulated deviation", range([lo, hi]), times(r));
             (kind, Some(r), text)
         }
-        ViewKind::Distribution => {
-            // The point of the band that stands out most says which statistic it is.
-            let p = band.iter().max_by(|x, y| x.z.abs().total_cmp(&y.z.abs())).expect("band is not empty");
-            let at = if p.info.label == "difference_kurtosis" {
-                let taus: Vec<f64> =
-                    band.iter().filter(|q| q.info.label == "difference_kurtosis").map(|q| q.info.tau_s).collect();
-                let t0 = taus.iter().copied().fold(f64::INFINITY, f64::min);
-                let t1 = taus.iter().copied().fold(0.0, f64::max);
-                format!(" of the Allan differences at tau {} s", range([t0, t1]))
-            } else {
-                " of the samples' local residuals".to_string()
-            };
-            let (kind, what) = match (p.info.label, p.z > 0.0) {
-                ("kurtosis" | "difference_kurtosis", true) => ("heavy_tails", "heavy tails"),
-                ("kurtosis" | "difference_kurtosis", false) => ("light_tails", "light tails"),
-                ("skewness", _) => ("skew", "a skewed distribution"),
-                ("tail_share", true) => ("spikes", "more samples beyond 5 robust sigma"),
-                ("tail_share", false) => ("light_tails", "fewer samples beyond 5 robust sigma"),
-                _ => ("lattice", "values on a lattice"),
-            };
-            let text = format!(
-                "{what}{at}: {} {:.3} real against {:.3} simulated",
-                p.info.label.replace('_', " "),
-                p.real,
-                p.sim_mean
-            );
-            (kind, Some(p.real), text)
-        }
+        ViewKind::Distribution => distribution_shape(band),
         ViewKind::Temperature => {
             let [real, sim] = loc.correlation.unwrap_or([f64::NAN, f64::NAN]);
             let text = format!(
@@ -168,6 +125,59 @@ pub fn shape_of(views: &[ViewGap], loc: &Location) -> Option<GapShape> {
         ratio,
         text,
     })
+}
+
+/// The core of the gap in `v`'s located `window`: the window's strongest point and its neighbours beyond BAND_Z of
+/// the same sign (the whole window when no point is that far out, and always in the distribution view), so that a
+/// narrow bump is named by its own band.
+fn core_band(v: &ViewGap, window: (usize, usize), view: ViewKind) -> (usize, usize) {
+    let (a, b) = window;
+    let Some(w) = v.points.get(a..b) else { return window };
+    let peak = a + w.iter().enumerate().max_by(|x, y| x.1.z.abs().total_cmp(&y.1.z.abs())).map_or(0, |m| m.0);
+    let strong = |i: usize| v.points[i].z.abs() >= BAND_Z && v.points[i].z.signum() == v.points[peak].z.signum();
+    if strong(peak) && view != ViewKind::Distribution {
+        let mut lo = peak;
+        while lo > 0 && strong(lo - 1) {
+            lo -= 1;
+        }
+        let mut hi = peak + 1;
+        while hi < v.points.len() && strong(hi) {
+            hi += 1;
+        }
+        (lo, hi)
+    } else {
+        (a, b)
+    }
+}
+
+/// The distribution view's shape: the statistic of the band that stands out most, and which way.
+fn distribution_shape(band: &[PointZ]) -> (&'static str, Option<f64>, String) {
+    // The point of the band that stands out most says which statistic it is.
+    let p = band.iter().max_by(|x, y| x.z.abs().total_cmp(&y.z.abs())).expect("band is not empty");
+    let at = if p.info.label == "difference_kurtosis" {
+        let taus: Vec<f64> =
+            band.iter().filter(|q| q.info.label == "difference_kurtosis").map(|q| q.info.tau_s).collect();
+        let t0 = taus.iter().copied().fold(f64::INFINITY, f64::min);
+        let t1 = taus.iter().copied().fold(0.0, f64::max);
+        format!(" of the Allan differences at tau {} s", range([t0, t1]))
+    } else {
+        " of the samples' local residuals".to_string()
+    };
+    let (kind, what) = match (p.info.label, p.z > 0.0) {
+        ("kurtosis" | "difference_kurtosis", true) => ("heavy_tails", "heavy tails"),
+        ("kurtosis" | "difference_kurtosis", false) => ("light_tails", "light tails"),
+        ("skewness", _) => ("skew", "a skewed distribution"),
+        ("tail_share", true) => ("spikes", "more samples beyond 5 robust sigma"),
+        ("tail_share", false) => ("light_tails", "fewer samples beyond 5 robust sigma"),
+        _ => ("lattice", "values on a lattice"),
+    };
+    let text = format!(
+        "{what}{at}: {} {:.3} real against {:.3} simulated",
+        p.info.label.replace('_', " "),
+        p.real,
+        p.sim_mean
+    );
+    (kind, Some(p.real), text)
 }
 
 /// `a-b` with three significant digits each.

@@ -132,13 +132,7 @@ fn prepare<'a>(
     with_coarse: bool,
 ) -> Option<(Prepared<'a>, Vec<(usize, f64)>)> {
     let n_phase = y.len() + 1;
-    let levels = |near: bool| {
-        let mut v: Vec<usize> = ms.iter().copied().filter(|&m| 2 * m < n_phase && (m <= FUSED_MAX_M) == near).collect();
-        v.sort_unstable();
-        v.dedup();
-        v
-    };
-    let (near_ms, far_ms) = (levels(true), levels(false));
+    let (near_ms, far_ms) = (levels(ms, n_phase, true), levels(ms, n_phase, false));
     let n_coarse = if with_coarse && n_phase >= COARSE_MIN_POINTS { n_phase / COARSE } else { 0 };
 
     // One pass over the samples, a group at a time: no scan before it, so each group integrates less its own
@@ -146,75 +140,114 @@ fn prepare<'a>(
     // block sums are put on the record's mean afterwards.
     let outs: Option<Vec<GroupOut>> = (0..y.len().div_ceil(GROUP_LEN))
         .into_par_iter()
-        .map_init(Vec::new, |buf: &mut Vec<f64>, g| {
-            let s0 = g * GROUP_LEN;
-            let s1 = (s0 + GROUP_LEN).min(y.len());
-            let h = HEAD.min(s0);
-            let base = s0 - h; // the phase point in buf[0]
-            let ys = &y[base..s1];
-            let len = ys.len() + 1;
-            // Piece sums less the first sample (any NaN or infinity makes them non-finite, a sample beyond
-            // MAX_SAMPLE makes them that large: that record takes the phase-array path, which names it), the group's
-            // mean c, and each piece's starting point.
-            let c0 = ys[0];
-            let piece = ys.len() / LANES;
-            let sums: [f64; LANES + 1] = std::array::from_fn(|l| {
-                let e = if l == LANES { ys.len() } else { (l + 1) * piece };
-                sum8(&ys[(l * piece).min(e)..e]) - (e - (l * piece).min(e)) as f64 * c0
-            });
-            let total: f64 = sums.iter().sum();
-            if !(total.abs() <= MAX_SAMPLE) {
-                return None;
-            }
-            let shift = total / ys.len() as f64;
-            let c = c0 + shift;
-            let mut off = [0.0f64; LANES + 1];
-            for l in 1..=LANES {
-                off[l] = off[l - 1] + (sums[l - 1] - piece as f64 * shift) * tau0_s;
-            }
-            buf.clear();
-            buf.reserve(len);
-            let sp = &mut buf.spare_capacity_mut()[..len];
-            sp[0].write(0.0);
-            integrate_pieces(&mut sp[1..], ys, &off, piece, c, tau0_s);
-            // SAFETY: all len elements were written just above.
-            unsafe { buf.set_len(len) };
-            let x: &[f64] = buf;
-            // The terms i..i+2m that end in this group (i + 2m > h in the buffer): from h + 1 on for every level,
-            // then each level's 2m before.
-            let mut sums = vec![0.0f64; near_ms.len()];
-            oadev_range_sums(x, &near_ms, h + 1, len, &mut sums);
-            for (k, &m) in near_ms.iter().enumerate() {
-                oadev_range_sums(x, &near_ms[k..k + 1], (h + 1).saturating_sub(2 * m), h + 1, &mut sums[k..k + 1]);
-            }
-            // The phase points this group owns: s0 + 1 ..= s1 (and 0 for the first), relative to x[s0].
-            let (p_lo, p_hi) = (if g == 0 { 0 } else { s0 + 1 }, s1);
-            let xs = x[h];
-            let dec = (p_lo.div_ceil(DEC)..=p_hi / DEC).map(|k| x[k * DEC - base] - xs).collect();
-            let coarse_first = p_lo / COARSE;
-            let coarse = if n_coarse == 0 || coarse_first >= n_coarse {
-                Vec::new()
-            } else {
-                (coarse_first..=(p_hi / COARSE).min(n_coarse - 1))
-                    .map(|b| {
-                        let (a, e) = ((b * COARSE).max(p_lo), (b * COARSE + COARSE - 1).min(p_hi));
-                        sum8(&x[a - base..=e - base]) - (e + 1 - a) as f64 * xs
-                    })
-                    .collect()
-            };
-            // The owned samples' sum less c: x[s1] - x[s0] in the buffer.
-            let owned = (x[len - 1] - xs) / tau0_s;
-            Some(GroupOut { sums, dec, coarse_first, coarse, s0, n: s1 - s0, c, owned })
-        })
+        .map_init(Vec::new, |buf: &mut Vec<f64>, g| integrate_group(buf, y, g, tau0_s, &near_ms, n_coarse))
         .collect();
     let outs = outs?;
+    let (mean, near_sums, dec, coarse) = merge_groups(&outs, y.len(), near_ms.len(), n_coarse, tau0_s);
+    debug_assert_eq!(dec.len(), (n_phase - 1) / DEC + 1);
+    let far = far_sums(n_phase, &far_ms, |r0, buf| fill_column(y, &dec, mean, tau0_s, r0, buf));
+    let sums = near_ms.into_iter().zip(near_sums).chain(far_ms.into_iter().zip(far)).collect();
+    Some((Prepared { data, y, tau0_s, mean, n_phase, dec, coarse, full: OnceLock::new() }, sums))
+}
+
+/// The near (m <= [`FUSED_MAX_M`]) or far levels of `ms` with 2m below `n_phase`, sorted and without repeats.
+fn levels(ms: &[usize], n_phase: usize, near: bool) -> Vec<usize> {
+    let mut v: Vec<usize> = ms.iter().copied().filter(|&m| 2 * m < n_phase && (m <= FUSED_MAX_M) == near).collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
+/// Group `g` of the samples `y`, integrated in `buf`: its near sums of `near_ms`, kept points and block sums.
+fn integrate_group(
+    buf: &mut Vec<f64>,
+    y: &[f64],
+    g: usize,
+    tau0_s: f64,
+    near_ms: &[usize],
+    n_coarse: usize,
+) -> Option<GroupOut> {
+    let s0 = g * GROUP_LEN;
+    let s1 = (s0 + GROUP_LEN).min(y.len());
+    let h = HEAD.min(s0);
+    let base = s0 - h; // the phase point in buf[0]
+    let c = group_phase(buf, &y[base..s1], tau0_s)?;
+    let x: &[f64] = buf;
+    let len = x.len();
+    // The terms i..i+2m that end in this group (i + 2m > h in the buffer): from h + 1 on for every level,
+    // then each level's 2m before.
+    let mut sums = vec![0.0f64; near_ms.len()];
+    oadev_range_sums(x, near_ms, h + 1, len, &mut sums);
+    for (k, &m) in near_ms.iter().enumerate() {
+        oadev_range_sums(x, &near_ms[k..k + 1], (h + 1).saturating_sub(2 * m), h + 1, &mut sums[k..k + 1]);
+    }
+    // The phase points this group owns: s0 + 1 ..= s1 (and 0 for the first), relative to x[s0].
+    let (p_lo, p_hi) = (if g == 0 { 0 } else { s0 + 1 }, s1);
+    let xs = x[h];
+    let dec = (p_lo.div_ceil(DEC)..=p_hi / DEC).map(|k| x[k * DEC - base] - xs).collect();
+    let coarse_first = p_lo / COARSE;
+    let coarse = if n_coarse == 0 || coarse_first >= n_coarse {
+        Vec::new()
+    } else {
+        (coarse_first..=(p_hi / COARSE).min(n_coarse - 1))
+            .map(|b| {
+                let (a, e) = ((b * COARSE).max(p_lo), (b * COARSE + COARSE - 1).min(p_hi));
+                sum8(&x[a - base..=e - base]) - (e + 1 - a) as f64 * xs
+            })
+            .collect()
+    };
+    // The owned samples' sum less c: x[s1] - x[s0] in the buffer.
+    let owned = (x[len - 1] - xs) / tau0_s;
+    Some(GroupOut { sums, dec, coarse_first, coarse, s0, n: s1 - s0, c, owned })
+}
+
+/// The phase of `ys` less their mean c, from 0, into `buf`: c, or None for a sample not finite or too large.
+fn group_phase(buf: &mut Vec<f64>, ys: &[f64], tau0_s: f64) -> Option<f64> {
+    let len = ys.len() + 1;
+    // Piece sums less the first sample (any NaN or infinity makes them non-finite, a sample beyond
+    // MAX_SAMPLE makes them that large: that record takes the phase-array path, which names it), the group's
+    // mean c, and each piece's starting point.
+    let c0 = ys[0];
+    let piece = ys.len() / LANES;
+    let sums: [f64; LANES + 1] = std::array::from_fn(|l| {
+        let e = if l == LANES { ys.len() } else { (l + 1) * piece };
+        sum8(&ys[(l * piece).min(e)..e]) - (e - (l * piece).min(e)) as f64 * c0
+    });
+    let total: f64 = sums.iter().sum();
+    if !(total.abs() <= MAX_SAMPLE) {
+        return None;
+    }
+    let shift = total / ys.len() as f64;
+    let c = c0 + shift;
+    let mut off = [0.0f64; LANES + 1];
+    for l in 1..=LANES {
+        off[l] = off[l - 1] + (sums[l - 1] - piece as f64 * shift) * tau0_s;
+    }
+    buf.clear();
+    buf.reserve(len);
+    let sp = &mut buf.spare_capacity_mut()[..len];
+    sp[0].write(0.0);
+    integrate_pieces(&mut sp[1..], ys, &off, piece, c, tau0_s);
+    // SAFETY: all len elements were written just above.
+    unsafe { buf.set_len(len) };
+    Some(c)
+}
+
+/// The groups' outputs put on the record's mean: the mean, the near sums, the kept points and the block sums.
+fn merge_groups(
+    outs: &[GroupOut],
+    n_samples: usize,
+    n_near: usize,
+    n_coarse: usize,
+    tau0_s: f64,
+) -> (f64, Vec<f64>, Vec<f64>, Vec<f64>) {
     // The record's mean, then x[s0] of each group on it: x[p] = X[s0] + (buffer) + (c - mean) tau0 (p - s0).
-    let mean = outs.iter().map(|o| o.n as f64 * o.c + o.owned).sum::<f64>() / y.len() as f64;
-    let mut near_sums = vec![0.0f64; near_ms.len()];
-    let mut dec = Vec::with_capacity((n_phase - 1) / DEC + 1);
+    let mean = outs.iter().map(|o| o.n as f64 * o.c + o.owned).sum::<f64>() / n_samples as f64;
+    let mut near_sums = vec![0.0f64; n_near];
+    let mut dec = Vec::with_capacity(n_samples / DEC + 1);
     let mut coarse = vec![0.0f64; n_coarse];
     let mut x_s0 = 0.0;
-    for o in &outs {
+    for o in outs {
         near_sums.iter_mut().zip(&o.sums).for_each(|(a, b)| *a += b);
         let slope = (o.c - mean) * tau0_s;
         let k0 = dec.len();
@@ -230,10 +263,7 @@ fn prepare<'a>(
         }
         x_s0 += (o.owned + o.n as f64 * (o.c - mean)) * tau0_s;
     }
-    debug_assert_eq!(dec.len(), (n_phase - 1) / DEC + 1);
-    let far = far_sums(n_phase, &far_ms, |r0, buf| fill_column(y, &dec, mean, tau0_s, r0, buf));
-    let sums = near_ms.into_iter().zip(near_sums).chain(far_ms.into_iter().zip(far)).collect();
-    Some((Prepared { data, y, tau0_s, mean, n_phase, dec, coarse, full: OnceLock::new() }, sums))
+    (mean, near_sums, dec, coarse)
 }
 
 /// Rows integrated together by [`fill_column`] (independent running sums: the additions overlap).

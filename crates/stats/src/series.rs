@@ -152,6 +152,99 @@ pub(crate) fn mvar_from_coarse(q: &[f64], m: usize, tau0_s: f64) -> Option<f64> 
     Some(sum / (2.0 * mf * mf * n_terms as f64) / (tau * tau))
 }
 
+/// The gap map of the trimmed record `d`: entry k is the number of gap elements before k (see [`Series`]'s `bad`).
+fn gap_map(d: &[f64], kind: DataKind, n_phase: usize) -> Vec<u32> {
+    let mut b = Vec::with_capacity(n_phase + 1);
+    let mut c = 0u32;
+    b.push(0);
+    for v in d {
+        c += v.is_nan() as u32;
+        b.push(c);
+    }
+    if kind == DataKind::Frequency {
+        b.push(c);
+    }
+    b
+}
+
+/// The frequency record's mean and each segment's phase offset, from the scan's segment sums less `reference`.
+fn segment_offsets(
+    chunks: &[(f64, usize, Option<usize>)],
+    reference: f64,
+    n_valid: usize,
+    tau0_s: f64,
+) -> (f64, Vec<f64>) {
+    let shift = chunks.iter().map(|c| c.0).sum::<f64>() / n_valid as f64; // mean - reference
+    let mean = reference + shift;
+    // Segment offsets from the segment sums of the scan: each segment then integrates from its
+    // offset, in the same pass that writes the phase (the array is written once).
+    let mut offsets = Vec::with_capacity(chunks.len());
+    let mut acc = 0.0;
+    for &(s, n, _) in chunks {
+        offsets.push(acc);
+        acc += (s - n as f64 * shift) * tau0_s;
+    }
+    (mean, offsets)
+}
+
+/// The levels of `ms` whose OADEV sums the integration takes (up to [`FUSED_MAX_M`]), sorted, without repeats.
+fn fused_levels(mut ms: Vec<usize>, n_phase: usize) -> Vec<usize> {
+    ms.retain(|&m| m > 0 && m <= FUSED_MAX_M && 2 * m < n_phase);
+    ms.sort_unstable();
+    ms.dedup();
+    ms
+}
+
+/// Integrate the frequency record `d` into `out` (the phase after x[0]): the OADEV sums of `ms` inside each group.
+fn integrate_frequency(
+    out: &mut [std::mem::MaybeUninit<f64>],
+    d: &[f64],
+    offsets: &[f64],
+    mean: f64,
+    tau0_s: f64,
+    ms: &[usize],
+) -> Vec<f64> {
+    // LANES segments at a time on each thread, interleaved: LANES independent running sums; then,
+    // while that group's phase is in cache, the OADEV terms that lie inside it.
+    let groups = out.par_chunks_mut(GROUP_LEN).zip(d.par_chunks(GROUP_LEN)).zip(offsets.par_chunks(LANES));
+    ordered_sums(groups, ms.len(), |acc, ((o, ch), off)| {
+        integrate_lanes(o, ch, off, mean, tau0_s);
+        if !ms.is_empty() {
+            // SAFETY: integrate_lanes wrote every element of o.
+            let xs = unsafe { &*(o as *const [std::mem::MaybeUninit<f64>] as *const [f64]) };
+            oadev_range_sums(xs, ms, 0, xs.len(), acc);
+        }
+    })
+}
+
+/// Write the phase record `d` into `out` less the line through its end points, gaps as 0.
+fn detrend_phase(out: &mut [std::mem::MaybeUninit<f64>], d: &[f64]) {
+    // Remove the line through the first and last points (both valid after trimming).
+    let n1 = (d.len() - 1) as f64;
+    let (a, b) = (d[0], d[d.len() - 1]);
+    let slope = (b - a) / n1;
+    out.par_chunks_mut(CHUNK).zip(d.par_chunks(CHUNK)).enumerate().for_each(|(c, (o, ch))| {
+        for (j, (o, &v)) in o.iter_mut().zip(ch).enumerate() {
+            let i = (c * CHUNK + j) as f64;
+            o.write(if v.is_nan() { 0.0 } else { v - a - slope * i });
+        }
+    });
+}
+
+/// Add to the OADEV sums `sums` of the levels `ms` their terms over the phase `x` that cross a group boundary.
+fn add_boundary_sums(x: &[f64], ms: &[usize], sums: &mut [f64]) {
+    let n_phase = x.len();
+    // The terms that cross from one group into the next (or start at x[0]): i in [b - 2m, b) for each
+    // group start b = 1 + g GROUP_LEN (2m <= GROUP_LEN: one boundary per term at most).
+    let extra = ordered_sums((0..(n_phase - 1).div_ceil(GROUP_LEN)).into_par_iter(), ms.len(), |acc, g| {
+        let b = g * GROUP_LEN + 1;
+        for (k, &m) in ms.iter().enumerate() {
+            oadev_range_sums(x, &ms[k..k + 1], b.saturating_sub(2 * m), b, &mut acc[k..k + 1]);
+        }
+    });
+    sums.iter_mut().zip(&extra).for_each(|(u, v)| *u += v);
+}
+
 /// What a sample is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DataKind {
@@ -252,79 +345,25 @@ impl Series {
         if d.is_empty() || n_phase < 3 {
             return Err(StatsError::TooFewSamples { valid: n_valid, needed: 3 });
         }
-        let bad = (n_nan > 0).then(|| {
-            let mut b = Vec::with_capacity(n_phase + 1);
-            let mut c = 0u32;
-            b.push(0);
-            for v in d {
-                c += v.is_nan() as u32;
-                b.push(c);
-            }
-            if kind == DataKind::Frequency {
-                b.push(c);
-            }
-            b
-        });
+        let bad = (n_nan > 0).then(|| gap_map(d, kind, n_phase));
         let mut x = phase_vec(n_phase);
         let out = &mut x.spare_capacity_mut()[..n_phase];
         let mut fused = (Vec::new(), Vec::new());
         match kind {
             DataKind::Frequency => {
-                let shift = chunks.iter().map(|c| c.0).sum::<f64>() / n_valid as f64; // mean - reference
-                let mean = reference + shift;
-                // Segment offsets from the segment sums of the scan: each segment then integrates from its
-                // offset, in the same pass that writes the phase (the array is written once).
-                let mut offsets = Vec::with_capacity(chunks.len());
-                let mut acc = 0.0;
-                for &(s, n, _) in &chunks {
-                    offsets.push(acc);
-                    acc += (s - n as f64 * shift) * tau0_s;
-                }
+                let (mean, offsets) = segment_offsets(&chunks, reference, n_valid, tau0_s);
                 out[0].write(0.0);
-                // LANES segments at a time on each thread, interleaved: LANES independent running sums; then,
-                // while that group's phase is in cache, the OADEV terms that lie inside it.
-                let mut ms: Vec<usize> = if bad.is_none() { oadev_ms(n_phase) } else { Vec::new() };
-                ms.retain(|&m| m > 0 && m <= FUSED_MAX_M && 2 * m < n_phase);
-                ms.sort_unstable();
-                ms.dedup();
-                let groups =
-                    out[1..].par_chunks_mut(GROUP_LEN).zip(d.par_chunks(GROUP_LEN)).zip(offsets.par_chunks(LANES));
-                let sums = ordered_sums(groups, ms.len(), |acc, ((o, ch), off)| {
-                    integrate_lanes(o, ch, off, mean, tau0_s);
-                    if !ms.is_empty() {
-                        // SAFETY: integrate_lanes wrote every element of o.
-                        let xs = unsafe { &*(o as *const [std::mem::MaybeUninit<f64>] as *const [f64]) };
-                        oadev_range_sums(xs, &ms, 0, xs.len(), acc);
-                    }
-                });
+                let ms = fused_levels(if bad.is_none() { oadev_ms(n_phase) } else { Vec::new() }, n_phase);
+                let sums = integrate_frequency(&mut out[1..], d, &offsets, mean, tau0_s, &ms);
                 fused = (ms, sums);
             }
-            DataKind::Phase => {
-                // Remove the line through the first and last points (both valid after trimming).
-                let n1 = (d.len() - 1) as f64;
-                let (a, b) = (d[0], d[d.len() - 1]);
-                let slope = (b - a) / n1;
-                out.par_chunks_mut(CHUNK).zip(d.par_chunks(CHUNK)).enumerate().for_each(|(c, (o, ch))| {
-                    for (j, (o, &v)) in o.iter_mut().zip(ch).enumerate() {
-                        let i = (c * CHUNK + j) as f64;
-                        o.write(if v.is_nan() { 0.0 } else { v - a - slope * i });
-                    }
-                });
-            }
+            DataKind::Phase => detrend_phase(out, d),
         }
         // SAFETY: every one of the n_phase elements was written above.
         unsafe { x.set_len(n_phase) };
         let (ms, mut sums) = fused;
         if !ms.is_empty() {
-            // The terms that cross from one group into the next (or start at x[0]): i in [b - 2m, b) for each
-            // group start b = 1 + g GROUP_LEN (2m <= GROUP_LEN: one boundary per term at most).
-            let extra = ordered_sums((0..(n_phase - 1).div_ceil(GROUP_LEN)).into_par_iter(), ms.len(), |acc, g| {
-                let b = g * GROUP_LEN + 1;
-                for (k, &m) in ms.iter().enumerate() {
-                    oadev_range_sums(&x, &ms[k..k + 1], b.saturating_sub(2 * m), b, &mut acc[k..k + 1]);
-                }
-            });
-            sums.iter_mut().zip(&extra).for_each(|(u, v)| *u += v);
+            add_boundary_sums(&x, &ms, &mut sums);
         }
         let oadev_fused = ms.into_iter().zip(sums).collect();
         Ok(Series {

@@ -60,30 +60,21 @@ impl Args {
             "octavar demo: {:.1} h at {} Hz, 4 channels, {} samples per channel, {:.1} s\n",
             self.hours, BENCH_RATE_HZ, samples, elapsed
         )?;
-        writeln!(out, "Table 1: recovered (95% interval) beside the paper")?;
-        writeln!(
-            out,
-            "{:<10} {:>34} {:>12} {:>30} {:>12}",
-            "channel", "N deg/sqrt(s)", "paper N", "B deg/s", "paper B"
-        )?;
-        for r in &results {
-            let show = |t: Term| {
-                let e = r.fit.term(t);
-                match (e.value, e.lo, e.hi) {
-                    (Some(v), Some(lo), Some(hi)) => format!("{v:.3e} ({lo:.2e}..{hi:.2e})"),
-                    _ => "not identifiable".to_string(),
-                }
-            };
-            writeln!(
-                out,
-                "{:<10} {:>34} {:>12.2e} {:>30} {:>12.2e}",
-                r.paper.label,
-                show(Term::N),
-                r.paper.paper_n,
-                show(Term::B),
-                r.paper.paper_b
-            )?;
-        }
+        table1_text(&mut out, &results)?;
+        self.write_bench_files(&results, &rows)?;
+        writeln!(out, "\nwrote {}/table1.json, adev.csv, figure5.png and figure5.svg", self.out.display())?;
+        out.flush()?;
+        drop(out);
+
+        // The sim-to-real gap of each channel: its 1 Hz record and the bench temperature, later half held out.
+        let mut out = std::io::stdout().lock();
+        self.gap_diagnoses(&mut out, &runs, &results)?;
+        writeln!(out, "\nwrote gap_<channel>.json, .txt and .png; total {:.1} s", started.elapsed().as_secs_f64())?;
+        Ok(ExitCode::SUCCESS)
+    }
+
+    /// Table 1's JSON, the ADEV points as CSV and Figure 5 (PNG and SVG) in the output folder.
+    fn write_bench_files(&self, results: &[demo::ChannelResult], rows: &[demo::Table1Row]) -> anyhow::Result<()> {
         let path = self.out.join("table1.json");
         std::fs::write(&path, serde_json::to_string_pretty(&rows)?)
             .with_context(|| format!("writing {}", path.display()))?;
@@ -112,12 +103,17 @@ impl Args {
         for name in ["figure5.png", "figure5.svg"] {
             plot::adev_plot(&series, &opts, &self.out.join(name))?;
         }
-        writeln!(out, "\nwrote {}/table1.json, adev.csv, figure5.png and figure5.svg", self.out.display())?;
-        out.flush()?;
-        drop(out);
+        Ok(())
+    }
 
-        // The sim-to-real gap of each channel: its 1 Hz record and the bench temperature, later half held out.
-        let mut out = std::io::stdout().lock();
+    /// Each channel's gap diagnosis (run at once, each with its bar): a line of the summary table, and its JSON,
+    /// text and figure in the output folder.
+    fn gap_diagnoses(
+        &self,
+        out: &mut impl Write,
+        runs: &[demo::ChannelRun],
+        results: &[demo::ChannelResult],
+    ) -> anyhow::Result<()> {
         writeln!(
             out,
             "\nSim-to-real gap (the IEEE model alone vs the bench; 1 Hz block means, the later half held out)"
@@ -131,12 +127,12 @@ impl Args {
         let group = indicatif::MultiProgress::new();
         let bars: Vec<Progress> =
             results.iter().map(|r| Progress::in_group(&group, 1, &format!("gap {}", r.paper.label))).collect();
-        let reports = demo::diagnose_channels(&runs, &|i, done, total| {
+        let reports = demo::diagnose_channels(runs, &|i, done, total| {
             bars[i].set_length(total as u64);
             bars[i].set(done as u64);
         });
         bars.iter().for_each(Progress::finish);
-        for ((report, r), run) in reports.into_iter().zip(&results).zip(&runs) {
+        for ((report, r), run) in reports.into_iter().zip(results).zip(runs) {
             let report = report?;
             let slug: String = r
                 .paper
@@ -167,7 +163,31 @@ impl Args {
                 100.0 * h.shrink
             )?;
         }
-        writeln!(out, "\nwrote gap_<channel>.json, .txt and .png; total {:.1} s", started.elapsed().as_secs_f64())?;
-        Ok(ExitCode::SUCCESS)
+        Ok(())
     }
+}
+
+/// Table 1: the recovered N and B with their 95% intervals beside the paper's.
+fn table1_text(out: &mut impl Write, results: &[demo::ChannelResult]) -> anyhow::Result<()> {
+    writeln!(out, "Table 1: recovered (95% interval) beside the paper")?;
+    writeln!(out, "{:<10} {:>34} {:>12} {:>30} {:>12}", "channel", "N deg/sqrt(s)", "paper N", "B deg/s", "paper B")?;
+    for r in results {
+        let show = |t: Term| {
+            let e = r.fit.term(t);
+            match (e.value, e.lo, e.hi) {
+                (Some(v), Some(lo), Some(hi)) => format!("{v:.3e} ({lo:.2e}..{hi:.2e})"),
+                _ => "not identifiable".to_string(),
+            }
+        };
+        writeln!(
+            out,
+            "{:<10} {:>34} {:>12.2e} {:>30} {:>12.2e}",
+            r.paper.label,
+            show(Term::N),
+            r.paper.paper_n,
+            show(Term::B),
+            r.paper.paper_b
+        )?;
+    }
+    Ok(())
 }

@@ -281,30 +281,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     let step = mean(&abs);
     let step_se =
         (abs.iter().map(|a| (a - step).powi(2)).sum::<f64>() / (abs.len() - 1) as f64 / abs.len() as f64).sqrt();
-    // States between jumps, from the sign of the jump into each stretch; the stretch before the first jump is the
-    // other state.
-    let (mut time_high, mut time_low, mut count_high, mut count_low) = (0.0, 0.0, 0usize, 0usize);
-    let first_high = jumps[0].1 < 0.0;
-    let mut edges: Vec<(usize, usize, bool)> = vec![(0, jumps[0].0, first_high)];
-    for (i, j) in jumps.iter().enumerate() {
-        let end = jumps.get(i + 1).map_or(n, |k| k.0);
-        edges.push((j.0, end, j.1 > 0.0));
-    }
-    let last = edges.len() - 1;
-    for (i, &(a, b, high)) in edges.iter().enumerate() {
-        let dt = (b - a) as f64 / rate_hz;
-        let complete = i > 0 && i < last;
-        if high {
-            time_high += dt;
-            count_high += usize::from(complete);
-        } else {
-            time_low += dt;
-            count_low += usize::from(complete);
-        }
-    }
-    if count_high == 0 || count_low == 0 {
-        return None;
-    }
+    let States { edges, time_high, time_low, count_high, count_low } = States::between(&jumps, n, rate_hz)?;
     let (obs_high, obs_low) = (time_high / count_high as f64, time_low / count_low as f64);
     // An excursion shows in the scan when its mean difference, `step min(1, w / L)` for a width w, passes the
     // threshold: shorter ones go unseen, and each merges two dwells of the other state.
@@ -358,6 +335,49 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
         spread: None,
         cleaned: Some(Arc::new(cleaned)),
     })
+}
+
+/// The two states between the jumps: each stretch of the record with its state, and each state's time and
+/// completed dwells.
+struct States {
+    /// (start, end, high) of each stretch, in order.
+    edges: Vec<(usize, usize, bool)>,
+    /// Time in the high state, s.
+    time_high: f64,
+    /// Time in the low state, s.
+    time_low: f64,
+    /// Completed dwells in the high state (the first and last stretches, cut by the record's ends, are not).
+    count_high: usize,
+    /// Completed dwells in the low state.
+    count_low: usize,
+}
+
+impl States {
+    /// The states of a record of `n` samples at `rate_hz` between `jumps` (sample, size, seen), from the sign of
+    /// the jump into each stretch; the stretch before the first jump is the other state. `None` unless each state
+    /// has a completed dwell.
+    fn between(jumps: &[Jump], n: usize, rate_hz: f64) -> Option<States> {
+        let (mut time_high, mut time_low, mut count_high, mut count_low) = (0.0, 0.0, 0usize, 0usize);
+        let first_high = jumps[0].1 < 0.0;
+        let mut edges: Vec<(usize, usize, bool)> = vec![(0, jumps[0].0, first_high)];
+        for (i, j) in jumps.iter().enumerate() {
+            let end = jumps.get(i + 1).map_or(n, |k| k.0);
+            edges.push((j.0, end, j.1 > 0.0));
+        }
+        let last = edges.len() - 1;
+        for (i, &(a, b, high)) in edges.iter().enumerate() {
+            let dt = (b - a) as f64 / rate_hz;
+            let complete = i > 0 && i < last;
+            if high {
+                time_high += dt;
+                count_high += usize::from(complete);
+            } else {
+                time_low += dt;
+                count_low += usize::from(complete);
+            }
+        }
+        (count_high > 0 && count_low > 0).then_some(States { edges, time_high, time_low, count_high, count_low })
+    }
 }
 
 #[cfg(test)]

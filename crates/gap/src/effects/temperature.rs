@@ -50,52 +50,114 @@ impl EffectKind for Kind {
 /// estimate under S exactly ([`gls_sd`]): slow bias wander that happens to correlate with a slow temperature is
 /// not taken for coupling.
 pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
-    let temp = d.temp_c?;
-    let n = d.rate_dps.len().min(temp.len());
-    if n < 64 || temp[..n].iter().any(|v| !v.is_finite()) {
+    let g = Regression::of(d)?;
+    // The first pass's noises: the base fit's, and the base fit's without its random walk and ramp, which a slow
+    // temperature cycle of a few periods per record may have become (the GLS then weighs the cycle against its
+    // own power and finds nothing); the stronger test is kept.
+    let quiet = GyroSim { k_dps_per_rt_s: 0.0, r_dps_per_s: 0.0, ..d.base.clone() };
+    let pass = [d.base, &quiet]
+        .into_iter()
+        .filter_map(|first| g.second_pass(first))
+        .filter(|p| p.se > 0.0)
+        .max_by(|a, b| (a.k / a.se).abs().total_cmp(&(b.k / b.se).abs()))?;
+    if !(pass.k.abs() > T_PROPOSE * pass.se) {
         return None;
     }
-    let m = ((n / 8192).max(1)).min((d.rate_hz.max(1.0)) as usize).max(1);
-    let mut r = block_means(&d.rate_dps[..n], m);
-    let mut t = block_means(&temp[..n], m);
-    // The FFT grid is 2 (nb + 1) long: trim a few blocks (under 1%) so that it has no prime factor above 7.
-    let nb = fft_friendly(r.len());
-    r.truncate(nb);
-    t.truncate(nb);
-    if nb < 16 {
-        return None;
+    g.fit(&pass)
+}
+
+/// The rate and the temperature in block means on an FFT-friendly grid, and their sine-tapered transforms: what
+/// every pass of the GLS regression of the rate on the lagged temperature reads.
+struct Regression<'a> {
+    d: &'a TrainingData<'a>,
+    /// The recorded temperature, degC.
+    temp: &'a [f64],
+    /// Samples read (the shorter of rate and temperature).
+    n: usize,
+    /// Samples per block.
+    m: usize,
+    /// Blocks.
+    nb: usize,
+    /// The blocks' spacing, s.
+    dt: f64,
+    /// The rate's block means.
+    r: Vec<f64>,
+    /// The temperature's block means.
+    t: Vec<f64>,
+    tapers: Vec<Vec<f64>>,
+    fft_plan: std::sync::Arc<dyn rustfft::Fft<f64>>,
+    /// The rate's tapered transforms.
+    rt1: Vec<(Vec<f64>, Vec<f64>)>,
+    /// The unlagged temperature's tapered transforms.
+    unlagged: Vec<(Vec<f64>, Vec<f64>)>,
+    /// Bins up to Nyquist.
+    half: usize,
+    /// The bin width, Hz.
+    df: f64,
+}
+
+impl<'a> Regression<'a> {
+    /// The regression's data; `None` without a usable temperature (missing, non-finite, constant, too short).
+    fn of(d: &'a TrainingData<'a>) -> Option<Regression<'a>> {
+        let temp = d.temp_c?;
+        let n = d.rate_dps.len().min(temp.len());
+        if n < 64 || temp[..n].iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let m = ((n / 8192).max(1)).min((d.rate_hz.max(1.0)) as usize).max(1);
+        let mut r = block_means(&d.rate_dps[..n], m);
+        let mut t = block_means(&temp[..n], m);
+        // The FFT grid is 2 (nb + 1) long: trim a few blocks (under 1%) so that it has no prime factor above 7.
+        let nb = fft_friendly(r.len());
+        r.truncate(nb);
+        t.truncate(nb);
+        if nb < 16 {
+            return None;
+        }
+        let dt = m as f64 / d.rate_hz;
+        let t_spread = t.iter().fold(f64::MIN, |a, &b| a.max(b)) - t.iter().fold(f64::MAX, |a, &b| a.min(b));
+        if !(t_spread > 0.0) {
+            return None;
+        }
+        // On a grid of 2 (nb + 1) bins, a sine taper's transform is two neighbours of the plain one: one FFT gives
+        // all five ([`sine_tapered`]).
+        let nfft = 2 * (nb + 1);
+        let fft_plan = forward_plan(nfft);
+        let rt1 = sine_tapered(&r, TAPERS, &*fft_plan);
+        let unlagged = sine_tapered(&t, TAPERS, &*fft_plan);
+        let tapers = sine_tapers(nb, TAPERS);
+        let df = 1.0 / (nfft as f64 * dt);
+        Some(Regression { d, temp, n, m, nb, dt, r, t, tapers, fft_plan, rt1, unlagged, half: nfft / 2, df })
     }
-    let dt = m as f64 / d.rate_hz;
-    let t_spread = t.iter().fold(f64::MIN, |a, &b| a.max(b)) - t.iter().fold(f64::MAX, |a, &b| a.min(b));
-    if !(t_spread > 0.0) {
-        return None;
+
+    /// The sine-tapered transforms of a series of block means.
+    fn transform(&self, v: &[f64]) -> Vec<(Vec<f64>, Vec<f64>)> {
+        sine_tapered(v, TAPERS, &*self.fft_plan)
     }
-    let lagged = |lag: f64| -> Vec<f64> {
-        let a = if lag > 0.0 { (-dt / lag).exp() } else { 0.0 };
-        let mut y = t[0];
-        t.iter()
+
+    /// The block-mean temperature through a first-order lag of time constant `lag` s.
+    fn lagged(&self, lag: f64) -> Vec<f64> {
+        let a = if lag > 0.0 { (-self.dt / lag).exp() } else { 0.0 };
+        let mut y = self.t[0];
+        self.t
+            .iter()
             .map(|&x| {
                 y = x + a * (y - x);
                 y
             })
             .collect()
-    };
-    // On a grid of 2 (nb + 1) bins, a sine taper's transform is two neighbours of the plain one: one FFT gives
-    // all five ([`sine_tapered`]).
-    let nfft = 2 * (nb + 1);
-    let half = nfft / 2;
-    let tapers = sine_tapers(nb, TAPERS);
-    let fft_plan = forward_plan(nfft);
-    let transform = |v: &[f64]| -> Vec<(Vec<f64>, Vec<f64>)> { sine_tapered(v, TAPERS, &*fft_plan) };
-    let rt1 = transform(&r);
-    let df = 1.0 / (nfft as f64 * dt);
-    let spectrum =
-        |noise: &NoiseSpectrum| -> Vec<f64> { (0..=half).map(|k| noise.at((k as f64 * df).max(df))).collect() };
-    // (k, GLS residual, sum |X|^2/S) for a lagged temperature's transforms, summed over the tapers.
-    let gls = |xt: &[(Vec<f64>, Vec<f64>)], rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]| -> (f64, f64, f64) {
+    }
+
+    /// `noise`'s spectrum at every bin.
+    fn spectrum(&self, noise: &NoiseSpectrum) -> Vec<f64> {
+        (0..=self.half).map(|k| noise.at((k as f64 * self.df).max(self.df))).collect()
+    }
+
+    /// (k, GLS residual, sum |X|^2/S) for a lagged temperature's transforms, summed over the tapers.
+    fn gls(&self, xt: &[(Vec<f64>, Vec<f64>)], rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]) -> (f64, f64, f64) {
         let (mut sxx, mut sxr, mut srr) = (0.0, 0.0, 0.0);
         for ((xr, xi), (rr, ri)) in xt.iter().zip(rt) {
-            for k in 1..=half {
+            for k in 1..=self.half {
                 sxx += (xr[k] * xr[k] + xi[k] * xi[k]) / s[k];
                 sxr += (xr[k] * rr[k] + xi[k] * ri[k]) / s[k];
                 srr += (rr[k] * rr[k] + ri[k] * ri[k]) / s[k];
@@ -105,104 +167,108 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
             return (0.0, f64::INFINITY, 0.0);
         }
         (sxr / sxx, srr - sxr * sxr / sxx, sxx)
-    };
-    let record = nb as f64 * dt;
-    let unlagged = transform(&t);
-    let best_lag = |rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]| -> f64 {
-        let (lag, crit) = log_search(dt, 3.0 * record, 40, |lag| gls(&transform(&lagged(lag)), rt, s).1);
-        if gls(&unlagged, rt, s).1 <= crit {
+    }
+
+    /// The lag of least GLS residual on a log grid from the block length to three record lengths, or 0 where no
+    /// lag does better.
+    fn best_lag(&self, rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]) -> f64 {
+        let record = self.nb as f64 * self.dt;
+        let (lag, crit) =
+            log_search(self.dt, 3.0 * record, 40, |lag| self.gls(&self.transform(&self.lagged(lag)), rt, s).1);
+        if self.gls(&self.unlagged, rt, s).1 <= crit {
             0.0
         } else {
             lag
         }
-    };
-    // The lagged temperature at every sample.
-    let response = |lag: f64| -> Vec<f64> {
-        let a_full = if lag > 0.0 { (-1.0 / (d.rate_hz * lag)).exp() } else { 0.0 };
-        let mut y = temp[0];
-        temp[..n]
+    }
+
+    /// The lagged temperature at every sample.
+    fn response(&self, lag: f64) -> Vec<f64> {
+        let a_full = if lag > 0.0 { (-1.0 / (self.d.rate_hz * lag)).exp() } else { 0.0 };
+        let mut y = self.temp[0];
+        self.temp[..self.n]
             .iter()
             .map(|&tc| {
                 y = tc + a_full * (y - tc);
                 y
             })
             .collect()
-    };
-    // The rate less the coupling, its gaps filled from what is left.
-    let cleaned_of = |k: f64, lag: f64| -> Vec<f64> {
-        let mut c: Vec<f64> = d.rate_dps[..n].iter().zip(response(lag)).map(|(&r, y)| r - k * y).collect();
-        refill(&mut c, d.gaps);
+    }
+
+    /// The rate less the coupling, its gaps filled from what is left.
+    fn cleaned_of(&self, k: f64, lag: f64) -> Vec<f64> {
+        let mut c: Vec<f64> =
+            self.d.rate_dps[..self.n].iter().zip(self.response(lag)).map(|(&r, y)| r - k * y).collect();
+        refill(&mut c, self.d.gaps);
         c
-    };
-    // One proposal and its test: pass 1 under the noise `first`; pass 2 under the noise of the record without
-    // pass 1's coupling (where the record had gaps, the rate with them filled from pass 1's coupling: a line
-    // through a gap lacks the response there, and reads the coupling low). The test is always pass 2's, under
-    // the IEEE fit of the record less the coupling it tests.
-    let second_pass = |first: &GyroSim| -> Option<Pass> {
-        let s1 = spectrum(&NoiseSpectrum::of_block_means(first, d.rate_hz, m));
-        let lag1 = best_lag(&rt1, &s1);
-        let (k1, _, _) = gls(&transform(&lagged(lag1)), &rt1, &s1);
-        let cleaned1 = cleaned_of(k1, lag1);
+    }
+
+    /// One proposal and its test: pass 1 under the noise `first`; pass 2 under the noise of the record without
+    /// pass 1's coupling (where the record had gaps, the rate with them filled from pass 1's coupling: a line
+    /// through a gap lacks the response there, and reads the coupling low). The test is always pass 2's, under
+    /// the IEEE fit of the record less the coupling it tests.
+    fn second_pass(&self, first: &GyroSim) -> Option<Pass> {
+        let (d, m, nb) = (self.d, self.m, self.nb);
+        let s1 = self.spectrum(&NoiseSpectrum::of_block_means(first, d.rate_hz, m));
+        let lag1 = self.best_lag(&self.rt1, &s1);
+        let (k1, _, _) = self.gls(&self.transform(&self.lagged(lag1)), &self.rt1, &s1);
+        let cleaned1 = self.cleaned_of(k1, lag1);
         let (refit1, _) = refit_base(d, &cleaned1)?;
         let noise = NoiseSpectrum::of_block_means(&refit1, d.rate_hz, m);
-        let mut r2 = r.clone();
+        let mut r2 = self.r.clone();
         if !d.gaps.is_empty() {
-            let refilled: Vec<f64> = cleaned1.iter().zip(response(lag1)).map(|(c, y)| c + k1 * y).collect();
+            let refilled: Vec<f64> = cleaned1.iter().zip(self.response(lag1)).map(|(c, y)| c + k1 * y).collect();
             r2 = block_means(&refilled, m);
             r2.truncate(nb);
         }
-        let rt = if d.gaps.is_empty() { rt1.clone() } else { transform(&r2) };
-        let s2 = spectrum(&noise);
-        let lag = best_lag(&rt, &s2);
-        let x = lagged(lag);
-        let xt = transform(&x);
-        let (k, _, sxx) = gls(&xt, &rt, &s2);
+        let rt = if d.gaps.is_empty() { self.rt1.clone() } else { self.transform(&r2) };
+        let s2 = self.spectrum(&noise);
+        let lag = self.best_lag(&rt, &s2);
+        let x = self.lagged(lag);
+        let xt = self.transform(&x);
+        let (k, _, sxx) = self.gls(&xt, &rt, &s2);
         if !(k.is_finite() && k != 0.0 && sxx > 0.0) {
             return None;
         }
-        let se = gls_sd(&tapers, &xt, &s2, sxx, dt, |f| noise.at(f));
+        let se = gls_sd(&self.tapers, &xt, &s2, sxx, self.dt, |f| noise.at(f));
         Some(Pass { k, lag, se, sxx, x, xt, s2, r: r2 })
-    };
-    // The first pass's noises: the base fit's, and the base fit's without its random walk and ramp, which a slow
-    // temperature cycle of a few periods per record may have become (the GLS then weighs the cycle against its
-    // own power and finds nothing); the stronger test is kept.
-    let quiet = GyroSim { k_dps_per_rt_s: 0.0, r_dps_per_s: 0.0, ..d.base.clone() };
-    let Pass { k, lag, se, sxx, x, xt, s2, r } = [d.base, &quiet]
-        .into_iter()
-        .filter_map(second_pass)
-        .filter(|p| p.se > 0.0)
-        .max_by(|a, b| (a.k / a.se).abs().total_cmp(&(b.k / b.se).abs()))?;
-    if !(k.abs() > T_PROPOSE * se) {
-        return None;
     }
-    // The frequency the estimate rests on: the mean of the GLS weights |X|^2 / S, whose sum is `sxx`; the lag's
-    // phase is read there.
-    let f_hz = xt
-        .iter()
-        .map(|(xr, xi)| (1..=half).map(|k| (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k] * k as f64 * df).sum::<f64>())
-        .sum::<f64>()
-        / sxx;
-    let (refit, _) = refit_base(d, &cleaned_of(k, lag))?;
-    // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
-    let c0 = mean(&r) - k * mean(&x);
-    let ref_c = (d.base.bias_dps - c0) / k;
-    let gyro = GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c, lag_s: lag }), ..refit };
-    Some(EffectFit {
-        effect: Effect::Temperature,
-        params: TemperatureParams { dps_per_c: k, lag_s: lag, ref_c, t_stat: k / se, dps_per_c_se: se }.into(),
-        n_params: 2,
-        gyro,
-        channel: None,
-        spread: (f_hz > 0.0 && se > 0.0).then_some(ParamSpread::Coupling { se_dps_per_c: se, f_hz }),
-        cleaned: None,
-    })
+
+    /// The coupling's fit from its accepted pass: the base terms re-fitted on the record less it, the reference
+    /// temperature that keeps the bias, and the frequency its estimate rests on (for the ensemble's spread).
+    fn fit(&self, pass: &Pass) -> Option<EffectFit> {
+        let Pass { k, lag, se, sxx, ref x, ref xt, ref s2, ref r } = *pass;
+        let (d, half, df) = (self.d, self.half, self.df);
+        // The frequency the estimate rests on: the mean of the GLS weights |X|^2 / S, whose sum is `sxx`; the lag's
+        // phase is read there.
+        let f_hz = xt
+            .iter()
+            .map(|(xr, xi)| (1..=half).map(|k| (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k] * k as f64 * df).sum::<f64>())
+            .sum::<f64>()
+            / sxx;
+        let (refit, _) = refit_base(d, &self.cleaned_of(k, lag))?;
+        // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
+        let c0 = mean(r) - k * mean(x);
+        let ref_c = (d.base.bias_dps - c0) / k;
+        let gyro = GyroSim { temperature: Some(TempCoupling { dps_per_c: k, ref_c, lag_s: lag }), ..refit };
+        Some(EffectFit {
+            effect: Effect::Temperature,
+            params: TemperatureParams { dps_per_c: k, lag_s: lag, ref_c, t_stat: k / se, dps_per_c_se: se }.into(),
+            n_params: 2,
+            gyro,
+            channel: None,
+            spread: (f_hz > 0.0 && se > 0.0).then_some(ParamSpread::Coupling { se_dps_per_c: se, f_hz }),
+            cleaned: None,
+        })
+    }
 }
 
 /// The candidate is proposed when its coefficient is this many standard errors from zero. Below 5 it is named only
 /// when the views judge that it takes away a significant gap that the temperature view locates
 /// (`crate::rank::choose`); where no view's gap is significant, only by its own test at 5 standard errors
-/// (`crate::evidence::test`): two tests where the first alone would need the stricter bar. A coupling at 4.6 standard errors over two temperature cycles can show plainly in the temperature view
-/// (coherence 0.9 real against 0.4 simulated).
+/// (`crate::evidence::test`): two tests where the first alone would need the stricter bar. A coupling at 4.6
+/// standard errors over two temperature cycles can show plainly in the temperature view (coherence 0.9 real
+/// against 0.4 simulated).
 const T_PROPOSE: f64 = 3.0;
 
 /// One proposal's second pass: the coupling, its lag and standard error, the GLS weight `sum |X|^2/S`, the lagged

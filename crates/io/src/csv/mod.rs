@@ -287,20 +287,11 @@ fn read_csv_rows<R: BufRead + Send>(
     path: &str,
     opts: &CsvOptions,
     input_bytes: Option<u64>,
-    mut sink: impl FnMut(&[f64], Option<&[f64]>, usize),
+    sink: impl FnMut(&[f64], Option<&[f64]>, usize),
 ) -> Result<StreamInfo, RecordingError> {
     let io = |err| RecordingError::Io { path: path.to_string(), err };
-    let not_utf8 =
-        |line: u64| RecordingError::BadRow { path: path.to_string(), line, message: "not valid UTF-8".into() };
-    let mut line_no: u64 = 0;
     let mut raw = Vec::new();
-    for _ in 0..opts.skip_rows {
-        raw.clear();
-        if reader.read_until(b'\n', &mut raw).map_err(io)? == 0 {
-            return Err(RecordingError::Empty { path: path.to_string() });
-        }
-        line_no += 1;
-    }
+    let mut line_no = skip_lines(&mut reader, opts.skip_rows, path, &mut raw)?;
     if let Some(r) = opts.rate_hz {
         if !(r.is_finite() && r > 0.0) {
             return Err(RecordingError::BadRate(r));
@@ -310,17 +301,101 @@ fn read_csv_rows<R: BufRead + Send>(
     reader.read_until(b'\n', &mut raw).map_err(io)?;
     line_no += 1;
     let header_line = line_no;
-    let header_text = std::str::from_utf8(&raw).map_err(|_| not_utf8(header_line))?;
+    let header_text = std::str::from_utf8(&raw).map_err(|_| not_utf8(path, header_line))?;
     let header_text = clean_header(header_text);
     if header_text.trim().is_empty() {
         return Err(RecordingError::Empty { path: path.to_string() });
     }
+    let (mut block, mut next) = (Block::default(), Block::default());
+    block.read(&mut reader).map_err(io)?;
+    let dialect = choose_dialect(header_text, opts, &block, path, header_line)?;
+    let headers = header_names(header_text, dialect.delimiter, path, header_line)?;
+    let columns = opts.read_columns();
+    let parser = line_parser(opts, path, &headers, header_line, dialect, &columns)?;
+    let ncols = parser.cols.len();
+    let with_temp = parser.temp.is_some();
+    // Without a time column the rows go on in batches; with one, row by row, with NaN rows for the samples
+    // missing from the time column, once the rate is known from the median step of the first rows (buffered).
+    let mut timed = parser.time.map(|_| Timed {
+        rate: opts.rate_hz.unwrap_or(0.0),
+        last_t: None,
+        pending: Vec::new(),
+        nan_row: vec![f64::NAN; ncols],
+        column: opts.time_column.as_deref().unwrap_or(""),
+    });
+    let info = StreamInfo { columns: columns.clone(), ..Default::default() };
+    let mut out = Emitter { sink, ncols, with_temp, expected_rows: 0, info };
+    if timed.is_none() {
+        out.info.rate_hz = opts.rate_hz.unwrap_or(0.0);
+    }
+    // The tasks' outputs, kept from block to block.
+    let mut parts: Vec<Parsed> = Vec::new();
+    while block.len > 0 {
+        // The block in byte ranges of whole lines, one per task; each task checks its UTF-8, finds its lines and
+        // parses them, numbering from 1; the numbers are made absolute after, in order.
+        // The next block is read (and decompressed) while this one is parsed.
+        let bytes = block.bytes();
+        let ranges = task_ranges(bytes, 4 * rayon::current_num_threads());
+        parts.resize_with(ranges.len(), Parsed::default);
+        let ((), read) = rayon::join(|| parse_tasks(&parser, bytes, &ranges, &mut parts), || next.read(&mut reader));
+        if let (0, Some(total)) = (out.expected_rows, input_bytes) {
+            // The rows the whole input will give, from this first block, so that a collector can make room once.
+            let rows: u64 = parts.iter().map(|p| p.lines).sum();
+            out.expected_rows = (total as f64 / block.len as f64 * rows as f64 * 1.01) as usize + 16;
+        }
+        for part in &mut parts {
+            out.part(part, line_no + 1, timed.as_mut(), path)?;
+            line_no += part.lines;
+        }
+        read.map_err(io)?;
+        std::mem::swap(&mut block, &mut next);
+    }
+    if let Some(timed) = &mut timed {
+        timed.finish(path, &mut |v, t| out.emit(v, t, count_gaps(v)))?;
+        out.info.rate_hz = timed.rate;
+    }
+    if out.info.samples == 0 {
+        return Err(RecordingError::Empty { path: path.to_string() });
+    }
+    Ok(out.info)
+}
+
+/// The error for a line that is not UTF-8.
+fn not_utf8(path: &str, line: u64) -> RecordingError {
+    RecordingError::BadRow { path: path.to_string(), line, message: "not valid UTF-8".into() }
+}
+
+/// The NaN values (gaps) among `values`.
+#[inline]
+fn count_gaps(values: &[f64]) -> u64 {
+    values.iter().filter(|v| v.is_nan()).count() as u64
+}
+
+/// Skip the `skip` lines before the header (read into `raw`): their number; an input that ends first is empty.
+fn skip_lines<R: BufRead>(reader: &mut R, skip: usize, path: &str, raw: &mut Vec<u8>) -> Result<u64, RecordingError> {
+    let mut line_no: u64 = 0;
+    for _ in 0..skip {
+        raw.clear();
+        if reader.read_until(b'\n', raw).map_err(|err| RecordingError::Io { path: path.to_string(), err })? == 0 {
+            return Err(RecordingError::Empty { path: path.to_string() });
+        }
+        line_no += 1;
+    }
+    Ok(line_no)
+}
+
+/// The dialect: the options' delimiter and decimal comma, or those detected from the header and the first block.
+fn choose_dialect(
+    header_text: &str,
+    opts: &CsvOptions,
+    block: &Block,
+    path: &str,
+    header_line: u64,
+) -> Result<Dialect, RecordingError> {
     // `None`: a one-field header, which says nothing about the delimiter (read as a comma).
     let detected = Dialect::detect_delimiter(header_text);
     let one_field = opts.delimiter.is_none() && detected.is_none();
     let mut delimiter = opts.delimiter.or(detected).unwrap_or(Delimiter::Byte(b','));
-    let (mut block, mut next) = (Block::default(), Block::default());
-    block.read(&mut reader).map_err(io)?;
     let decimal_comma = match opts.decimal_comma {
         Some(dc) => dc,
         // No decimal comma is guessed where nothing is known of the delimiter.
@@ -343,7 +418,16 @@ fn read_csv_rows<R: BufRead + Send>(
             });
         }
     }
-    let dialect = Dialect { delimiter, decimal_comma };
+    Ok(Dialect { delimiter, decimal_comma })
+}
+
+/// The header's column names, split at `delimiter`; a name that appears twice is an error.
+fn header_names(
+    header_text: &str,
+    delimiter: Delimiter,
+    path: &str,
+    header_line: u64,
+) -> Result<Vec<String>, RecordingError> {
     let mut header_cells = Vec::new();
     split(header_text, delimiter, &mut header_cells).map_err(|e| RecordingError::BadRow {
         path: path.to_string(),
@@ -362,6 +446,19 @@ fn read_csv_rows<R: BufRead + Send>(
             });
         }
     }
+    Ok(headers)
+}
+
+/// The line parser of the options' columns and filters, found in `headers`; an error for a missing one or no rate.
+fn line_parser<'a>(
+    opts: &'a CsvOptions,
+    path: &'a str,
+    headers: &[String],
+    header_line: u64,
+    dialect: Dialect,
+    columns: &'a [String],
+) -> Result<LineParser<'a>, RecordingError> {
+    let delimiter = dialect.delimiter;
     let find = |name: &str| {
         headers.iter().position(|h| h == name).ok_or_else(|| RecordingError::MissingColumn {
             path: path.to_string(),
@@ -370,7 +467,6 @@ fn read_csv_rows<R: BufRead + Send>(
             available: format!("{}; split at {delimiter}", headers.join(", ")),
         })
     };
-    let columns = opts.read_columns();
     let cols: Vec<usize> = columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
     let temp_col = opts.temp_column.as_deref().map(find).transpose()?;
     let time_col = opts.time_column.as_deref().map(find).transpose()?;
@@ -385,114 +481,95 @@ fn read_csv_rows<R: BufRead + Send>(
         header_fields: headers.len(),
         flexible: opts.flexible,
         cols,
-        names: &columns,
+        names: columns,
         temp: temp_col.zip(opts.temp_column.as_deref()),
         time: time_col.zip(opts.time_column.as_deref()),
         roles: None,
         filters,
         scales: opts.scales(),
     };
-    let parser = LineParser { roles: parser.plain_roles(), ..parser };
-    let mut info = StreamInfo { columns: columns.clone(), ..Default::default() };
-    let ncols = parser.cols.len();
-    let with_temp = parser.temp.is_some();
-    // Without a time column the rows go on in batches; with one, row by row, with NaN rows for the samples
-    // missing from the time column, once the rate is known from the median step of the first rows (buffered).
-    let mut timed = parser.time.map(|_| Timed {
-        rate: opts.rate_hz.unwrap_or(0.0),
-        last_t: None,
-        pending: Vec::new(),
-        nan_row: vec![f64::NAN; ncols],
-        column: opts.time_column.as_deref().unwrap_or(""),
-    });
-    if timed.is_none() {
-        info.rate_hz = opts.rate_hz.unwrap_or(0.0);
-    }
-    let mut emit = |values: &[f64], temps: Option<&[f64]>, gaps: u64, expected_rows: usize, info: &mut StreamInfo| {
-        let rows = values.len() / ncols.max(1);
-        info.samples += rows as u64;
-        info.gaps += gaps;
-        sink(values, temps.filter(|_| with_temp), expected_rows);
-    };
-    let count_gaps = |values: &[f64]| values.iter().filter(|v| v.is_nan()).count() as u64;
-    // The tasks' outputs, kept from block to block.
-    let mut parts: Vec<Parsed> = Vec::new();
-    let mut expected_rows = 0;
-    while block.len > 0 {
-        // The block in byte ranges of whole lines, one per task; each task checks its UTF-8, finds its lines and
-        // parses them, numbering from 1; the numbers are made absolute after, in order.
-        // The next block is read (and decompressed) while this one is parsed.
-        let bytes = block.bytes();
-        let ranges = task_ranges(bytes, 4 * rayon::current_num_threads());
-        parts.resize_with(ranges.len(), Parsed::default);
-        let ((), read) = rayon::join(
-            || {
-                use rayon::prelude::*;
-                parts.par_iter_mut().zip(&ranges).for_each(|(part, &(a, b))| {
-                    part.clear();
-                    match std::str::from_utf8(&bytes[a..b]) {
-                        Ok(text) => parser.parse(text, part),
-                        Err(e) => {
-                            let line = 1 + memchr::memchr_iter(b'\n', &bytes[a..a + e.valid_up_to()]).count() as u64;
-                            part.error = Some(not_utf8(line));
-                        }
-                    }
-                })
-            },
-            || next.read(&mut reader),
-        );
-        if let (0, Some(total)) = (expected_rows, input_bytes) {
-            // The rows the whole input will give, from this first block, so that a collector can make room once.
-            let rows: u64 = parts.iter().map(|p| p.lines).sum();
-            expected_rows = (total as f64 / block.len as f64 * rows as f64 * 1.01) as usize + 16;
+    Ok(LineParser { roles: parser.plain_roles(), ..parser })
+}
+
+/// Parse each task's byte range of `bytes` into its part, in parallel (text that is not UTF-8: its fault).
+fn parse_tasks(parser: &LineParser<'_>, bytes: &[u8], ranges: &[(usize, usize)], parts: &mut [Parsed]) {
+    use rayon::prelude::*;
+    parts.par_iter_mut().zip(ranges).for_each(|(part, &(a, b))| {
+        part.clear();
+        match std::str::from_utf8(&bytes[a..b]) {
+            Ok(text) => parser.parse(text, part),
+            Err(e) => {
+                let line = 1 + memchr::memchr_iter(b'\n', &bytes[a..a + e.valid_up_to()]).count() as u64;
+                part.error = Some(not_utf8(parser.path, line));
+            }
         }
-        for part in &mut parts {
-            let first = line_no + 1;
-            let filtered = part.skips.iter().filter(|(_, k)| *k == Skip::Filtered).count() as u64;
-            info.filtered_out += filtered;
-            let rows = part.lines - part.skips.len() as u64 - u64::from(part.error.is_some());
-            let values = &part.values[..rows as usize * ncols];
-            let temps = &part.temps[..if with_temp { rows as usize } else { 0 }];
-            match &mut timed {
-                None => emit(values, Some(temps), part.gaps, expected_rows, &mut info),
-                Some(timed) => {
-                    // The file line of each row: the task's lines less its skipped ones.
-                    let mut skips = part.skips.iter().peekable();
-                    let mut line = first;
-                    for k in 0..rows as usize {
-                        while skips.peek().is_some_and(|(l, _)| first + l - 1 == line) {
-                            skips.next();
-                            line += 1;
-                        }
-                        let row = TimedRow {
-                            values: &values[k * ncols..(k + 1) * ncols],
-                            temp: with_temp.then(|| temps[k]),
-                            t: part.times[k],
-                            line,
-                        };
-                        timed.row(row, path, &mut |v, t| emit(v, t, count_gaps(v), expected_rows, &mut info))?;
+    })
+}
+
+/// Where the parsed rows go: counted into the read's [`StreamInfo`], then handed to the caller's sink.
+struct Emitter<F> {
+    sink: F,
+    ncols: usize,
+    with_temp: bool,
+    /// The rows the whole input is expected to give (0 until known).
+    expected_rows: usize,
+    info: StreamInfo,
+}
+
+impl<F: FnMut(&[f64], Option<&[f64]>, usize)> Emitter<F> {
+    /// Hand on consecutive rows (`ncols` values each) and their temperatures, with the gaps among them.
+    #[inline]
+    fn emit(&mut self, values: &[f64], temps: Option<&[f64]>, gaps: u64) {
+        let rows = values.len() / self.ncols.max(1);
+        self.info.samples += rows as u64;
+        self.info.gaps += gaps;
+        let with_temp = self.with_temp;
+        (self.sink)(values, temps.filter(|_| with_temp), self.expected_rows);
+    }
+
+    /// Hand on a task's rows (through `timed` with a time column), its first line the file's `first`; then its fault.
+    fn part(
+        &mut self,
+        part: &mut Parsed,
+        first: u64,
+        timed: Option<&mut Timed<'_>>,
+        path: &str,
+    ) -> Result<(), RecordingError> {
+        let (ncols, with_temp) = (self.ncols, self.with_temp);
+        let filtered = part.skips.iter().filter(|(_, k)| *k == Skip::Filtered).count() as u64;
+        self.info.filtered_out += filtered;
+        let rows = part.lines - part.skips.len() as u64 - u64::from(part.error.is_some());
+        let values = &part.values[..rows as usize * ncols];
+        let temps = &part.temps[..if with_temp { rows as usize } else { 0 }];
+        match timed {
+            None => self.emit(values, Some(temps), part.gaps),
+            Some(timed) => {
+                // The file line of each row: the task's lines less its skipped ones.
+                let mut skips = part.skips.iter().peekable();
+                let mut line = first;
+                for k in 0..rows as usize {
+                    while skips.peek().is_some_and(|(l, _)| first + l - 1 == line) {
+                        skips.next();
                         line += 1;
                     }
-                    info.rate_hz = timed.rate;
+                    let row = TimedRow {
+                        values: &values[k * ncols..(k + 1) * ncols],
+                        temp: with_temp.then(|| temps[k]),
+                        t: part.times[k],
+                        line,
+                    };
+                    timed.row(row, path, &mut |v, t| self.emit(v, t, count_gaps(v)))?;
+                    line += 1;
                 }
+                self.info.rate_hz = timed.rate;
             }
-            if let Some(mut e) = part.error.take() {
-                if let Some(line) = e.line_mut() {
-                    *line += first - 1;
-                }
-                return Err(e);
-            }
-            line_no += part.lines;
         }
-        read.map_err(io)?;
-        std::mem::swap(&mut block, &mut next);
+        if let Some(mut e) = part.error.take() {
+            if let Some(line) = e.line_mut() {
+                *line += first - 1;
+            }
+            return Err(e);
+        }
+        Ok(())
     }
-    if let Some(timed) = &mut timed {
-        timed.finish(path, &mut |v, t| emit(v, t, count_gaps(v), expected_rows, &mut info))?;
-        info.rate_hz = timed.rate;
-    }
-    if info.samples == 0 {
-        return Err(RecordingError::Empty { path: path.to_string() });
-    }
-    Ok(info)
 }

@@ -34,7 +34,7 @@ use crate::recording::{RateUnit, Recording, StreamInfo};
 
 use data::{is_numeric, type_name};
 use metadata::Prop;
-use scaling::ScaleFault;
+use scaling::{Scale, ScaleFault};
 use segment::FileReader;
 
 /// What went wrong, and where.
@@ -150,12 +150,32 @@ fn read_bytes(
     }
     let mut file = FileReader::new(bytes, source, columns);
     file.read_segments()?;
-    let path = || source.to_string();
     if columns.is_empty() {
-        return Err(TdmsError::NoColumns { path: path(), available: file.channel_list() });
+        return Err(TdmsError::NoColumns { path: source.to_string(), available: file.channel_list() });
     }
+    let objects = column_objects(&file, columns, source)?;
+    let len = common_length(&file, columns, &objects, source)?;
+    let rate = sample_rate(&file, columns, &objects, rate_hz, source)?;
+    // Each distinct series with its scale, then decoded (in parallel) into its final place in one pass.
+    let series = scaled_series(&file, columns, &objects, source)?;
+    let (mut done, gaps) = decode_series(&file, series, len, unit.to_dps(), columns.len(), source)?;
+    let (channels, repeated_gaps) = column_channels(&objects, &mut done);
+    let gaps = gaps + repeated_gaps;
+    let info = StreamInfo { columns: columns.to_vec(), rate_hz: rate, samples: len as u64, gaps, filtered_out: 0 };
+    Ok(Recording {
+        source: source.to_string(),
+        names: columns.to_vec(),
+        channels,
+        quantities: Vec::new(),
+        temp_c: None,
+        rate_hz: rate,
+        info,
+    })
+}
 
-    // Each column's object and series (a repeated column shares the first one's).
+/// Each column's object and series (a repeat shares the first's); a missing or non-numeric channel is an error.
+fn column_objects(file: &FileReader, columns: &[String], source: &str) -> Result<Vec<(usize, usize)>, TdmsError> {
+    let path = || source.to_string();
     let mut objects = Vec::with_capacity(columns.len());
     for (i, column) in columns.iter().enumerate() {
         let slot = file.wanted.get(column.as_str()).copied().unwrap_or(i);
@@ -181,8 +201,19 @@ fn read_bytes(
             }
         }
     }
+    Ok(objects)
+}
+
+/// The columns' common number of samples; columns of different lengths, or without samples, are an error.
+fn common_length(
+    file: &FileReader,
+    columns: &[String],
+    objects: &[(usize, usize)],
+    source: &str,
+) -> Result<usize, TdmsError> {
+    let path = || source.to_string();
     let len = file.lengths[objects[0].1];
-    for (column, &(_, slot)) in columns.iter().zip(&objects) {
+    for (column, &(_, slot)) in columns.iter().zip(objects) {
         let n = file.lengths[slot];
         if n != len {
             return Err(TdmsError::UnequalLengths {
@@ -197,12 +228,22 @@ fn read_bytes(
     if len == 0 {
         return Err(TdmsError::Empty { path: path(), channel: columns[0].clone() });
     }
+    Ok(len)
+}
 
-    let rate = sample_rate(&file, columns, &objects, rate_hz, source)?;
+/// A distinct series to decode: its slot, the first column that names it, and its scale.
+type SeriesPlan<'c> = (usize, &'c String, Option<Scale>);
 
-    // Each distinct series with its scale, then decoded (in parallel) into its final place in one pass.
+/// Each distinct series with its scale; a scale octavar cannot apply is an error.
+fn scaled_series<'c>(
+    file: &FileReader,
+    columns: &'c [String],
+    objects: &[(usize, usize)],
+    source: &str,
+) -> Result<Vec<SeriesPlan<'c>>, TdmsError> {
+    let path = || source.to_string();
     let mut series = Vec::new();
-    for (column, &(id, slot)) in columns.iter().zip(&objects) {
+    for (column, &(id, slot)) in columns.iter().zip(objects) {
         if series.iter().any(|&(s, _, _)| s == slot) {
             continue;
         }
@@ -214,7 +255,22 @@ fn read_bytes(
         })?;
         series.push((slot, column, scale));
     }
-    let to_dps = unit.to_dps();
+    Ok(series)
+}
+
+/// The decoded values of each slot (`None` where no series has that slot).
+type SlotValues = Vec<Option<Vec<f64>>>;
+
+/// Decode, scale and convert each series in parallel: the values by slot, and their NaNs; an infinity is an error.
+fn decode_series(
+    file: &FileReader,
+    series: Vec<SeriesPlan<'_>>,
+    len: usize,
+    to_dps: f64,
+    slots: usize,
+    source: &str,
+) -> Result<(SlotValues, u64), TdmsError> {
+    let path = || source.to_string();
     // Each series' slot, values and NaN count; the errors in column order, whichever thread met them first.
     type Decoded = (usize, Vec<f64>, u64);
     let decoded: Vec<Result<Decoded, TdmsError>> = series
@@ -245,15 +301,21 @@ fn read_bytes(
             Ok((slot, values, gaps))
         })
         .collect();
-    let mut done: Vec<Option<Vec<f64>>> = vec![None; columns.len()];
+    let mut done: SlotValues = vec![None; slots];
     let mut gaps = 0;
     for d in decoded {
         let (slot, values, nan) = d?;
         done[slot] = Some(values);
         gaps += nan;
     }
+    Ok((done, gaps))
+}
+
+/// Each column's channel from the decoded series `done`, and the gaps of the repeated columns.
+fn column_channels(objects: &[(usize, usize)], done: &mut [Option<Vec<f64>>]) -> (Vec<Vec<f64>>, u64) {
     // A repeated column is a copy of the first, and its gaps count again.
-    let mut channels = Vec::with_capacity(columns.len());
+    let mut gaps = 0;
+    let mut channels = Vec::with_capacity(objects.len());
     for (i, &(_, slot)) in objects.iter().enumerate() {
         let first = objects[..i].iter().any(|o| o.1 == slot);
         let again = objects[i + 1..].iter().any(|o| o.1 == slot);
@@ -263,16 +325,7 @@ fn read_bytes(
         }
         channels.push(values);
     }
-    let info = StreamInfo { columns: columns.to_vec(), rate_hz: rate, samples: len as u64, gaps, filtered_out: 0 };
-    Ok(Recording {
-        source: source.to_string(),
-        names: columns.to_vec(),
-        channels,
-        quantities: Vec::new(),
-        temp_c: None,
-        rate_hz: rate,
-        info,
-    })
+    (channels, gaps)
 }
 
 /// Apply `f` to each value in place: the NaNs among the results, and whether one is infinite.

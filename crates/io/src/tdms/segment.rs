@@ -343,22 +343,7 @@ impl FileReader<'_> {
 impl FileReader<'_> {
     /// Decode the requested channels' values in the raw data `start..end` of a segment.
     pub(super) fn read_data(&mut self, toc: u32, start: usize, end: usize, unwritten: bool) -> Result<(), Fault> {
-        let mut with_data = Vec::new();
-        let mut chunk = 0u64;
-        for &(id, has) in &self.list {
-            if !has {
-                continue;
-            }
-            let Some(index) = self.objects[id].index else { continue };
-            if index.values == 0 {
-                continue;
-            }
-            chunk = chunk.checked_add(index.bytes).ok_or_else(|| Fault::Corrupt {
-                offset: start,
-                message: "the channels' data sizes overflow".to_string(),
-            })?;
-            with_data.push((id, index));
-        }
+        let (with_data, chunk) = self.objects_with_data(start)?;
         let total = (end - start) as u64;
         if chunk == 0 {
             if total != 0 {
@@ -379,7 +364,41 @@ impl FileReader<'_> {
                 ),
             });
         }
-        for &(id, index) in &with_data {
+        self.check_numeric(&with_data)?;
+        let big = toc & TOC_BIG_ENDIAN != 0;
+        if toc & TOC_INTERLEAVED != 0 {
+            let width = self.row_width(&with_data, start)?;
+            self.interleaved_jobs(&with_data, big, start, end, width);
+        } else if chunks > 0 {
+            self.chunked_jobs(&with_data, big, start, chunks, chunk);
+        }
+        Ok(())
+    }
+
+    /// The current segment's objects with values in it, and the bytes of one chunk (all their values).
+    fn objects_with_data(&self, start: usize) -> Result<(Vec<(usize, RawIndex)>, u64), Fault> {
+        let mut with_data = Vec::new();
+        let mut chunk = 0u64;
+        for &(id, has) in &self.list {
+            if !has {
+                continue;
+            }
+            let Some(index) = self.objects[id].index else { continue };
+            if index.values == 0 {
+                continue;
+            }
+            chunk = chunk.checked_add(index.bytes).ok_or_else(|| Fault::Corrupt {
+                offset: start,
+                message: "the channels' data sizes overflow".to_string(),
+            })?;
+            with_data.push((id, index));
+        }
+        Ok((with_data, chunk))
+    }
+
+    /// An error for a requested channel among `with_data` whose values are not numbers.
+    fn check_numeric(&self, with_data: &[(usize, RawIndex)]) -> Result<(), Fault> {
+        for &(id, index) in with_data {
             let o = &self.objects[id];
             if o.slot.is_some() && !is_numeric(index.data_type) {
                 return Err(Fault::NotNumeric {
@@ -388,69 +407,78 @@ impl FileReader<'_> {
                 });
             }
         }
-        let big = toc & TOC_BIG_ENDIAN != 0;
-        if toc & TOC_INTERLEAVED != 0 {
-            let values = with_data[0].1.values;
-            let mut width = 0usize;
-            for &(id, index) in &with_data {
-                if index.values != values {
+        Ok(())
+    }
+
+    /// The bytes of a row of interleaved data; channels of unequal lengths, or without a fixed size, are errors.
+    fn row_width(&self, with_data: &[(usize, RawIndex)], start: usize) -> Result<usize, Fault> {
+        let values = with_data[0].1.values;
+        let mut width = 0usize;
+        for &(id, index) in with_data {
+            if index.values != values {
+                return Err(Fault::Corrupt {
+                    offset: start,
+                    message: format!(
+                        "interleaved data whose channels differ in length ({} has {values} values, {} has {})",
+                        self.name(with_data[0].0),
+                        self.name(id),
+                        index.values
+                    ),
+                });
+            }
+            match type_size(index.data_type) {
+                Some(s) if index.data_type != TYPE_STRING => width += s as usize,
+                _ => {
                     return Err(Fault::Corrupt {
                         offset: start,
                         message: format!(
-                            "interleaved data whose channels differ in length ({} has {values} values, {} has {})",
-                            self.name(with_data[0].0),
+                            "interleaved data with {} of type {}, which has no fixed size",
                             self.name(id),
-                            index.values
+                            type_name(index.data_type)
                         ),
-                    });
+                    })
                 }
-                match type_size(index.data_type) {
-                    Some(s) if index.data_type != TYPE_STRING => width += s as usize,
-                    _ => {
-                        return Err(Fault::Corrupt {
-                            offset: start,
-                            message: format!(
-                                "interleaved data with {} of type {}, which has no fixed size",
-                                self.name(id),
-                                type_name(index.data_type)
-                            ),
-                        })
-                    }
-                }
-            }
-            // Whole rows only: an unfinished segment may stop inside a chunk.
-            let rows = (end - start) / width;
-            let mut offset = start;
-            for &(id, index) in &with_data {
-                if let Some(slot) = self.objects[id].slot {
-                    let data_type = index.data_type;
-                    let job =
-                        Job { slot, data_type, big, start: offset, stride: width, count: rows, runs: 1, run_stride: 0 };
-                    self.add(job);
-                }
-                offset += type_size(index.data_type).unwrap_or(0) as usize;
-            }
-        } else if chunks > 0 {
-            // Every value counted here lies inside `start..end`, so the sizes fit in usize.
-            let mut offset = start;
-            for &(id, index) in &with_data {
-                if let Some(slot) = self.objects[id].slot {
-                    let job = Job {
-                        slot,
-                        data_type: index.data_type,
-                        big,
-                        start: offset,
-                        stride: type_size(index.data_type).unwrap_or(1) as usize,
-                        count: index.values as usize,
-                        runs: chunks as usize,
-                        run_stride: chunk as usize,
-                    };
-                    self.add(job);
-                }
-                offset += index.bytes as usize;
             }
         }
-        Ok(())
+        Ok(width)
+    }
+
+    /// The jobs of the requested channels in interleaved data `start..end`, rows of `width` bytes.
+    fn interleaved_jobs(&mut self, with_data: &[(usize, RawIndex)], big: bool, start: usize, end: usize, width: usize) {
+        // Whole rows only: an unfinished segment may stop inside a chunk.
+        let rows = (end - start) / width;
+        let mut offset = start;
+        for &(id, index) in with_data {
+            if let Some(slot) = self.objects[id].slot {
+                let data_type = index.data_type;
+                let job =
+                    Job { slot, data_type, big, start: offset, stride: width, count: rows, runs: 1, run_stride: 0 };
+                self.add(job);
+            }
+            offset += type_size(index.data_type).unwrap_or(0) as usize;
+        }
+    }
+
+    /// The jobs of the requested channels in `chunks` chunks of `chunk` bytes from `start` (not interleaved).
+    fn chunked_jobs(&mut self, with_data: &[(usize, RawIndex)], big: bool, start: usize, chunks: u64, chunk: u64) {
+        // Every value counted here lies inside `start..end`, so the sizes fit in usize.
+        let mut offset = start;
+        for &(id, index) in with_data {
+            if let Some(slot) = self.objects[id].slot {
+                let job = Job {
+                    slot,
+                    data_type: index.data_type,
+                    big,
+                    start: offset,
+                    stride: type_size(index.data_type).unwrap_or(1) as usize,
+                    count: index.values as usize,
+                    runs: chunks as usize,
+                    run_stride: chunk as usize,
+                };
+                self.add(job);
+            }
+            offset += index.bytes as usize;
+        }
     }
 
     fn add(&mut self, job: Job) {

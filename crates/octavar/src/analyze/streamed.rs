@@ -334,23 +334,65 @@ pub fn analyze_capture<R: Read>(
     progress: Progress<'_>,
 ) -> Result<StreamAnalysis, StreamError> {
     let name = capture.name().to_string();
-    let mut hello = None;
-    let mut accs: Vec<StreamOadev> = Vec::new();
-    let mut next_sample: Vec<Option<u64>> = Vec::new();
-    let mut cols: Vec<Vec<f64>> = Vec::new();
-    // Per channel: the snapshots of finished sessions (pooled) and the latest of the current one.
-    let mut snaps: Vec<(Option<octavar_shared::acc::Snapshot>, Option<octavar_shared::acc::Snapshot>)> = Vec::new();
-    let mut checkpoints = crate::io::decode::Checkpoints::new();
+    let mut tally = CaptureTally::default();
     let mut records = 0u64;
     for item in capture.by_ref() {
         let d = item?;
-        checkpoints.take(&d);
         records += 1;
         if records.is_multiple_of(4096) {
             progress(d.meta.offset);
         }
+        tally.take(d, opts.stride)?;
+    }
+    let Some(hello) = tally.hello.take() else {
+        return Err(StreamError::Capture { name, what: "no hello frame: the sample rate is unknown".into() });
+    };
+    let rate = f64::from(hello.rate_hz);
+    if rate.is_nan() || rate <= 0.0 {
+        return Err(StreamError::BadRate(rate));
+    }
+    let channels = CaptureChannels { hello: &hello, rate, name: &name, opts };
+    let have_samples = tally.accs.iter().any(|a| a.samples() > 0);
+    let use_log = match opts.capture_data {
+        CaptureData::Auto => tally.checkpoints.newest_whole().is_some(),
+        CaptureData::FieldLog => true,
+        CaptureData::Raw | CaptureData::Snapshots => false,
+    };
+    if use_log {
+        return channels.field_log_analysis(&tally.checkpoints);
+    }
+    if opts.capture_data == CaptureData::Raw && !have_samples {
+        return Err(StreamError::Capture { name, what: "no raw samples (record with --raw)".into() });
+    }
+    if have_samples && opts.capture_data != CaptureData::Snapshots {
+        return channels.raw_analysis(tally.accs);
+    }
+    channels.snapshot_analysis(tally.snaps)
+}
+
+/// A channel's accumulator snapshots: those of finished sessions (pooled) and the latest of the current one.
+type SessionSnapshots = (Option<octavar_shared::acc::Snapshot>, Option<octavar_shared::acc::Snapshot>);
+
+/// What a capture's frames add up to, per channel: the raw samples through the streaming accumulator, the
+/// snapshots, the field-log checkpoints, and the hello that names the channels.
+#[derive(Default)]
+struct CaptureTally {
+    hello: Option<octavar_shared::proto::Hello>,
+    accs: Vec<StreamOadev>,
+    /// The next sample index each channel expects (a jump ends the accumulator's segment).
+    next_sample: Vec<Option<u64>>,
+    /// Each channel's codes of the current frame, as f64.
+    cols: Vec<Vec<f64>>,
+    snaps: Vec<SessionSnapshots>,
+    checkpoints: crate::io::decode::Checkpoints,
+}
+
+impl CaptureTally {
+    /// Take one decoded frame into the tally.
+    fn take(&mut self, d: crate::io::decode::Decoded, stride: usize) -> Result<(), StreamError> {
+        self.checkpoints.take(&d);
         if d.meta.restart {
-            for (pooled, cur) in snaps.iter_mut() {
+            for (pooled, cur) in self.snaps.iter_mut() {
                 if let Some(c) = cur.take() {
                     match pooled {
                         Some(p) => {
@@ -363,142 +405,162 @@ pub fn analyze_capture<R: Read>(
         }
         match d.message {
             Message::Hello(h) => {
-                let n = h.channels.len();
-                if accs.len() < n {
-                    for _ in accs.len()..n {
-                        accs.push(StreamOadev::new(opts.stride)?);
-                    }
-                    next_sample.resize(n, None);
-                    cols.resize(n, Vec::new());
-                    snaps.resize(n, (None, None));
-                }
-                hello = Some(h);
+                self.grow(h.channels.len(), stride)?;
+                self.hello = Some(h);
             }
             Message::Samples(s) => {
-                let k = s.channels();
-                if k == 0 {
-                    continue;
+                if s.channels() == 0 {
+                    return Ok(());
                 }
                 let chans: Vec<usize> = s.mask_channels().collect();
                 for &c in &chans {
-                    if c >= accs.len() {
-                        for _ in accs.len()..=c {
-                            accs.push(StreamOadev::new(opts.stride)?);
-                        }
-                        next_sample.resize(c + 1, None);
-                        cols.resize(c + 1, Vec::new());
-                        snaps.resize(c + 1, (None, None));
+                    self.grow(c + 1, stride)?;
+                    if self.next_sample[c].is_some_and(|n| n != s.first_sample) {
+                        self.accs[c].end_segment();
                     }
-                    if next_sample[c].is_some_and(|n| n != s.first_sample) {
-                        accs[c].end_segment();
-                    }
-                    next_sample[c] = Some(s.first_sample + s.sets() as u64);
+                    self.next_sample[c] = Some(s.first_sample + s.sets() as u64);
                 }
                 for (j, &c) in chans.iter().enumerate() {
-                    cols[c].clear();
-                    cols[c].extend(s.slot_codes(j).map(f64::from));
-                    accs[c].push(&cols[c]);
+                    self.cols[c].clear();
+                    self.cols[c].extend(s.slot_codes(j).map(f64::from));
+                    self.accs[c].push(&self.cols[c]);
                 }
             }
             Message::Snapshot(cs) => {
                 let c = cs.channel as usize;
-                if c >= snaps.len() {
-                    snaps.resize(c + 1, (None, None));
+                if c >= self.snaps.len() {
+                    self.snaps.resize(c + 1, (None, None));
                 }
-                snaps[c].1 = Some(cs.snapshot);
+                self.snaps[c].1 = Some(cs.snapshot);
             }
             _ => {}
         }
+        Ok(())
     }
-    let Some(hello) = hello else {
-        return Err(StreamError::Capture { name, what: "no hello frame: the sample rate is unknown".into() });
-    };
-    let rate = f64::from(hello.rate_hz);
-    if rate.is_nan() || rate <= 0.0 {
-        return Err(StreamError::BadRate(rate));
+
+    /// Room for at least `n` channels.
+    fn grow(&mut self, n: usize, stride: usize) -> Result<(), StreamError> {
+        if self.accs.len() < n {
+            for _ in self.accs.len()..n {
+                self.accs.push(StreamOadev::new(stride)?);
+            }
+            self.next_sample.resize(n, None);
+            self.cols.resize(n, Vec::new());
+            self.snaps.resize(n.max(self.snaps.len()), (None, None));
+        }
+        Ok(())
     }
-    let tau0 = 1.0 / rate;
-    let ch_name = |c: usize| hello.channels.get(c).map_or_else(|| format!("ch{c}"), |i| i.name.as_str().to_string());
-    let ch_scale = |c: usize| hello.channels.get(c).map_or(1.0, |i| octavar_shared::sensor::dps_per_code(i.kind));
-    let mut out = Vec::new();
-    let have_samples = accs.iter().any(|a| a.samples() > 0);
-    let newest = checkpoints.newest_whole();
-    let use_log = match opts.capture_data {
-        CaptureData::Auto => newest.is_some(),
-        CaptureData::FieldLog => true,
-        CaptureData::Raw | CaptureData::Snapshots => false,
-    };
-    if use_log {
-        let Some(cp) = newest else {
+}
+
+/// A capture's channels as its hello names them, and the analysis of each from one of its three sources.
+struct CaptureChannels<'a> {
+    hello: &'a octavar_shared::proto::Hello,
+    rate: f64,
+    name: &'a str,
+    opts: &'a StreamOptions,
+}
+
+impl CaptureChannels<'_> {
+    fn ch_name(&self, c: usize) -> String {
+        self.hello.channels.get(c).map_or_else(|| format!("ch{c}"), |i| i.name.as_str().to_string())
+    }
+
+    fn ch_scale(&self, c: usize) -> f64 {
+        self.hello.channels.get(c).map_or(1.0, |i| octavar_shared::sensor::dps_per_code(i.kind))
+    }
+
+    /// One channel's octave points from an accumulator snapshot; `None` where it has none.
+    fn snapshot_channel(&self, c: usize, snap: &octavar_shared::acc::Snapshot) -> Option<ChannelAnalysis> {
+        let points = crate::stats::strided::snapshot_points(snap, self.rate, self.ch_scale(c), self.opts.confidence);
+        if points.is_empty() {
+            return None;
+        }
+        let counts = Counts { tau0_s: 1.0 / self.rate, n_samples: snap.samples as usize, n_gaps: 0 };
+        Some(octave_channel(&self.ch_name(c), counts, points, self.opts))
+    }
+
+    /// The newest whole field-log checkpoint (which pools every session the device logged).
+    fn field_log_analysis(&self, checkpoints: &crate::io::decode::Checkpoints) -> Result<StreamAnalysis, StreamError> {
+        let Some(cp) = checkpoints.newest_whole() else {
             let why = if checkpoints.by_number.is_empty() {
                 "no field-log checkpoint"
             } else {
                 "no whole field-log checkpoint (parts lost: read the log again)"
             };
-            return Err(StreamError::Capture { name, what: why.into() });
+            return Err(StreamError::Capture { name: self.name.to_string(), what: why.into() });
         };
-        for (&c, snap) in &cp.channels {
-            let c = usize::from(c);
-            let points = crate::stats::strided::snapshot_points(snap, rate, ch_scale(c), opts.confidence);
-            if points.is_empty() {
-                continue;
-            }
-            let counts = Counts { tau0_s: tau0, n_samples: snap.samples as usize, n_gaps: 0 };
-            out.push(octave_channel(&ch_name(c), counts, points, opts));
-        }
-        return Ok(StreamAnalysis {
-            source: name,
-            rate_hz: rate,
+        let channels =
+            cp.channels.iter().filter_map(|(&c, snap)| self.snapshot_channel(usize::from(c), snap)).collect();
+        Ok(StreamAnalysis {
+            source: self.name.to_string(),
+            rate_hz: self.rate,
             samples: cp.samples(),
-            channels: out,
+            channels,
             method: format!(
                 "field-log checkpoint {}: {} session(s), {} s, {} sample loss(es)",
                 cp.number, cp.sessions, cp.time_s, cp.adc_overruns
             ),
-        });
+        })
     }
-    if opts.capture_data == CaptureData::Raw && !have_samples {
-        return Err(StreamError::Capture { name, what: "no raw samples (record with --raw)".into() });
-    }
-    let mut samples = 0;
-    if have_samples && opts.capture_data != CaptureData::Snapshots {
+
+    /// The raw samples, through the streaming accumulators.
+    fn raw_analysis(&self, accs: Vec<StreamOadev>) -> Result<StreamAnalysis, StreamError> {
+        let mut out = Vec::new();
+        let mut samples = 0;
         for (c, acc) in accs.into_iter().enumerate() {
             if acc.samples() == 0 {
                 continue;
             }
             let totals = acc.finish();
             samples = samples.max(totals.samples);
-            out.push(channel_result(&ch_name(c), &totals, tau0, ch_scale(c), opts, &name)?);
+            out.push(channel_result(
+                &self.ch_name(c),
+                &totals,
+                1.0 / self.rate,
+                self.ch_scale(c),
+                self.opts,
+                self.name,
+            )?);
         }
-        return Ok(StreamAnalysis {
-            source: name,
-            rate_hz: rate,
+        Ok(StreamAnalysis {
+            source: self.name.to_string(),
+            rate_hz: self.rate,
             samples,
             channels: out,
-            method: format!("raw samples of the capture, stride {}", opts.stride),
-        });
+            method: format!("raw samples of the capture, stride {}", self.opts.stride),
+        })
     }
-    for (c, (pooled, cur)) in snaps.into_iter().enumerate() {
-        let snap = match (pooled, cur) {
-            (Some(mut p), Some(c)) => {
-                let _ = p.merge(&c);
-                p
-            }
-            (Some(p), None) | (None, Some(p)) => p,
-            (None, None) => continue,
-        };
-        samples = samples.max(snap.samples);
-        let points = crate::stats::strided::snapshot_points(&snap, rate, ch_scale(c), opts.confidence);
-        if points.is_empty() {
-            continue;
+
+    /// The device's accumulator snapshots: the last of each session, pooled.
+    fn snapshot_analysis(&self, snaps: Vec<SessionSnapshots>) -> Result<StreamAnalysis, StreamError> {
+        let mut out = Vec::new();
+        let mut samples = 0;
+        for (c, (pooled, cur)) in snaps.into_iter().enumerate() {
+            let snap = match (pooled, cur) {
+                (Some(mut p), Some(c)) => {
+                    let _ = p.merge(&c);
+                    p
+                }
+                (Some(p), None) | (None, Some(p)) => p,
+                (None, None) => continue,
+            };
+            samples = samples.max(snap.samples);
+            out.extend(self.snapshot_channel(c, &snap));
         }
-        let counts = Counts { tau0_s: tau0, n_samples: snap.samples as usize, n_gaps: 0 };
-        out.push(octave_channel(&ch_name(c), counts, points, opts));
+        if out.is_empty() {
+            return Err(StreamError::Capture {
+                name: self.name.to_string(),
+                what: "neither raw samples nor snapshots".into(),
+            });
+        }
+        Ok(StreamAnalysis {
+            source: self.name.to_string(),
+            rate_hz: self.rate,
+            samples,
+            channels: out,
+            method: "device snapshots".into(),
+        })
     }
-    if out.is_empty() {
-        return Err(StreamError::Capture { name, what: "neither raw samples nor snapshots".into() });
-    }
-    Ok(StreamAnalysis { source: name, rate_hz: rate, samples, channels: out, method: "device snapshots".into() })
 }
 
 #[cfg(test)]

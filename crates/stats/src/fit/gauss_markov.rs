@@ -55,40 +55,89 @@ const BIAS_SHARE: f64 = 0.25;
 /// share of N or Q): for each correlation time on a log grid, Q^2, N^2 and sigma^2 are solved by non-negative
 /// weighted least squares in relative error, and the correlation time of least log-domain chi-square is kept.
 pub fn fit_gauss_markov(points: &[DevPoint], fit: &NoiseFit) -> Option<GaussMarkovFit> {
-    let usable: Vec<&DevPoint> = points
+    let region = BiasRegion::new(points, fit)?;
+    let (x, cost, best_tau) = region.best_fit()?;
+    let model = |tau: f64| region.model(&x, tau, best_tau);
+    // The range where the process is at least a quarter of the curve: the bias region it matches.
+    let matched: Vec<&(f64, f64, f64)> = region
+        .points
         .iter()
-        .filter(|p| p.dev.is_finite() && p.dev > 0.0 && p.edf.is_finite() && p.edf > 0.0)
-        .filter(|p| p.tau_s >= fit.tau_range_s[0] && p.tau_s <= fit.tau_range_s[1])
+        .filter(|r| x[2] * gauss_markov_avar(1.0, best_tau, r.0) >= BIAS_SHARE * model(r.0))
         .collect();
-    let min_at = usable.iter().min_by(|a, b| a.dev.total_cmp(&b.dev))?.tau_s;
-    // The curve up to where a random walk or ramp of the fit takes over from B (or twice the minimum's tau where
-    // B is not in the fit): past it the bias is not stationary, and no Gauss-Markov process follows it.
-    let b_part = |tau: f64| fit.term_avar(Term::B, tau);
-    let drift = |tau: f64| fit.term_avar(Term::K, tau) + fit.term_avar(Term::R, tau);
-    let region: Vec<(f64, f64, f64)> = usable
+    let (first, last) = (matched.first()?, matched.last()?);
+    // The misfit where the points themselves are precise (their deviation within about 10%): beyond, the
+    // scatter of the estimate is larger than any misfit could be told from it.
+    let max_misfit = matched
         .iter()
-        .filter(|p| {
-            if fit.squares[Term::B as usize] > 0.0 {
-                b_part(p.tau_s) >= drift(p.tau_s) || p.tau_s <= min_at
-            } else {
-                p.tau_s <= 2.0 * min_at
-            }
-        })
-        .map(|p| (p.tau_s, p.dev * p.dev, 1.0 / (2.0 / p.edf + MODEL_ERROR * MODEL_ERROR)))
-        .collect();
-    if region.len() < 3 {
-        return None;
+        .filter(|r| r.2 >= PRECISE_WEIGHT)
+        .map(|&&(tau, avar, _)| ((avar / model(tau)).ln().abs() / 2.0).exp() - 1.0)
+        .fold(0.0, f64::max);
+    let dof = region.points.len().saturating_sub(idx_count(&x) + 1).max(1);
+    Some(GaussMarkovFit {
+        sigma: x[2].sqrt(),
+        tau_c_s: best_tau,
+        tau_range_s: [first.0, last.0],
+        points: matched.len(),
+        max_misfit,
+        chi2_per_dof: cost / dof as f64,
+    })
+}
+
+/// The measured points a Gauss-Markov process is matched to, as (tau, AVAR, weight), and the fit's bandwidth.
+struct BiasRegion {
+    points: Vec<(f64, f64, f64)>,
+    bw: Option<f64>,
+}
+
+impl BiasRegion {
+    /// The usable points of the bias region of `fit`, or `None` where fewer than three are.
+    fn new(points: &[DevPoint], fit: &NoiseFit) -> Option<BiasRegion> {
+        let usable: Vec<&DevPoint> = points
+            .iter()
+            .filter(|p| p.dev.is_finite() && p.dev > 0.0 && p.edf.is_finite() && p.edf > 0.0)
+            .filter(|p| p.tau_s >= fit.tau_range_s[0] && p.tau_s <= fit.tau_range_s[1])
+            .collect();
+        let min_at = usable.iter().min_by(|a, b| a.dev.total_cmp(&b.dev))?.tau_s;
+        // The curve up to where a random walk or ramp of the fit takes over from B (or twice the minimum's tau where
+        // B is not in the fit): past it the bias is not stationary, and no Gauss-Markov process follows it.
+        let b_part = |tau: f64| fit.term_avar(Term::B, tau);
+        let drift = |tau: f64| fit.term_avar(Term::K, tau) + fit.term_avar(Term::R, tau);
+        let region: Vec<(f64, f64, f64)> = usable
+            .iter()
+            .filter(|p| {
+                if fit.squares[Term::B as usize] > 0.0 {
+                    b_part(p.tau_s) >= drift(p.tau_s) || p.tau_s <= min_at
+                } else {
+                    p.tau_s <= 2.0 * min_at
+                }
+            })
+            .map(|p| (p.tau_s, p.dev * p.dev, 1.0 / (2.0 / p.edf + MODEL_ERROR * MODEL_ERROR)))
+            .collect();
+        if region.len() < 3 {
+            return None;
+        }
+        Some(BiasRegion { points: region, bw: fit.bandwidth_hz })
     }
-    let bw = fit.bandwidth_hz;
-    let basis = |tau: f64, tau_c: f64| {
-        [Term::Q.basis_with(tau, bw), Term::N.basis_with(tau, bw), gauss_markov_avar(1.0, tau_c, tau)]
-    };
-    let log_cost = |x: &[f64; 3], tau_c: f64| -> f64 {
-        region
+
+    /// The model's terms at `tau` for unit parameters: Q^2, N^2, and the process of correlation time `tau_c`.
+    #[inline]
+    fn basis(&self, tau: f64, tau_c: f64) -> [f64; 3] {
+        [Term::Q.basis_with(tau, self.bw), Term::N.basis_with(tau, self.bw), gauss_markov_avar(1.0, tau_c, tau)]
+    }
+
+    /// The Allan variance at `tau` of the model `x` (Q^2, N^2, sigma^2) with correlation time `tau_c`.
+    #[inline]
+    fn model(&self, x: &[f64; 3], tau: f64, tau_c: f64) -> f64 {
+        let b = self.basis(tau, tau_c);
+        x[0] * b[0] + x[1] * b[1] + x[2] * b[2]
+    }
+
+    /// The weighted log-domain chi-square of the model `x` with correlation time `tau_c`.
+    fn log_cost(&self, x: &[f64; 3], tau_c: f64) -> f64 {
+        self.points
             .iter()
             .map(|&(tau, avar, w)| {
-                let b = basis(tau, tau_c);
-                let m = x[0] * b[0] + x[1] * b[1] + x[2] * b[2];
+                let m = self.model(x, tau, tau_c);
                 if m > 0.0 {
                     w * (avar.ln() - m.ln()).powi(2)
                 } else {
@@ -96,16 +145,18 @@ pub fn fit_gauss_markov(points: &[DevPoint], fit: &NoiseFit) -> Option<GaussMark
                 }
             })
             .sum()
-    };
-    let solve = |tau_c: f64| -> Option<([f64; 3], f64)> {
+    }
+
+    /// The non-negative solution (Q^2, N^2, sigma^2) of least cost with correlation time `tau_c`, and its cost.
+    fn solve(&self, tau_c: f64) -> Option<([f64; 3], f64)> {
         let mut best: Option<([f64; 3], f64)> = None;
         // Every subset that keeps the process: the non-negative solution of least cost.
         for mask in [0b100u8, 0b110, 0b101, 0b111] {
             let idx: Vec<usize> = (0..3).filter(|j| mask >> (2 - j) & 1 == 1).collect();
             let k = idx.len();
             let (mut a, mut r) = (vec![vec![0.0; k]; k], vec![0.0; k]);
-            for &(tau, avar, w) in &region {
-                let b = basis(tau, tau_c);
+            for &(tau, avar, w) in &self.points {
+                let b = self.basis(tau, tau_c);
                 for (i, &ji) in idx.iter().enumerate() {
                     r[i] += w * b[ji] / avar;
                     for (l, &jl) in idx.iter().enumerate() {
@@ -121,50 +172,31 @@ pub fn fit_gauss_markov(points: &[DevPoint], fit: &NoiseFit) -> Option<GaussMark
             for (i, &j) in idx.iter().enumerate() {
                 x[j] = sol[i];
             }
-            let c = log_cost(&x, tau_c);
+            let c = self.log_cost(&x, tau_c);
             if best.as_ref().is_none_or(|b| c < b.1) {
                 best = Some((x, c));
             }
         }
         best
-    };
-    let (t0, t1) = (region[0].0, region[region.len() - 1].0);
-    let grid = 160;
-    let (lo, hi) = ((t0 / 30.0).ln(), (t1 * 30.0).ln());
-    let (mut best, mut best_tau) = (None::<([f64; 3], f64)>, 0.0);
-    for i in 0..=grid {
-        let tau_c = (lo + (hi - lo) * i as f64 / grid as f64).exp();
-        if let Some(s) = solve(tau_c) {
-            if best.as_ref().is_none_or(|b| s.1 < b.1) {
-                (best, best_tau) = (Some(s), tau_c);
+    }
+
+    /// The solution of least cost over a log grid of correlation times: (solution, cost, correlation time).
+    fn best_fit(&self) -> Option<([f64; 3], f64, f64)> {
+        let (t0, t1) = (self.points[0].0, self.points[self.points.len() - 1].0);
+        let grid = 160;
+        let (lo, hi) = ((t0 / 30.0).ln(), (t1 * 30.0).ln());
+        let (mut best, mut best_tau) = (None::<([f64; 3], f64)>, 0.0);
+        for i in 0..=grid {
+            let tau_c = (lo + (hi - lo) * i as f64 / grid as f64).exp();
+            if let Some(s) = self.solve(tau_c) {
+                if best.as_ref().is_none_or(|b| s.1 < b.1) {
+                    (best, best_tau) = (Some(s), tau_c);
+                }
             }
         }
+        let (x, cost) = best?;
+        Some((x, cost, best_tau))
     }
-    let (x, cost) = best?;
-    let model = |tau: f64| {
-        let b = basis(tau, best_tau);
-        x[0] * b[0] + x[1] * b[1] + x[2] * b[2]
-    };
-    // The range where the process is at least a quarter of the curve: the bias region it matches.
-    let matched: Vec<&(f64, f64, f64)> =
-        region.iter().filter(|r| x[2] * gauss_markov_avar(1.0, best_tau, r.0) >= BIAS_SHARE * model(r.0)).collect();
-    let (first, last) = (matched.first()?, matched.last()?);
-    // The misfit where the points themselves are precise (their deviation within about 10%): beyond, the
-    // scatter of the estimate is larger than any misfit could be told from it.
-    let max_misfit = matched
-        .iter()
-        .filter(|r| r.2 >= PRECISE_WEIGHT)
-        .map(|&&(tau, avar, _)| ((avar / model(tau)).ln().abs() / 2.0).exp() - 1.0)
-        .fold(0.0, f64::max);
-    let dof = region.len().saturating_sub(idx_count(&x) + 1).max(1);
-    Some(GaussMarkovFit {
-        sigma: x[2].sqrt(),
-        tau_c_s: best_tau,
-        tau_range_s: [first.0, last.0],
-        points: matched.len(),
-        max_misfit,
-        chi2_per_dof: cost / dof as f64,
-    })
 }
 
 /// Parameters in use (non-zero) of a solution.
