@@ -10,6 +10,7 @@ use std::io::Write;
 use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use octavar::io::ros1_bag::encode::{field, record, time};
 use octavar::io::{ros1_bag, ros2_bag, ros2_db3};
 
 const MESSAGES: u64 = 1_000_000;
@@ -53,29 +54,6 @@ fn cdr_msg(k: u64) -> Vec<u8> {
     m.extend([0u8; 7]); // to the 8-byte boundary after the 4-byte encapsulation header
     floats(w, a).for_each(|v| m.extend(v.to_le_bytes()));
     m
-}
-
-fn field(name: &str, value: &[u8]) -> Vec<u8> {
-    let mut f = ((name.len() + 1 + value.len()) as u32).to_le_bytes().to_vec();
-    f.extend(name.as_bytes());
-    f.push(b'=');
-    f.extend(value);
-    f
-}
-
-fn record(fields: &[(&str, &[u8])], data: &[u8]) -> Vec<u8> {
-    let header: Vec<u8> = fields.iter().flat_map(|(n, v)| field(n, v)).collect();
-    let mut r = (header.len() as u32).to_le_bytes().to_vec();
-    r.extend(header);
-    r.extend((data.len() as u32).to_le_bytes());
-    r.extend(data);
-    r
-}
-
-fn time(ns: u64) -> Vec<u8> {
-    let mut t = ((ns / 1_000_000_000) as u32).to_le_bytes().to_vec();
-    t.extend(((ns % 1_000_000_000) as u32).to_le_bytes());
-    t
 }
 
 /// A ROS 1 bag of format 2.0 with one Imu connection, in chunks of about 768 KiB (rosbag's default).

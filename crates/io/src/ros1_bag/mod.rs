@@ -16,6 +16,8 @@
 //! ```
 
 mod chunk;
+#[doc(hidden)]
+pub mod encode;
 mod imu;
 mod record;
 mod scan;

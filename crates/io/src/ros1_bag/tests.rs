@@ -3,34 +3,10 @@
 
 use std::io::Write;
 
+use super::encode::{field, record, time};
 use super::record::{op, Fields, RecordError, Records};
 use super::*;
 use crate::imu_topic::TimeSource;
-
-/// A header field `name=value`, length-prefixed.
-fn field(name: &str, value: &[u8]) -> Vec<u8> {
-    let mut f = ((name.len() + 1 + value.len()) as u32).to_le_bytes().to_vec();
-    f.extend(name.as_bytes());
-    f.push(b'=');
-    f.extend(value);
-    f
-}
-
-/// A record: its header's fields, then its data, each length-prefixed.
-fn record(fields: &[(&str, &[u8])], data: &[u8]) -> Vec<u8> {
-    let header: Vec<u8> = fields.iter().flat_map(|(n, v)| field(n, v)).collect();
-    let mut r = (header.len() as u32).to_le_bytes().to_vec();
-    r.extend(header);
-    r.extend((data.len() as u32).to_le_bytes());
-    r.extend(data);
-    r
-}
-
-fn time(ns: u64) -> Vec<u8> {
-    let mut t = ((ns / 1_000_000_000) as u32).to_le_bytes().to_vec();
-    t.extend(((ns % 1_000_000_000) as u32).to_le_bytes());
-    t
-}
 
 /// A ROS 1 `sensor_msgs/Imu`: seq, stamp, frame_id, then 37 float64.
 fn imu_msg(stamp_ns: u64, frame: &str, w: [f64; 3], a: [f64; 3]) -> Vec<u8> {
