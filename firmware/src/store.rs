@@ -2,7 +2,7 @@
 //! them back for the host after a power cycle.
 //!
 //! The log logic (record format, recovery, write order, power-cut safety) is `octavar_shared::fieldlog`, tested
-//! on the host, and so is the policy (`octavar_shared::fieldlog::Recorder`): at boot, and after a host reset, the
+//! on the host, and so is the policy (`octavar_shared::fieldlog::CheckpointPolicy`): at boot, and after a host reset, the
 //! newest checkpoint is read back, and every checkpoint of the session pools it with the session's snapshots
 //! (`Checkpoint::merge_session`), so the log always covers the whole deployment, and a power cut or a reset loses
 //! at most the samples since the last checkpoint. Here: the flash driver behind its `LogFlash` trait.
@@ -24,7 +24,9 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::signal::Signal;
 
 use embassy_time::{Duration, Timer};
-use octavar_shared::fieldlog::{Checkpoint, FieldLog, LogError, LogFlash, Recorded, Recorder, OVERHEAD_WORDS};
+use octavar_shared::fieldlog::{
+    Checkpoint, CheckpointPolicy, FieldLog, LogError, LogFlash, RoundOutcome, OVERHEAD_WORDS,
+};
 use octavar_shared::flash_f4::{erase_worst_us, program_worst_us, FlashError, PARALLELISM};
 use octavar_shared::proto::{Ack, CheckpointReport, FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
 
@@ -112,7 +114,7 @@ pub const READ_OUT_FRAME_WAIT: Duration = Duration::from_secs(2);
 /// Checkpoints snapshot rounds, answers field-log reads, and writes a checkpoint when a host asks, with a report
 /// of what it cost; generic over the controller behind the flash (the board's or QEMU's model).
 ///
-/// Only the log, the recorder (with its base checkpoint), one record's words and, while [`settle`] waits before
+/// Only the log, the policy (with its base checkpoint), one record's words and, while [`settle`] waits before
 /// a checkpoint, that round live across the waits (this future is a static).
 pub async fn run<F: LogFlash<Error = FlashError>>(flash: F) -> ! {
     let mut words = [0u32; CHECKPOINT_WORDS];
@@ -120,8 +122,8 @@ pub async fn run<F: LogFlash<Error = FlashError>>(flash: F) -> ! {
         Ok(log) => log,
         Err(e) => panic!("field log: {:?}", e),
     };
-    let (mut recorder, boot) = Recorder::<GYROS>::open(&mut log, &mut words, CHECKPOINT_EVERY_SCANS);
-    match (boot, recorder.base()) {
+    let (mut policy, boot) = CheckpointPolicy::<GYROS>::open(&mut log, &mut words, CHECKPOINT_EVERY_SCANS);
+    match (boot, policy.base()) {
         (Ok(Some(seq)), Some(cp)) => {
             defmt::info!(
                 "field log: checkpoint {} of {} sessions, {} samples",
@@ -141,7 +143,7 @@ pub async fn run<F: LogFlash<Error = FlashError>>(flash: F) -> ! {
         let read = match select3(SNAPSHOT_READY.wait(), LOG_READ.wait(), CHECKPOINT_NOW.wait()).await {
             Either3::First(round) => {
                 let force = forced.take();
-                if force.is_none() && !recorder.due(round.samples) {
+                if force.is_none() && !policy.due(round.samples) {
                     continue;
                 }
                 settle().await;
@@ -149,12 +151,12 @@ pub async fn run<F: LogFlash<Error = FlashError>>(flash: F) -> ! {
                 let t0 = timebase::now_us();
                 let (snaps, overruns, samples) = (&round.snapshots, round.adc_overruns, round.samples);
                 let written = match force {
-                    Some(_) => recorder.round_now(&mut log, &mut words, snaps, overruns, samples),
-                    None => recorder.round(&mut log, &mut words, snaps, overruns, samples),
+                    Some(_) => policy.round_now(&mut log, &mut words, snaps, overruns, samples),
+                    None => policy.round(&mut log, &mut words, snaps, overruns, samples),
                 };
                 let program_us = timebase::now_us() - t0;
                 let (checkpoint, flash_error) = match written {
-                    Ok(Recorded::Written { seq, sessions, new_session }) => {
+                    Ok(RoundOutcome::Written { seq, sessions, new_session }) => {
                         defmt::info!(
                             "field log: checkpoint {} ({} samples this session, {} sessions{}), {} us",
                             seq,
@@ -165,7 +167,7 @@ pub async fn run<F: LogFlash<Error = FlashError>>(flash: F) -> ! {
                         );
                         (seq, 0)
                     }
-                    Ok(Recorded::NotDue) => (0, 0),
+                    Ok(RoundOutcome::NotDue) => (0, 0),
                     Err(e) => {
                         defmt::warn!("field log: checkpoint failed: {}", defmt::Debug2Format(&e));
                         (0, flash_flags(&e))

@@ -6,7 +6,7 @@ use common::{octavar, stderr, stdout};
 
 use std::path::{Path, PathBuf};
 
-use octavar::device::simulator::{device_frames, DeviceConfig, DeviceSim};
+use octavar::board::simulated::{device_frames, DeviceConfig, DeviceSim};
 use octavar_shared::proto::{Encoder, Frame, SnapshotPart};
 
 fn scan(i: u32) -> [u16; 5] {

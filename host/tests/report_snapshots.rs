@@ -314,7 +314,7 @@ mod board {
 
     use octavar_shared::acc::Snapshot;
     use octavar_shared::device::{Characterizer, DeviceConfig, FrameSink};
-    use octavar_shared::fieldlog::{Checkpoint, FieldLog, RamFlash, Recorded, Recorder};
+    use octavar_shared::fieldlog::{Checkpoint, CheckpointPolicy, FieldLog, RamFlash, RoundOutcome};
     use octavar_shared::proto::{
         Ack, CheckpointReport, Command, Decoder, Encoder, FieldLogEnd, FieldLogRecord, Frame, SnapshotPart, RESYNC,
     };
@@ -343,7 +343,7 @@ mod board {
         enc: Encoder,
         out: Vec<u8>,
         log: FieldLog<Flash>,
-        recorder: Recorder<GYROS>,
+        policy: CheckpointPolicy<GYROS>,
         words: Vec<u32>,
         /// The sequence number of a `Checkpoint` command not yet answered.
         forced: Option<u32>,
@@ -363,15 +363,15 @@ mod board {
             let snaps: &[Snapshot; GYROS] = snapshots.try_into().expect("one snapshot per gyro");
             let t0 = Instant::now();
             let written = match self.forced {
-                Some(_) => self.recorder.round_now(&mut self.log, &mut self.words, snaps, losses, samples),
-                None => self.recorder.round(&mut self.log, &mut self.words, snaps, losses, samples),
+                Some(_) => self.policy.round_now(&mut self.log, &mut self.words, snaps, losses, samples),
+                None => self.policy.round(&mut self.log, &mut self.words, snaps, losses, samples),
             };
             let program_us = micros(t0);
             let t1 = Instant::now();
             let erase_us = if self.log.prepare_append().expect("the RAM flash erases") { micros(t1) } else { 0 };
             if let Some(seq) = self.forced.take() {
                 let checkpoint = match written {
-                    Ok(Recorded::Written { seq, .. }) => seq,
+                    Ok(RoundOutcome::Written { seq, .. }) => seq,
                     _ => 0,
                 };
                 let report =
@@ -427,9 +427,9 @@ mod board {
         fn power_on(flash: Flash) -> Self {
             let mut log = FieldLog::open(flash, Checkpoint::<GYROS>::WORDS).expect("a sector holds a checkpoint");
             let mut words = vec![0; Checkpoint::<GYROS>::WORDS];
-            let (recorder, _) = Recorder::open(&mut log, &mut words, CFG.snapshot_every);
+            let (policy, _) = CheckpointPolicy::open(&mut log, &mut words, CFG.snapshot_every);
             log.prepare_append().expect("the RAM flash erases");
-            let wire = Wire { enc: Encoder::new(), out: Vec::new(), log, recorder, words, forced: None };
+            let wire = Wire { enc: Encoder::new(), out: Vec::new(), log, policy, words, forced: None };
             Board { core: Characterizer::new(CFG, 0), wire, next_index: 0 }
         }
 

@@ -37,14 +37,14 @@
 //! # Examples
 //! ```
 //! use octavar_shared::acc::OctaveAllan;
-//! use octavar_shared::estimate::{estimate, EstimateConfig};
+//! use octavar_shared::estimate::{noise_estimate, EstimateConfig};
 //! let mut acc = OctaveAllan::<8>::new();
 //! let mut s = 1u32;
 //! for _ in 0..20_000 {
 //!     s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
 //!     acc.push(2048 + (s >> 30) as u16); // white noise, 4 codes wide
 //! }
-//! let e = estimate(&acc.snapshot(), &EstimateConfig { rate_hz: 2000.0, dps_per_code: 0.01, ..Default::default() });
+//! let e = noise_estimate(&acc.snapshot(), &EstimateConfig { rate_hz: 2000.0, dps_per_code: 0.01, ..Default::default() });
 //! assert!(e.n_dps_per_rt_s.is_some() && e.b_dps.is_some());
 //! ```
 
@@ -208,7 +208,7 @@ fn fit(snap: &Snapshot, last: usize, cfg: &EstimateConfig) -> Option<(f32, f32, 
 }
 
 /// Estimate N and B of one channel from its snapshot.
-pub fn estimate(snap: &Snapshot, cfg: &EstimateConfig) -> NoiseEstimate {
+pub fn noise_estimate(snap: &Snapshot, cfg: &EstimateConfig) -> NoiseEstimate {
     let tau0 = 1.0 / cfg.rate_hz;
     let mut out = NoiseEstimate::default();
 
@@ -270,7 +270,7 @@ mod tests {
         let dps_per_code = 0.05;
         let snap = shaped(rate_hz, |tau| n_true / tau.sqrt() / dps_per_code);
         let cfg = EstimateConfig { rate_hz: rate_hz as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
-        let e = estimate(&snap, &cfg);
+        let e = noise_estimate(&snap, &cfg);
         let n = e.n_dps_per_rt_s.unwrap();
         assert!((f64::from(n) / n_true - 1.0).abs() < 1e-3, "{n}");
     }
@@ -286,7 +286,7 @@ mod tests {
             ((n_true * n_true / tau) + floor * floor + (1e-6 * tau).powi(2)).sqrt() / dps_per_code
         });
         let cfg = EstimateConfig { rate_hz: rate_hz as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
-        let e = estimate(&snap, &cfg);
+        let e = noise_estimate(&snap, &cfg);
         let b = e.b_dps.unwrap();
         assert!((f64::from(b) / b_true - 1.0).abs() < 0.05, "{b}");
         assert!(e.tau_b_s.unwrap() > 1.0);
@@ -304,7 +304,7 @@ mod tests {
         let dps_per_code = 0.05;
         let snap = shaped(rate_hz, |tau| (n_true * n_true / tau + floor * floor).sqrt() / dps_per_code);
         let cfg = EstimateConfig { rate_hz: rate_hz as f32, dps_per_code: dps_per_code as f32, min_independent: 4 };
-        let e = estimate(&snap, &cfg);
+        let e = noise_estimate(&snap, &cfg);
         let n = f64::from(e.n_dps_per_rt_s.unwrap());
         assert!((n / n_true - 1.0).abs() < 0.01, "{n}");
         let b = f64::from(e.b_dps.unwrap());
@@ -356,7 +356,7 @@ mod tests {
                     dps_per_code: channel.dps_per_code() as f32,
                     min_independent: 4,
                 };
-                let e = estimate(&acc.snapshot(), &cfg);
+                let e = noise_estimate(&acc.snapshot(), &cfg);
                 let n = f64::from(e.n_dps_per_rt_s.unwrap());
                 let b = f64::from(e.b_dps.unwrap());
                 let (en, eb) = (n / n_true - 1.0, b / b_true - 1.0);
@@ -396,7 +396,7 @@ mod tests {
         let dps_per_code = 0.01f32;
         let sigma_codes = (4.0 * (256.0f64 * 256.0 - 1.0) / 12.0).sqrt();
         let n_true = sigma_codes * f64::from(dps_per_code) / f64::from(rate_hz).sqrt();
-        let e = estimate(&acc.snapshot(), &EstimateConfig { rate_hz, dps_per_code, min_independent: 4 });
+        let e = noise_estimate(&acc.snapshot(), &EstimateConfig { rate_hz, dps_per_code, min_independent: 4 });
         let n = f64::from(e.n_dps_per_rt_s.unwrap());
         assert!((n / n_true - 1.0).abs() < 0.15, "{n} vs {n_true}");
     }
@@ -409,14 +409,14 @@ mod tests {
         for i in 0..100u16 {
             acc.push(2000 + i % 3);
         }
-        let e = estimate(&acc.snapshot(), &EstimateConfig::default());
+        let e = noise_estimate(&acc.snapshot(), &EstimateConfig::default());
         assert_eq!(e.n_dps_per_rt_s, None);
         assert!(e.b_dps.is_some());
-        assert_eq!(estimate(&Snapshot::empty(8).unwrap(), &EstimateConfig::default()), NoiseEstimate::default());
+        assert_eq!(noise_estimate(&Snapshot::empty(8).unwrap(), &EstimateConfig::default()), NoiseEstimate::default());
         // A constant input: no noise at all, no N.
         let mut acc = OctaveAllan::<8>::new();
         (0..20_000).for_each(|_| acc.push(2048));
-        let e = estimate(&acc.snapshot(), &EstimateConfig::default());
+        let e = noise_estimate(&acc.snapshot(), &EstimateConfig::default());
         assert_eq!((e.n_dps_per_rt_s, e.b_dps), (None, Some(0.0)));
     }
 }

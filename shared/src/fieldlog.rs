@@ -592,8 +592,8 @@ impl<const W: usize> LogFlash for RamFlash<W> {
     }
 }
 
-mod recorder;
-pub use recorder::{Recorded, Recorder};
+mod policy;
+pub use policy::{CheckpointPolicy, RoundOutcome};
 
 #[cfg(test)]
 mod tests {

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use octavar::device::verify::{verify, MismatchField, VerifyReport};
+use octavar::board::verify::{verify, MismatchField, VerifyReport};
 use octavar::io::decode::{CaptureReader, Decoded, Message};
 use octavar_shared::acc::{OctaveAllan, Snapshot};
 use octavar_shared::proto::{encode_to_vec, Decoder, Frame, SnapshotPart};

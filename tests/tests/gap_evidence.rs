@@ -25,7 +25,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
 use octavar::fit::FitOptions;
-use octavar::gap::effects::{estimate, TrainingData};
+use octavar::gap::effects::{fit_effect, TrainingData};
 use octavar::gap::{base_model, evidence, fit_base, Effect};
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::temperature::Thermal;
@@ -129,7 +129,7 @@ fn statistics(generator: Generator, seed: u64) -> [Option<f64>; TESTED.len()] {
         lattice_dps: None,
         shaped_dps: None,
     };
-    TESTED.map(|e| estimate(e, &data).and_then(|f| evidence::of(&f)).map(|ev| ev.value))
+    TESTED.map(|e| fit_effect(e, &data).and_then(|f| evidence::of(&f)).map(|ev| ev.value))
 }
 
 /// The statistic by which each tested effect's estimator names itself on control `seed` (`None`: it found no

@@ -1,13 +1,13 @@
 //! The device path in one process: virtual gyros (shared::sim) -> the firmware's accumulation and frames
-//! (octavar::device::simulator: one `OctaveAllan<8>` per gyro, hello, raw samples, snapshot rounds, status) -> a capture
+//! (octavar::board::simulated: one `OctaveAllan<8>` per gyro, hello, raw samples, snapshot rounds, status) -> a capture
 //! -> decode -> verify, with every snapshot bit for bit.
 
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use octavar::device::recorder::{record, ReaderSource, RecordOptions};
-use octavar::device::simulator::{DeviceConfig, DeviceSim};
-use octavar::device::verify::{verify, verify_path};
+use octavar::board::recorder::{record, ReaderSource, RecordOptions};
+use octavar::board::simulated::{DeviceConfig, DeviceSim};
+use octavar::board::verify::{verify, verify_path};
 use octavar::io::capture::CaptureWriter;
 use octavar::io::decode::{CaptureReader, Message, StreamDecoder};
 use octavar_shared::acc::{OctaveAllan, Snapshot};

@@ -4,7 +4,7 @@
 //! most 6e-6 here, see the data folder's notes).
 
 use octavar::io::csv::{read_csv, CsvOptions};
-use octavar::stats::{estimate, DataKind, Series, Statistic};
+use octavar::stats::{deviation_at, DataKind, Series, Statistic};
 
 use crate::util;
 
@@ -29,7 +29,7 @@ fn adis16405_gyro_oadev_matches_the_published_maximal_overlap_avar() {
             let f: Vec<&str> = line.split(',').collect();
             let m: usize = f[1].parse().unwrap();
             let published: f64 = f[3].parse().unwrap();
-            let ours = estimate(&series, Statistic::Oadev, m).unwrap().dev.powi(2);
+            let ours = deviation_at(&series, Statistic::Oadev, m).unwrap().dev.powi(2);
             let rel = (ours / published - 1.0).abs();
             assert!(rel < 1e-5, "{name} m={m}: {ours} vs published {published} (rel {rel:.2e})");
             checked += 1;

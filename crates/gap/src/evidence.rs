@@ -125,7 +125,7 @@ pub fn named(
     let mut out: Vec<(f64, EffectFit)> = remaining
         .iter()
         .filter(|&&e| threshold(e).is_some())
-        .filter_map(|&e| estimated(e).unwrap_or_else(|| effects::estimate(e, data)))
+        .filter_map(|&e| estimated(e).unwrap_or_else(|| effects::fit_effect(e, data)))
         .filter_map(|f| of(&f).filter(Evidence::names).map(|ev| (ev.strength(), f)))
         .collect();
     out.sort_by(|a, b| b.0.total_cmp(&a.0));

@@ -58,7 +58,7 @@ fn main() {
         let pts: Vec<String> = rows.iter().map(|p| format!("[{}, {:e}]", p.m, p.dev)).collect();
         println!(
             "{{\"compute_s\": {best}, \"compute_plain_s\": {best_plain}, \"stride\": {}, \"oadev\": [{}]}}",
-            octavar::stats::streamed::DEFAULT_STRIDE,
+            octavar::stats::stream_oadev::DEFAULT_STRIDE,
             pts.join(", ")
         );
     } else {

@@ -18,7 +18,7 @@
 //! | 1   | `export`   | IMU noise configs for state estimators and simulators (Kalibr, VINS, GTSAM, ...)     |
 //! | 2   | `datasheet`| datasheet figures in any unit, and a fit measured against them                      |
 //! | 2   | `analyze`  | one channel's statistics and fit, its text/JSON/CSV writers, the streamed path       |
-//! | 2   | `device`   | recording a device, verifying captures, the code accumulator, a simulated device     |
+//! | 2   | `board`    | the octavar board: recording it, verifying captures, the accumulator, a simulated one |
 //! | 2   | `simulate` | a gyro simulated from a fitted model (`shared::sim`)                                 |
 //! | 3   | `gap`      | crate `octavar-gap`: where a fitted model's simulation and a recording part, and why |
 //! | 3   | `io`       | crate `octavar-io`: every format read into samples (CSV, TDMS, bags, captures)       |
@@ -30,9 +30,9 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool, clippy::needless_range_loop)]
 
 pub mod analyze;
+pub mod board;
 pub mod datasheet;
 pub mod demo;
-pub mod device;
 pub mod export;
 pub mod plot;
 pub mod simulate;

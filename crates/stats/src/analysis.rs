@@ -26,7 +26,7 @@
 
 use rayon::prelude::*;
 
-use super::deviation::{estimate, estimate_many, RawDeviation, Statistic};
+use super::deviation::{deviation_at, deviations_at, RawDeviation, Statistic};
 use super::error::StatsError;
 use super::noise_id::identify_with;
 use super::point::{row, DevPoint, Options};
@@ -95,9 +95,9 @@ pub fn analyze_series(
     let ms = averaging_factors(taus, stat.stop_ratio(), stat.m_limit(n_phase), n_phase, series.tau0_s())?;
     let ms: Vec<usize> = ms.iter().map(|&m| m as usize).collect();
     let estimates = if opts.parallel {
-        estimate_many(series, stat, &ms)
+        deviations_at(series, stat, &ms)
     } else {
-        ms.iter().map(|&m| estimate(series, stat, m)).collect()
+        ms.iter().map(|&m| deviation_at(series, stat, m)).collect()
     };
     let row = |(&m, est): (&usize, &Option<RawDeviation>)| est.map(|e| point(series, stat, m, e, opts));
     let rows: Vec<DevPoint> = if opts.parallel && opts.intervals {
@@ -234,10 +234,10 @@ mod tests {
         let (w, c, series) = timed(5, || Series::new(&y, DataKind::Frequency, 1.0).unwrap());
         println!("Series::new: {w:.1} ms wall, {c:.1} ms cpu");
         let ms: Vec<usize> = (0..22).map(|k| 1usize << k).collect();
-        let (w, c, _) = timed(5, || estimate_many(&series, Statistic::Oadev, &ms));
-        println!("estimate_many (22 octaves): {w:.1} ms wall, {c:.1} ms cpu");
+        let (w, c, _) = timed(5, || deviations_at(&series, Statistic::Oadev, &ms));
+        println!("deviations_at (22 octaves): {w:.1} ms wall, {c:.1} ms cpu");
         for m in [1usize, 64, 1 << 19, 1 << 21] {
-            let e = estimate(&series, Statistic::Oadev, m).unwrap();
+            let e = deviation_at(&series, Statistic::Oadev, m).unwrap();
             let (w, c, id) = timed(3, || identify_with(&series, Statistic::Oadev, m, Some(e.dev)));
             println!("identify m={m}: {w:.1} ms wall, {c:.1} ms cpu ({id:?})");
         }

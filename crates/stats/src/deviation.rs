@@ -134,7 +134,7 @@ pub struct RawDeviation {
 }
 
 /// The estimate of `stat` at averaging factor `m`, or None when no term can be formed.
-pub fn estimate(series: &Series, stat: Statistic, m: usize) -> Option<RawDeviation> {
+pub fn deviation_at(series: &Series, stat: Statistic, m: usize) -> Option<RawDeviation> {
     if m == 0 {
         return None;
     }
@@ -176,9 +176,9 @@ pub(crate) fn from_sum(stat: Statistic, m: usize, tau0_s: f64, sum: f64, n: usiz
 /// built), OHDEV from cache-blocked passes, MDEV and TDEV from running sums ([`super::modified`]), TOTDEV from
 /// OADEV's kernel and the reflected ends ([`super::total`]). ADEV and HDEV (O(N/m) each) and records with gaps
 /// take one pass per m. Returns None for an m without terms.
-pub fn estimate_many(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Option<RawDeviation>> {
+pub fn deviations_at(series: &Series, stat: Statistic, ms: &[usize]) -> Vec<Option<RawDeviation>> {
     if series.bad.is_some() || ms.contains(&0) || matches!(stat, Statistic::Adev | Statistic::Hdev) {
-        return ms.par_iter().map(|&m| estimate(series, stat, m)).collect();
+        return ms.par_iter().map(|&m| deviation_at(series, stat, m)).collect();
     }
     let x = &series.x;
     let n_phase = x.len();
@@ -407,7 +407,7 @@ mod tests {
                 n += 1;
             }
             let want = (sum / (2.0 * n as f64)).sqrt();
-            let got = estimate(&s, Statistic::Oadev, m).unwrap();
+            let got = deviation_at(&s, Statistic::Oadev, m).unwrap();
             assert_eq!(got.n, n);
             assert_eq!(got.n, Statistic::Oadev.terms(301, m) - 2 * m);
             assert!(((got.dev - want) / want).abs() < 1e-12, "m={m}: {} vs {want}", got.dev);
@@ -433,12 +433,12 @@ mod tests {
             let want = if m == 0 || 2 * m >= s.x.len() { 0.0 } else { sumsq_o2_body(&s.x, m, s.x.len() - 2 * m) };
             assert!((g - want).abs() <= 1e-12 * want, "m={m}: {g} vs {want}");
         }
-        let many = estimate_many(&s, Statistic::Oadev, &[2 * FAR_PITCH]);
+        let many = deviations_at(&s, Statistic::Oadev, &[2 * FAR_PITCH]);
         assert_eq!(many[0].unwrap().n, s.x.len() - 4 * FAR_PITCH);
     }
 
     /// The OADEV sums taken while the phase is built (inside each integration group, then across the group
-    /// boundaries and from x[0]) equal the separate pass, and estimate_many gives the same estimates from them.
+    /// boundaries and from x[0]) equal the separate pass, and deviations_at gives the same estimates from them.
     #[test]
     fn fused_oadev_sums_match_the_separate_pass() {
         let y = data(3 * (8 * ((1 << 15) + 72)) + 12345);
@@ -453,7 +453,7 @@ mod tests {
             assert!((got - w).abs() <= 1e-12 * w, "m={m}: {got} vs {w}");
         }
         for (a, b) in
-            estimate_many(&plain, Statistic::Oadev, &ms).iter().zip(estimate_many(&fused, Statistic::Oadev, &ms))
+            deviations_at(&plain, Statistic::Oadev, &ms).iter().zip(deviations_at(&fused, Statistic::Oadev, &ms))
         {
             let (a, b) = (a.unwrap(), b.unwrap());
             assert_eq!(a.n, b.n);
@@ -463,14 +463,14 @@ mod tests {
 
     /// The cache-blocked multi-tau pass gives the same numbers as one pass per m.
     #[test]
-    fn estimate_many_matches_single() {
+    fn deviations_at_match_deviation_at() {
         let y = data(100_000);
         let s = Series::new(&y, DataKind::Frequency, 0.5).unwrap();
         let ms = [1usize, 2, 7, 64, 1000, 20_000, 33_333];
         for stat in [Statistic::Oadev, Statistic::Ohdev] {
-            let many = estimate_many(&s, stat, &ms);
+            let many = deviations_at(&s, stat, &ms);
             for (&m, e) in ms.iter().zip(&many) {
-                let one = estimate(&s, stat, m).unwrap();
+                let one = deviation_at(&s, stat, m).unwrap();
                 let e = e.unwrap();
                 assert_eq!(e.n, one.n);
                 assert!(((e.dev - one.dev) / one.dev).abs() < 1e-12);

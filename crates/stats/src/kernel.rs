@@ -2,7 +2,7 @@
 //! third difference for the Hadamard family), vectorised (AVX2 and FMA where the CPU has them) and summed in
 //! blocks so the rounding error stays near 1e-15 relative. [`oadev_sums`] takes every level of an OADEV at once;
 //! [`oadev_range_sums`] is the same kernel over a range of start indices, which the fused phase pass of
-//! [`super::series`] and the streamed engine ([`super::streamed`]) use.
+//! [`super::series`] and the streamed engine ([`super::stream_oadev`]) use.
 
 use rayon::prelude::*;
 

@@ -35,7 +35,7 @@ pub mod point;
 pub mod quantity;
 pub mod robust;
 pub mod series;
-pub mod streamed;
+pub mod stream_oadev;
 pub mod strided;
 pub mod taus;
 #[doc(hidden)]
@@ -43,7 +43,7 @@ pub mod test_signals;
 mod total;
 
 pub use analysis::{analyze, analyze_series};
-pub use deviation::{estimate, RawDeviation, Statistic};
+pub use deviation::{deviation_at, RawDeviation, Statistic};
 pub use error::StatsError;
 pub use noise_id::{identify, NoiseMethod};
 pub use point::{edf_for, strided_avar_edf, DevPoint, NoiseSpec, Options};

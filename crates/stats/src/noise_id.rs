@@ -14,7 +14,7 @@
 //! Gaps: NaN points stay NaN after decimation, an average over a block holding a NaN is NaN, fits and
 //! correlations use only the valid points (and pairs).
 
-use super::deviation::{estimate, Statistic};
+use super::deviation::{deviation_at, Statistic};
 use super::series::{DataKind, Series};
 
 /// The least number of points the lag-1 autocorrelation method is used with.
@@ -252,11 +252,11 @@ pub fn b1_noise_id_with(
     }
     let avar_dev = || match known_dev {
         Some(d) => Some(d),
-        None => estimate(series, avar_stat, m).map(|e| e.dev),
+        None => deviation_at(series, avar_stat, m).map(|e| e.dev),
     };
     let oavar = || match (avar_stat, known_dev) {
         (Statistic::Oadev, Some(d)) => Some(d * d),
-        _ => estimate(series, Statistic::Oadev, m).map(|e| e.dev.powi(2)),
+        _ => deviation_at(series, Statistic::Oadev, m).map(|e| e.dev.powi(2)),
     };
     b1_decide(
         &ybar,
@@ -265,7 +265,7 @@ pub fn b1_noise_id_with(
         avar_dev,
         oavar,
         || series.mvar_coarse(m),
-        || estimate(series, Statistic::Mdev, m).map(|e| e.dev.powi(2)),
+        || deviation_at(series, Statistic::Mdev, m).map(|e| e.dev.powi(2)),
     )
 }
 

@@ -23,7 +23,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use super::deviation::{estimate, RawDeviation, Statistic};
+use super::deviation::{deviation_at, RawDeviation, Statistic};
 use super::error::StatsError;
 use super::kernel::{far_sums, oadev_range_sums, FAR_PITCH, FAR_WIDTH};
 use super::noise_id::{acf_noise_id_from, b1_decide, NoiseMethod};
@@ -396,7 +396,7 @@ impl Prepared<'_> {
         };
         let exact = || {
             let full = self.full.get_or_init(|| Series::new(self.data, DataKind::Frequency, self.tau0_s).ok());
-            full.as_ref().and_then(|s| estimate(s, Statistic::Mdev, m)).map(|e| e.dev.powi(2))
+            full.as_ref().and_then(|s| deviation_at(s, Statistic::Mdev, m)).map(|e| e.dev.powi(2))
         };
         match b1_decide(&ybar, m, -2, || Some(dev), || Some(dev * dev), coarse, exact) {
             Some(a) => (a.clamp(-2, 2), NoiseMethod::B1),
@@ -473,8 +473,8 @@ mod tests {
             assert!((q - want).abs() < 1e-11 * scale * COARSE as f64, "b={b}: {q} vs {want}");
         }
         let m = 64 * COARSE;
-        let (a, b) = (rec.identify(m, estimate(&series, Statistic::Oadev, m).unwrap().dev), {
-            let e = estimate(&series, Statistic::Oadev, m).unwrap();
+        let (a, b) = (rec.identify(m, deviation_at(&series, Statistic::Oadev, m).unwrap().dev), {
+            let e = deviation_at(&series, Statistic::Oadev, m).unwrap();
             crate::point::row(m, 0.5, series.n_phase(), Statistic::Oadev, e, &Options::default(), || {
                 crate::identify(&series, Statistic::Oadev, m)
             })

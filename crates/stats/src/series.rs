@@ -298,7 +298,7 @@ impl Series {
 
     /// As [`Series::new`], and the OADEV sums of the averaging factors `oadev_ms(n_phase)` up to [`FUSED_MAX_M`]
     /// taken in the same pass, from the phase while it is still in cache (a record without gaps; otherwise
-    /// none). [`super::deviation::estimate_many`] uses them.
+    /// none). [`super::deviation::deviations_at`] uses them.
     ///
     /// # Errors
     /// As [`Series::new`].

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use octavar::device::accumulate::{accumulate, AccumulateOptions};
+use octavar::board::accumulate::{accumulate, AccumulateOptions};
 
 /// Run the exact octave Allan accumulator (the firmware's) over integer ADC codes and print every octave: m,
 /// tau_s, n (number of differences), the exact integer sum of squares, avar and adev, in codes.

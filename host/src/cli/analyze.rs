@@ -1,6 +1,5 @@
 //! `octavar analyze`: flags -> recording -> Allan family, fit -> table, JSON, CSV, plot, model.toml, imu.yaml.
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -93,7 +92,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = CaptureDataArg::Auto, value_name = "DATA")]
     pub capture_data: CaptureDataArg,
     /// Stride S of the streamed OADEV: fully overlapping up to m = S, clusters every m/S samples above.
-    #[arg(long, default_value_t = octavar::stats::streamed::DEFAULT_STRIDE, value_name = "S")]
+    #[arg(long, default_value_t = octavar::stats::stream_oadev::DEFAULT_STRIDE, value_name = "S")]
     pub stride: usize,
 }
 
@@ -196,8 +195,7 @@ impl Args {
         results: &[ChannelAnalysis],
     ) -> anyhow::Result<ExitCode> {
         let sheet = self.datasheet.as_deref().map(Datasheet::read).transpose()?;
-        let report = analyze::report(source, samples, rate_hz, results, sheet.as_ref());
-        std::io::stdout().lock().write_all(report.as_bytes())?;
+        analyze::write_report(&mut std::io::stdout().lock(), source, samples, rate_hz, results, sheet.as_ref())?;
         if let Some(path) = &self.json {
             let doc = analyze::to_json_with(results, sheet.as_ref());
             std::fs::write(path, serde_json::to_string_pretty(&doc)?)

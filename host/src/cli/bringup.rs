@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use octavar::device::bringup::{bringup, BringupOptions, Outcome};
-use octavar::device::link::PortSource;
+use octavar::board::bringup::{bringup, BringupOptions, Outcome};
+use octavar::board::link::PortSource;
 
 /// Check a freshly flashed board: its hello and serial number, its clock against the host's in ppm, no gaps and
 /// no new losses over the run, a forced field-log checkpoint (its stalls, nothing lost), a reconnect (a DTR drop

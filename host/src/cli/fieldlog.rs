@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use anyhow::Context;
-use octavar::device::link::PortSource;
-use octavar::device::log_readout::{read_field_log, ReadOutOptions};
+use octavar::board::link::PortSource;
+use octavar::board::log_readout::{read_field_log, ReadOutOptions};
 use octavar::io::capture::CaptureWriter;
 use octavar::io::decode::Checkpoints;
 

@@ -160,7 +160,7 @@ impl Args {
             self.column_name(),
             t0.elapsed().as_secs_f64()
         )?;
-        write!(out, "{}", report.text())?;
+        report.write_text(&mut out)?;
         if let Some(path) = &self.json {
             std::fs::write(path, serde_json::to_string_pretty(&report.to_json())?)
                 .with_context(|| format!("writing {}", path.display()))?;

@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use octavar::device::recorder::{record, EndReason, LiveStats, PortSource, ReaderSource, RecordOptions};
+use octavar::board::recorder::{record, EndReason, LiveStats, PortSource, ReaderSource, RecordOptions};
 use octavar::io::capture::CaptureWriter;
 
 /// Raised by Ctrl-C (and by --duration): the recording ends cleanly.

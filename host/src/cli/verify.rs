@@ -4,7 +4,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use octavar::device::verify::{verify_path, VerifyReport};
+use octavar::board::verify::{verify_path, VerifyReport};
 
 /// Replay the raw samples of a capture through the exact accumulator (the stride of the device's hello) and
 /// compare every snapshot the device sent, bit for bit (n and the sum of squares of every level, the sample

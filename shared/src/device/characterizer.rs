@@ -21,7 +21,7 @@
 
 use crate::acc::{OctaveAllan, Snapshot};
 use crate::device::config::{DeviceConfig, STRIDE};
-use crate::estimate::{estimate, EstimateConfig};
+use crate::estimate::{noise_estimate, EstimateConfig};
 use crate::proto::{Ack, ChannelEstimate, Command, Estimate, Frame, Samples, SnapshotPart, Status};
 use crate::sensor;
 
@@ -260,7 +260,7 @@ impl<'a, const G: usize> Characterizer<'a, G> {
                 dps_per_code: sensor::dps_per_code(self.cfg.channels[g].kind) as f32,
                 min_independent: 4,
             };
-            let _ = est.channels.push(ChannelEstimate::new(g as u8, &estimate(snap, &cfg)));
+            let _ = est.channels.push(ChannelEstimate::new(g as u8, &noise_estimate(snap, &cfg)));
         }
         if G > 0 {
             sink.send(&Frame::Estimate(est));

@@ -6,10 +6,10 @@
 
 use std::time::{Duration, Instant};
 
-use octavar::device::bringup::{bringup, BringupOptions, Outcome};
+use octavar::board::bringup::{bringup, BringupOptions, Outcome};
 use std::net::TcpListener;
 
-use octavar::device::link::{Source, TcpLink};
+use octavar::board::link::{Source, TcpLink};
 
 use super::{build_firmware, qemu_available, wait_qemu, KillOnDrop, SEED};
 use crate::util::temp_dir;

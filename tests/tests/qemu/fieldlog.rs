@@ -14,8 +14,8 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use octavar::analyze::streamed::{analyze_capture, CaptureData, StreamOptions};
-use octavar::device::link::{Link, ReadOutcome, Source, TcpLink};
-use octavar::device::log_readout::{read_field_log, ReadOutOptions};
+use octavar::board::link::{Link, ReadOutcome, Source, TcpLink};
+use octavar::board::log_readout::{read_field_log, ReadOutOptions};
 use octavar::io::capture::CaptureWriter;
 use octavar::io::decode::{CaptureReader, Checkpoints, Message, StreamDecoder};
 use octavar_shared::acc::{OctaveAllan, Snapshot};

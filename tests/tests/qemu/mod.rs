@@ -1,6 +1,6 @@
 //! The firmware's `qemu` build on QEMU's netduinoplus2 (an STM32F405), end to end: build it, run it, capture
 //! USART1, decode the bytes with the host decoder, and check every device snapshot bit for bit against the host's
-//! replay of the same raw codes (`octavar::device::verify`).
+//! replay of the same raw codes (`octavar::board::verify`).
 //!
 //! Three runs here; the field log's power cut and read-out in [`fieldlog`], and `octavar bringup` in [`bringup`]:
 //! - [`SECONDS`] of simulated bench samples (the paper's four gyros, `shared::sim`) with USART1 on a TCP socket:
@@ -356,7 +356,7 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
     }
 
     // Every snapshot, before and after the reset, bit for bit equal to the host replay.
-    let report = octavar::device::verify::verify(CaptureReader::new(&bytes[..], "usart1")).expect("verify the capture");
+    let report = octavar::board::verify::verify(CaptureReader::new(&bytes[..], "usart1")).expect("verify the capture");
     assert!(report.passed(), "{report:#?}");
     assert_eq!((report.checked, report.matched, report.unchecked), (GYROS * rounds, GYROS * rounds, 0), "{report:#?}");
     assert!(report.device_gaps.is_empty(), "{:?}", report.device_gaps);
@@ -423,7 +423,7 @@ fn the_field_log_at_the_flash_worst_case_timing_loses_no_sample() {
     let (records, stats) = decode_all(&bytes);
     assert_eq!(stats.sample_sets, total, "{stats:#?}");
     assert_eq!(last_status(&records).samples_lost, 0);
-    let report = octavar::device::verify::verify(CaptureReader::new(&bytes[..], "usart1")).expect("verify the capture");
+    let report = octavar::board::verify::verify(CaptureReader::new(&bytes[..], "usart1")).expect("verify the capture");
     assert!(report.passed() && report.device_gaps.is_empty(), "{report:#?}");
     assert_eq!((report.checked, report.unchecked), (GYROS * (total / RATE), 0), "{report:#?}");
     let _ = std::fs::remove_dir_all(&dir);
@@ -480,7 +480,7 @@ fn stalls_longer_than_the_ring_become_exact_gaps_and_every_snapshot_still_matche
     assert!(status.samples_lost <= lost && status.samples_lost >= jumps[..jumps.len() - 1].iter().sum(), "{status:?}");
 
     // Verify: every snapshot checked and matching, the gaps reported with their exact sizes.
-    let report = octavar::device::verify::verify(CaptureReader::new(&bytes[..], "usart1")).expect("verify the capture");
+    let report = octavar::board::verify::verify(CaptureReader::new(&bytes[..], "usart1")).expect("verify the capture");
     assert!(report.passed(), "{report:#?}");
     assert_eq!((report.unchecked, report.mismatched_snapshots), (0, 0), "{report:#?}");
     assert_eq!(report.checked, report.snapshots, "{report:#?}");

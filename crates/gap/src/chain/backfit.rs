@@ -59,9 +59,10 @@ pub fn backfit(
             }
             let Some(rest) = without(&gyro, fit.effect) else { continue };
             let data = StepData::new(&rest, series, shaped, gaps, temp_c, rate_hz, base_fit, false);
-            if let Some(f) =
-                effects::estimate(fit.effect, &data.training(recorded, &rest, model.channel.as_ref(), temp_c, rate_hz))
-            {
+            if let Some(f) = effects::fit_effect(
+                fit.effect,
+                &data.training(recorded, &rest, model.channel.as_ref(), temp_c, rate_hz),
+            ) {
                 gyro = f.gyro.clone();
                 refits[i] = Some(f);
             }
@@ -95,7 +96,7 @@ pub fn learn(
     for (k, &effect) in effects.iter().enumerate() {
         let data = StepData::new(&model.gyro, &series, shaped.as_deref(), &gaps, temp_c, rate_hz, base_fit, k == 0);
         if let Some(f) =
-            effects::estimate(effect, &data.training(&recorded, &model.gyro, model.channel.as_ref(), temp_c, rate_hz))
+            effects::fit_effect(effect, &data.training(&recorded, &model.gyro, model.channel.as_ref(), temp_c, rate_hz))
         {
             if f.cleaned.is_some() {
                 shaped = data.shaped_with(shaped.as_deref(), &f);

@@ -199,7 +199,7 @@ impl Search<'_, '_> {
         let training =
             data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
         let fits: Vec<(Effect, Option<EffectFit>)> =
-            remaining.par_iter().map(|&e| (e, effects::estimate(e, &training))).collect();
+            remaining.par_iter().map(|&e| (e, effects::fit_effect(e, &training))).collect();
         let mut candidates = Vec::with_capacity(fits.len());
         for (effect, fit) in fits {
             let eval = match &fit {
@@ -332,7 +332,7 @@ impl Search<'_, '_> {
             // The second: every other effect, learnt on the model with the first (one the first hid may show now),
             // but for the firsts already tried with this one.
             for j in (0..candidates.len()).filter(|&j| j != i && !pool[..k].contains(&j)) {
-                let Some(b) = effects::estimate(candidates[j].effect, &training_a) else { continue };
+                let Some(b) = effects::fit_effect(candidates[j].effect, &training_a) else { continue };
                 let m = with_a.with(&b);
                 let known = data_a.realised_with(known_a.as_deref(), &b).or_else(|| known_a.clone());
                 self.progress.expect("pair", 1);

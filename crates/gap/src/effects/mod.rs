@@ -1,6 +1,6 @@
 //! The candidate effects of the gap diagnosis and their estimators, from the training samples only.
 //!
-//! Each [`Effect`] is a term the IEEE 952 base model (Q, N, B, K, R) lacks. [`estimate`] fits its parameters on
+//! Each [`Effect`] is a term the IEEE 952 base model (Q, N, B, K, R) lacks. [`fit_effect`] fits its parameters on
 //! the training data and returns the base model with the effect added ([`EffectFit::gyro`]), re-fitting the base
 //! terms the effect overlaps (N under a bandwidth, a resonance or with quantisation or outliers, K under bias
 //! steps, a bistable bias or a warm-up, all of them jointly with a Gauss-Markov process), or `None` when the data
@@ -138,7 +138,7 @@ impl core::fmt::Display for Effect {
 }
 
 /// An effect of the vocabulary: its estimator and its typed parameters, with what the chain asks of them. Each
-/// effect's module has one unit type `Kind` that implements it; [`estimate`] and [`EffectParams`] dispatch to them.
+/// effect's module has one unit type `Kind` that implements it; [`fit_effect`] and [`EffectParams`] dispatch to them.
 pub trait EffectKind {
     /// Which effect.
     const EFFECT: Effect;
@@ -339,7 +339,7 @@ impl ParamSpread {
 const SPREAD_SALT: u64 = 0x5a7e_ad00_0000;
 
 /// Fit `effect` on the training data; `None` when the data show no trace of it.
-pub fn estimate(effect: Effect, data: &TrainingData) -> Option<EffectFit> {
+pub fn fit_effect(effect: Effect, data: &TrainingData) -> Option<EffectFit> {
     let n = data.rate_dps.len();
     if n < 64 || !(data.rate_hz.is_finite() && data.rate_hz > 0.0) {
         return None;

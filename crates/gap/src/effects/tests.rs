@@ -61,7 +61,7 @@ fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, rate_hz: f64) -> Option<Eff
     let (g, f) = base_of(x, rate_hz);
     let d = TrainingData { temp_c: t, ..data_of(x, rate_hz, &g, &f) };
     let t0 = std::time::Instant::now();
-    let out = estimate(effect, &d);
+    let out = fit_effect(effect, &d);
     eprintln!("{effect}: {:?} in {:?}", out.as_ref().map(|e| &e.params), t0.elapsed());
     out
 }
@@ -174,7 +174,7 @@ fn temperature_standard_error_is_the_scatter() {
             let x: Vec<f64> = t.iter().map(|&tc| g.next_rate(tc)).collect();
             let (b, f) = base_of(&x, rate_hz);
             let d = TrainingData { temp_c: Some(&t), ..data_of(&x, rate_hz, &b, &f) };
-            let e = estimate(Effect::Temperature, &d).expect("a 10-sigma coupling is found");
+            let e = fit_effect(Effect::Temperature, &d).expect("a 10-sigma coupling is found");
             let k = param(&e, "dps_per_c");
             (k, k / param(&e, "t_stat"))
         })
@@ -383,14 +383,14 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
         let (g, f) = base_of(&x, rate_hz);
         let with_bw = GyroSim { bandwidth_hz: Some(f3), ..g.clone() };
         let d = data_of(&x, rate_hz, &with_bw, &f);
-        let e = estimate(Effect::Resonance, &d).expect("the resonance under the filter is found");
+        let e = fit_effect(Effect::Resonance, &d).expect("the resonance under the filter is found");
         for (key, se, truth) in [("sigma_dps", "sigma_se_dps", sigma), ("freq_hz", "freq_se_hz", f0), ("q", "q_se", q)]
         {
             assert!(within_se(&e, key, se, truth, 4.0), "seed {seed}: {key} in {:?}", e.params);
         }
         let with_res = GyroSim { resonance: Some(res), ..g };
         let d = TrainingData { base: &with_res, ..d };
-        let e = estimate(Effect::Bandwidth, &d).expect("the filter over the resonance is found");
+        let e = fit_effect(Effect::Bandwidth, &d).expect("the filter over the resonance is found");
         eprintln!("BW {:?}", e.params);
         assert!(rel(e.gyro.bandwidth_hz.unwrap(), f3) < 0.05, "seed {seed}: {:?}", e.params);
     }
@@ -424,9 +424,9 @@ fn bandwidth_read_under_bias_jumps_taken_out_sharp() {
         let less: Vec<f64> = x.iter().zip(&telegraph).map(|(x, t)| x - t).collect();
         let (g, f) = base_of(&less, rate_hz);
         let d = TrainingData { recorded_dps: &x, shaped_dps: Some(&telegraph), ..data_of(&less, rate_hz, &g, &f) };
-        let e = estimate(Effect::Bandwidth, &d).expect("the filter is found");
+        let e = fit_effect(Effect::Bandwidth, &d).expect("the filter is found");
         assert!(rel(e.gyro.bandwidth_hz.unwrap(), f3) < 0.1, "seed {seed}: {:?}", e.params);
-        let sharp = estimate(Effect::Bandwidth, &TrainingData { shaped_dps: None, ..d });
+        let sharp = fit_effect(Effect::Bandwidth, &TrainingData { shaped_dps: None, ..d });
         let corner = sharp.and_then(|e| e.gyro.bandwidth_hz);
         eprintln!("seed {seed}: corner {:?} through the filter, {corner:?} taken out sharp", e.gyro.bandwidth_hz);
         assert!(
@@ -489,7 +489,7 @@ fn quantization_read_on_the_recorded_samples() {
     assert!(super::quantization::lattice(&left).is_none_or(|(step, _)| rel(step, q) > 0.01), "premise: a lattice left");
     let (b, f) = base_of(&left, rate_hz);
     let d = TrainingData { recorded_dps: &recorded, ..data_of(&left, rate_hz, &b, &f) };
-    let e = estimate(Effect::Quantization, &d).expect("the lattice of the recorded samples");
+    let e = fit_effect(Effect::Quantization, &d).expect("the lattice of the recorded samples");
     assert!(rel(param(&e, "step_dps"), q) < 1e-6, "{:?}", e.params);
     assert!(rel(e.gyro.n_deg_per_rt_s, m.n_deg_per_rt_s) < 0.15, "{:?}", e.params);
 }

@@ -2,7 +2,7 @@
 //! gap lies, each step's candidates, the held-out checks and the verdict. Scripts read some of these lines: their
 //! wording is stable.
 
-use std::fmt::Write as _;
+use std::io::{self, Write};
 
 use serde_json::Value;
 
@@ -22,19 +22,27 @@ const WEAK_HOLDOUT_SHRINK: f64 = 0.7;
 impl GapReport {
     /// A short text a person can read: what, where, how big, how sure, what the fix buys on held-out data.
     pub fn text(&self) -> String {
-        let mut s = String::new();
-        self.input_lines(&mut s);
-        self.base_lines(&mut s);
-        self.view_lines(&mut s);
-        self.chain_lines(&mut s);
-        self.worst_holdout_line(&mut s);
-        self.diagnosis_lines(&mut s);
-        self.verdict_line(&mut s);
-        s
+        let mut out = Vec::new();
+        self.write_text(&mut out).expect("writing to memory does not fail");
+        String::from_utf8(out).expect("the report is UTF-8")
+    }
+
+    /// Write [`GapReport::text`] to `w`, section by section.
+    ///
+    /// # Errors
+    /// The sink's.
+    pub fn write_text(&self, w: &mut dyn Write) -> io::Result<()> {
+        self.input_lines(w)?;
+        self.base_lines(w)?;
+        self.view_lines(w)?;
+        self.chain_lines(w)?;
+        self.worst_holdout_line(w)?;
+        self.diagnosis_lines(w)?;
+        self.verdict_line(w)
     }
 
     /// The record: its parts, what is missing and what was masked.
-    fn input_lines(&self, s: &mut String) {
+    fn input_lines(&self, s: &mut dyn Write) -> io::Result<()> {
         let missing = |m: usize| if m > 0 { format!(" ({m} missing)") } else { String::new() };
         let hold = if self.input.n_holdout > 0 {
             format!("{} held out{}", self.input.n_holdout, missing(self.input.missing[1]))
@@ -51,7 +59,7 @@ impl GapReport {
                 if self.input.transients.len() == 1 { "" } else { "s" }
             )
         };
-        let _ = writeln!(
+        writeln!(
             s,
             "gap diagnosis: {} training samples{} at {} Hz, {hold}; {masked}; ensemble of {} seeds{}",
             self.input.n_train,
@@ -59,9 +67,9 @@ impl GapReport {
             self.input.rate_hz,
             self.input.seeds,
             if self.input.has_temperature { ", driven by the recorded temperature" } else { "" }
-        );
+        )?;
         for t in &self.input.transients {
-            let _ = writeln!(
+            writeln!(
                 s,
                 "  transient in the {} part at {:.1} s for {:.1} s, peak {:.3e} {}: masked as a gap",
                 t.part.name(),
@@ -69,15 +77,16 @@ impl GapReport {
                 t.duration_s,
                 t.peak_dps,
                 self.input.quantity.unit()
-            );
+            )?;
         }
+        Ok(())
     }
 
     /// The base model's terms, and a note where its fit cannot follow the curve.
-    fn base_lines(&self, s: &mut String) {
+    fn base_lines(&self, s: &mut dyn Write) -> io::Result<()> {
         let b = &self.base;
         let q = self.input.quantity;
-        let _ = writeln!(
+        writeln!(
             s,
             "base model (IEEE 952 fit on training): N {:.3e} {}, B {:.3e} {}, K {:.3e} {}, R {:.3e} {}, bias {:.4e} {}",
             b.gyro.n_deg_per_rt_s,
@@ -90,23 +99,24 @@ impl GapReport {
             Term::R.unit_of(q),
             b.gyro.bias_dps,
             q.unit()
-        );
+        )?;
         if let Some(r) = self.fit_strain() {
-            let _ = writeln!(
+            writeln!(
                 s,
                 "note: the IEEE five-term fit cannot follow the training curve (reduced chi-square {r:.1}, about 1 when it can): the record has a shape those terms lack"
-            );
+            )?;
         }
+        Ok(())
     }
 
     /// Every view's gap on training and holdout, base and after the chain.
-    fn view_lines(&self, s: &mut String) {
-        let _ = writeln!(s, "views (gap: the RMS z of real against the ensemble over the worst decade of tau; about 1 when they agree; base -> {}):", if self.chain.steps.is_empty() { "base" } else { "with the chain" });
+    fn view_lines(&self, s: &mut dyn Write) -> io::Result<()> {
+        writeln!(s, "views (gap: the RMS z of real against the ensemble over the worst decade of tau; about 1 when they agree; base -> {}):", if self.chain.steps.is_empty() { "base" } else { "with the chain" })?;
         let after = self.final_eval();
         let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
         let gap = |v: &[ViewGap], k: ViewKind| v.iter().find(|x| x.view == k).map(|x| x.gap);
         for g in &self.base.eval.training {
-            let _ = writeln!(
+            writeln!(
                 s,
                 "  {:<13} training {:>7.2} -> {:>7}   holdout {:>7} -> {:>7}",
                 g.view.name(),
@@ -114,61 +124,63 @@ impl GapReport {
                 f(gap(&after.training, g.view)),
                 f(gap(&self.base.eval.holdout, g.view)),
                 f(gap(&after.holdout, g.view))
-            );
+            )?;
         }
+        Ok(())
     }
 
     /// Where the gap lies, and each step's candidates.
-    fn chain_lines(&self, s: &mut String) {
+    fn chain_lines(&self, s: &mut dyn Write) -> io::Result<()> {
         if let Some(l) = &self.base.location {
-            let _ = writeln!(
+            writeln!(
                 s,
                 "gap {:.2} (threshold {:.1}: {}): {}",
                 self.training.gap_before,
                 rank::SIGNIFICANT_GAP,
                 if self.base.significant { "significant" } else { "not significant" },
                 where_text(l)
-            );
+            )?;
         }
         for (k, step) in self.chain.steps.iter().enumerate() {
             if k > 0 {
-                let _ = writeln!(
+                writeln!(
                     s,
                     "step {}: the gap left on the model with {}: {:.2}: {}",
                     k + 1,
                     chain_names(&self.chain.steps[..k]),
                     step.training.gap_before,
                     where_text(&step.location)
-                );
+                )?;
             }
-            let _ = writeln!(
+            writeln!(
                 s,
                 "candidates{} (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):",
                 if self.chain.steps.len() > 1 { format!(" of step {}", k + 1) } else { String::new() }
-            );
-            candidate_lines(s, &step.candidates, Some(step.effect));
+            )?;
+            candidate_lines(s, &step.candidates, Some(step.effect))?;
         }
         if !self.chain.last_tried.is_empty() {
-            let _ = writeln!(
+            writeln!(
                 s,
                 "candidates tried on the model with {} (none removes a quarter of the gap it leaves):",
                 chain_names(&self.chain.steps)
-            );
-            candidate_lines(s, &self.chain.last_tried, None);
+            )?;
+            candidate_lines(s, &self.chain.last_tried, None)?;
         }
         if self.chain.steps.is_empty() {
-            let _ = writeln!(
+            writeln!(
                 s,
                 "candidates (gap after in that view, total over views, score = total x (1 + 0.05 x params); holdout gap after):"
-            );
-            candidate_lines(s, &self.chain.candidates, None);
+            )?;
+            candidate_lines(s, &self.chain.candidates, None)?;
         }
+        Ok(())
     }
 
     /// The worst view on the holdout.
-    fn worst_holdout_line(&self, s: &mut String) {
+    fn worst_holdout_line(&self, s: &mut dyn Write) -> io::Result<()> {
         if self.worst[2].is_finite() {
-            let _ = writeln!(
+            writeln!(
                 s,
                 "worst view on the holdout: {:.2} -> {:.2}{}",
                 self.worst[2],
@@ -178,14 +190,15 @@ impl GapReport {
                         format!(" ({}: the holdout has a gap of its own that training did not show)", w.view.name()),
                     _ => String::new(),
                 }
-            );
+            )?;
         }
+        Ok(())
     }
 
     /// The chain's effects, each with its gap before and after on training and held out.
-    fn diagnosis_lines(&self, s: &mut String) {
+    fn diagnosis_lines(&self, s: &mut dyn Write) -> io::Result<()> {
         if let Some(first) = self.chain.steps.first() {
-            let _ = write!(
+            write!(
                 s,
                 "diagnosis: {}{} (gap {:.2} -> {:.2} on training, shrink {:.0}%",
                 first.effect.name(),
@@ -193,9 +206,9 @@ impl GapReport {
                 self.training.gap_before,
                 self.training.gap_after,
                 100.0 * self.training.shrink
-            );
+            )?;
             if let Some(h) = self.holdout.first {
-                let _ = write!(
+                write!(
                     s,
                     "; held out, parameters frozen: {:.2} -> {:.2}, shrink {:.0}%{}",
                     h.gap_before,
@@ -210,11 +223,11 @@ impl GapReport {
                         ),
                         None => String::new(),
                     }
-                );
+                )?;
             }
-            let _ = writeln!(s, ")");
+            writeln!(s, ")")?;
             for step in &self.chain.steps[1..] {
-                let _ = writeln!(
+                writeln!(
                     s,
                     "  then {}{} ({} {}, gap {:.2} -> {:.2} on training{})",
                     step.effect.name(),
@@ -225,44 +238,45 @@ impl GapReport {
                     step.training.gap_after,
                     step.holdout
                         .map_or(String::new(), |h| format!(", {:.2} -> {:.2} held out", h.gap_before, h.gap_after))
-                );
+                )?;
             }
             let refitted: Vec<&str> = self.chain.steps.iter().filter(|s| s.moved()).map(|s| s.effect.name()).collect();
             if !refitted.is_empty() {
-                let _ = writeln!(
+                writeln!(
                     s,
                     "backfitted: {} estimated again with every other effect of the chain in place (the model carries the values of the last round)",
                     refitted.join(", ")
-                );
+                )?;
             }
             if let Some(last) = self.chain.steps.iter().rposition(|s| s.joint) {
-                let _ = writeln!(
+                writeln!(
                     s,
                     "jointly re-estimated: the base terms with {} (deterministic parts by least squares, the rest on the Allan curve)",
                     chain_names(&self.chain.steps[..=last])
-                );
+                )?;
             }
             if let (true, Some(t)) = (self.chain.steps.len() > 1, self.holdout.total) {
-                let _ = writeln!(
+                writeln!(
                     s,
                     "the whole chain ({}), held out with every parameter frozen, at the worst of its bands: {:.2} -> {:.2}, shrink {:.0}%",
                     chain_names(&self.chain.steps),
                     t.gap_before,
                     t.gap_after,
                     100.0 * t.shrink
-                );
+                )?;
             }
             if let Some(note) = self.holdout.first.as_ref().and_then(weak_holdout_note) {
-                let _ = writeln!(s, "{note}");
+                writeln!(s, "{note}")?;
             }
         }
+        Ok(())
     }
 
     /// The verdict where no effect explains the gap.
-    fn verdict_line(&self, s: &mut String) {
+    fn verdict_line(&self, s: &mut dyn Write) -> io::Result<()> {
         match self.verdict() {
             Verdict::NoGap => {
-                let _ = writeln!(s, "diagnosis: none (the simulation of the fitted model agrees with the record)");
+                writeln!(s, "diagnosis: none (the simulation of the fitted model agrees with the record)")?;
             }
             Verdict::Unexplained => {
                 let what = match &self.chain.unexplained {
@@ -276,13 +290,14 @@ impl GapReport {
                     None => String::new(),
                 };
                 if self.chain.steps.is_empty() {
-                    let _ = writeln!(s, "diagnosis: none: the gap is significant, but no candidate removes a quarter of it; it is not one of the known effects{what}");
+                    writeln!(s, "diagnosis: none: the gap is significant, but no candidate removes a quarter of it; it is not one of the known effects{what}")?;
                 } else {
-                    let _ = writeln!(s, "left unexplained after the chain: a significant gap that no candidate removes a quarter of{what}");
+                    writeln!(s, "left unexplained after the chain: a significant gap that no candidate removes a quarter of{what}")?;
                 }
             }
             Verdict::Explained => {}
         }
+        Ok(())
     }
 }
 
@@ -335,24 +350,25 @@ fn where_text(l: &Location) -> String {
 }
 
 /// One line per candidate of a step, the chosen one starred.
-fn candidate_lines(s: &mut String, candidates: &[CandidateResult], chosen: Option<Effect>) {
+fn candidate_lines(s: &mut dyn Write, candidates: &[CandidateResult], chosen: Option<Effect>) -> io::Result<()> {
     for c in candidates {
         let mark = if Some(c.effect) == chosen { "*" } else { " " };
         match (&c.fit, c.gap_after, c.total_after, c.score) {
             (Some(f), Some(g), Some(t), Some(sc)) => {
                 let h = c.holdout_after.map_or("-".to_string(), |h| format!("{h:.2}"));
-                let _ = writeln!(
+                writeln!(
                     s,
                     " {mark}{:<13} gap {g:>7.2} total {t:>7.2} score {sc:>7.2}  holdout {h:>7}  {}",
                     c.effect.name(),
                     compact(&f.params)
-                );
+                )?;
             }
             _ => {
-                let _ = writeln!(s, " {mark}{:<13} no trace in the training data", c.effect.name());
+                writeln!(s, " {mark}{:<13} no trace in the training data", c.effect.name())?;
             }
         }
     }
+    Ok(())
 }
 
 /// An effect's parameters as `a=1.000e0 b=2.000e0`, in the order of their JSON object.

@@ -118,7 +118,8 @@ impl CsvSet {
         Ok(())
     }
 
-    fn record(&mut self, d: &Decoded, hello: Option<&Hello>) -> Result<(), DecodeError> {
+    /// Write one decoded frame's rows to the CSV files it belongs to.
+    fn write_frame(&mut self, d: &Decoded, hello: Option<&Hello>) -> Result<(), DecodeError> {
         let seq = d.meta.seq.to_string();
         let rate = hello.map(|h| f64::from(h.rate_hz));
         match &d.message {
@@ -219,7 +220,7 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
         let d = d?;
         checkpoints.take(&d);
         if let Some(csv) = csv.as_mut() {
-            csv.record(&d, hello.as_ref())?;
+            csv.write_frame(&d, hello.as_ref())?;
         }
         let seq = d.meta.seq;
         match d.message {

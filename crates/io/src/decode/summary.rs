@@ -232,7 +232,7 @@ pub(super) fn checkpoint_summary(
                 dps_per_code: info.map_or(1.0, |c| octavar_shared::sensor::dps_per_code(c.kind) as f32),
                 ..Default::default()
             };
-            let e = octavar_shared::estimate::estimate(snap, &cfg);
+            let e = octavar_shared::estimate::noise_estimate(snap, &cfg);
             ChannelEstimate {
                 channel,
                 name: info.map(|c| c.name.to_string()),

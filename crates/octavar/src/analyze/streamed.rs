@@ -1,5 +1,5 @@
 //! The streamed analysis: raw binary samples, CSV and device captures read in pieces and fed to the bounded-memory
-//! OADEV engine ([`crate::stats::streamed::StreamOadev`]), then fitted like the in-memory path, so a record of any
+//! OADEV engine ([`crate::stats::stream_oadev::StreamOadev`]), then fitted like the in-memory path, so a record of any
 //! length is analysed in constant memory.
 //!
 //! # Inputs
@@ -14,7 +14,7 @@ use crate::fit::FitOptions;
 use crate::io::binary::BinaryFormat;
 use crate::io::csv::{CsvOptions, RecordingError};
 use crate::io::decode::{CaptureReader, DecodeError, Message};
-use crate::stats::streamed::{StreamOadev, StreamTotals, DEFAULT_STRIDE};
+use crate::stats::stream_oadev::{StreamOadev, StreamTotals, DEFAULT_STRIDE};
 use crate::stats::{DevPoint, Statistic, StatsError};
 
 /// What went wrong.

@@ -2,6 +2,7 @@
 //! fit with its intervals and the classic readouts.
 
 use std::fmt::Write as _;
+use std::io;
 
 use super::ChannelAnalysis;
 use crate::datasheet::Datasheet;
@@ -18,43 +19,51 @@ pub fn report(
     channels: &[ChannelAnalysis],
     sheet: Option<&Datasheet>,
 ) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "# {source}: {samples} samples at {rate_hz} Hz");
+    let mut out = Vec::new();
+    write_report(&mut out, source, samples, rate_hz, channels, sheet).expect("writing to memory does not fail");
+    String::from_utf8(out).expect("the report is UTF-8")
+}
+
+/// Write [`report`] to `w`, channel by channel.
+///
+/// # Errors
+/// The sink's.
+pub fn write_report(
+    w: &mut dyn io::Write,
+    source: &str,
+    samples: u64,
+    rate_hz: f64,
+    channels: &[ChannelAnalysis],
+    sheet: Option<&Datasheet>,
+) -> io::Result<()> {
+    writeln!(w, "# {source}: {samples} samples at {rate_hz} Hz")?;
     for c in channels {
-        let _ = writeln!(
-            s,
-            "\n== {} ({}, {}; {} samples, {} gaps)",
-            c.name,
-            c.quantity.kind(),
-            c.unit,
-            c.n_samples,
-            c.n_gaps
-        );
+        writeln!(w, "\n== {} ({}, {}; {} samples, {} gaps)", c.name, c.quantity.kind(), c.unit, c.n_samples, c.n_gaps)?;
         if let Some(m) = c.mean {
             let extra = match c.quantity {
                 Quantity::Acceleration => format!(" = {:.4} mg", m / crate::quantity::STANDARD_GRAVITY * 1000.0),
                 Quantity::AngularRate => format!(" = {:.4e} deg/h", m * 3600.0),
             };
-            let _ = writeln!(s, "bias (the static mean) {m:.6e} {}{extra}", c.unit);
+            writeln!(w, "bias (the static mean) {m:.6e} {}{extra}", c.unit)?;
         }
         for (stat, pts) in &c.stats {
-            s.push_str(&table(*stat, pts));
+            w.write_all(table(*stat, pts).as_bytes())?;
         }
         match &c.fit {
             Ok(f) => {
-                s.push_str(&fit_report(f, c.quantity));
-                s.push_str(&bias_model_line(c));
-                s.push_str(&record_length_lines(f, c.n_samples as f64 * c.tau0_s));
+                w.write_all(fit_report(f, c.quantity).as_bytes())?;
+                w.write_all(bias_model_line(c).as_bytes())?;
+                w.write_all(record_length_lines(f, c.n_samples as f64 * c.tau0_s).as_bytes())?;
                 if let Some(sensor) = sheet.and_then(|d| d.sensor(c.quantity)) {
-                    s.push_str(&crate::datasheet::comparison_text(&crate::datasheet::compare(f, sensor), c.quantity));
+                    let comparison =
+                        crate::datasheet::comparison_text(&crate::datasheet::compare(f, sensor), c.quantity);
+                    w.write_all(comparison.as_bytes())?;
                 }
             }
-            Err(e) => {
-                let _ = writeln!(s, "no fit: {e}");
-            }
+            Err(e) => writeln!(w, "no fit: {e}")?,
         }
     }
-    s
+    Ok(())
 }
 
 /// The Stable32-style table of one statistic: AF, tau, #, alpha, min sigma, sigma, max sigma.

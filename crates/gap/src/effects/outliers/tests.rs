@@ -160,7 +160,7 @@ fn gaussian_controls_have_no_outliers() {
     assert!(quantised.is_empty(), "quantised white noise named outliers at seeds {quantised:?}");
 }
 
-/// The effect through `estimate`: the model carries the mixture and the base N is the white noise's without the
+/// The effect through `fit_effect`: the model carries the mixture and the base N is the white noise's without the
 /// spikes' variance (within 3%).
 #[test]
 fn the_fitted_model_carries_the_mixture_and_the_clean_white_noise() {

@@ -332,7 +332,7 @@ fn sleep_checking(d: Duration, stop: &AtomicBool) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::simulator::{device_frames, DeviceConfig};
+    use crate::board::simulated::{device_frames, DeviceConfig};
     use octavar_shared::proto::Decoder;
     use std::collections::VecDeque;
     use std::path::Path;

@@ -362,7 +362,7 @@ impl Coarse {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{estimate, DataKind, Series};
+    use crate::{deviation_at, DataKind, Series};
 
     /// Uniform white noise of mean 3.
     fn white(n: usize, seed: u64) -> Vec<f64> {
@@ -423,7 +423,7 @@ mod tests {
                 assert_eq!(t.levels[k].n, n, "S={stride} k={k}");
                 assert!((t.levels[k].sum_sq - s).abs() <= 1e-9 * s, "S={stride} k={k}: {} vs {s}", t.levels[k].sum_sq);
                 if m <= stride {
-                    let e = estimate(&series, Statistic::Oadev, m).unwrap();
+                    let e = deviation_at(&series, Statistic::Oadev, m).unwrap();
                     assert_eq!(e.n as u64, n);
                     let dev = t.avar(k).unwrap().sqrt();
                     assert!((dev / e.dev - 1.0).abs() < 1e-10, "S={stride} m={m}: {dev} vs {}", e.dev);
@@ -432,7 +432,7 @@ mod tests {
             // Above the stride: the same quantity within the strided estimator's own sampling difference.
             let pts = t.points(1.0, 1.0, 0.683);
             for p in pts.iter().filter(|p| p.m > stride as u64 && p.m <= 1 << 16) {
-                let e = estimate(&series, Statistic::Oadev, p.m as usize).unwrap();
+                let e = deviation_at(&series, Statistic::Oadev, p.m as usize).unwrap();
                 assert!((p.dev / e.dev - 1.0).abs() < 3.0 / p.edf.sqrt(), "m={}: {} vs {}", p.m, p.dev, e.dev);
             }
         }

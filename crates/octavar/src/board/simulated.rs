@@ -12,7 +12,7 @@
 //!
 //! # Examples
 //! ```
-//! use octavar::device::simulator::{DeviceConfig, DeviceSim};
+//! use octavar::board::simulated::{DeviceConfig, DeviceSim};
 //! let cfg = DeviceConfig::F405;
 //! let mut dev = DeviceSim::new(cfg, 0xff);
 //! let mut wire = Vec::new();
@@ -21,7 +21,7 @@
 //!     let c = 2048 + (i % 7) as u16;
 //!     dev.push_scan(&[c, c, c, c, 1900], &mut wire);
 //! }
-//! let stats = octavar::device::verify::verify(octavar::io::decode::CaptureReader::new(&wire[..], "sim")).unwrap();
+//! let stats = octavar::board::verify::verify(octavar::io::decode::CaptureReader::new(&wire[..], "sim")).unwrap();
 //! assert_eq!(stats.checked, 4 * 2); // two rounds of four gyro snapshots
 //! assert!(stats.passed());
 //! ```

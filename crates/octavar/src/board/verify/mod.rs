@@ -19,10 +19,10 @@
 //! # Examples
 //! ```
 //! use octavar::io::decode::CaptureReader;
-//! use octavar::device::simulator::{device_frames, DeviceConfig};
+//! use octavar::board::simulated::{device_frames, DeviceConfig};
 //! let scans = (0..6_000u32).map(|i| [2048 + (i * 7 % 11) as u16, 2040, 2050, 2047, 1900]);
 //! let wire = device_frames(DeviceConfig::F405, 0x1f, scans);
-//! let report = octavar::device::verify::verify(CaptureReader::new(&wire[..], "run.cap")).unwrap();
+//! let report = octavar::board::verify::verify(CaptureReader::new(&wire[..], "run.cap")).unwrap();
 //! assert_eq!((report.checked, report.matched, report.mismatched_snapshots), (12, 12, 0));
 //! assert!(report.passed());
 //! ```
@@ -35,7 +35,7 @@ use octavar_shared::acc::{LevelSum, Snapshot, LEVELS};
 use octavar_shared::proto::{Samples, PROTOCOL_VERSION};
 use serde::Serialize;
 
-use crate::device::accumulate::StridedAllan;
+use crate::board::accumulate::StridedAllan;
 use crate::io::decode::{self, CaptureReader, DecodeError, DecodeStats, Decoded, FrameMeta, Message};
 
 /// Codes per channel the replay holds ahead of the snapshots at most (beyond, it accumulates eagerly).
@@ -413,7 +413,8 @@ impl Verifier {
         self.per_channel.entry(c).or_insert_with(|| ChannelVerify { channel: c, ..Default::default() })
     }
 
-    fn record(&mut self, d: Decoded, name: &str) -> Result<(), VerifyError> {
+    /// Take one decoded frame into the replay.
+    fn take(&mut self, d: Decoded, name: &str) -> Result<(), VerifyError> {
         self.lost_total += u64::from(d.meta.lost);
         if d.meta.restart {
             // The device rebooted: every channel starts a new session.
@@ -643,7 +644,7 @@ pub fn verify<R: Read>(mut reader: CaptureReader<R>) -> Result<VerifyReport, Ver
     let name = reader.name().to_string();
     let mut v = Verifier::new(&name);
     for d in reader.by_ref() {
-        v.record(d?, &name)?;
+        v.take(d?, &name)?;
     }
     Ok(v.finish(reader.stats().clone()))
 }

@@ -7,8 +7,8 @@ use crate::acc::Snapshot;
 /// Writes the checkpoints of a deployment: each one pools every earlier session (the newest checkpoint in the
 /// log when the session began) with the current session's snapshots, at most one per `every` samples.
 ///
-/// A session begins at power-on ([`Recorder::open`]) and at a host reset, which empties the accumulators and
-/// restarts the session's sample count. The recorder sees a reset as a round with fewer samples than its last
+/// A session begins at power-on ([`CheckpointPolicy::open`]) and at a host reset, which empties the accumulators and
+/// restarts the session's sample count. The policy sees a reset as a round with fewer samples than its last
 /// checkpoint had, and then takes the log's newest checkpoint (the one that pooled the session just ended) as
 /// the new base, so the log keeps covering the whole deployment. Without that, a reset made every later
 /// checkpoint pool only the power-on base (the ended session vanished from the log) and held off the next
@@ -16,16 +16,16 @@ use crate::acc::Snapshot;
 /// power cut, what the ended session gathered after its last checkpoint is not in the log.
 ///
 /// Only the base lives in RAM (no copy of the last checkpoint written: a reset reads it back from the log).
-pub struct Recorder<const CH: usize> {
+pub struct CheckpointPolicy<const CH: usize> {
     base: Option<Checkpoint<CH>>,
     last: Option<u64>,
     every: u64,
 }
 
-/// What [`Recorder::round`] did.
+/// What [`CheckpointPolicy::round`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Recorded {
+pub enum RoundOutcome {
     /// The last checkpoint is too recent; nothing written.
     NotDue,
     /// A checkpoint was written with this sequence number; `new_session` when a reset was seen first.
@@ -39,18 +39,18 @@ pub enum Recorded {
     },
 }
 
-impl<const CH: usize> Recorder<CH> {
+impl<const CH: usize> CheckpointPolicy<CH> {
     /// At power-on: the log's newest checkpoint (if any, and readable) is the base of this session. `words` is a
-    /// buffer of [`Checkpoint::WORDS`] words. Returns the recorder and the base's sequence number.
+    /// buffer of [`Checkpoint::WORDS`] words. Returns the policy and the base's sequence number.
     ///
     /// # Errors
-    /// The log's [`LogError`] when it cannot be read; the recorder then starts without a base.
+    /// The log's [`LogError`] when it cannot be read; the policy then starts without a base.
     pub fn open<F: LogFlash>(
         log: &mut FieldLog<F>,
         words: &mut [u32],
         every: u64,
     ) -> (Self, Result<Option<u32>, LogError<F::Error>>) {
-        let mut r = Recorder { base: None, last: None, every };
+        let mut r = CheckpointPolicy { base: None, last: None, every };
         let read = r.reload(log, words);
         (r, read)
     }
@@ -60,7 +60,7 @@ impl<const CH: usize> Recorder<CH> {
         self.base.as_ref()
     }
 
-    /// Whether [`Recorder::round`] with `samples` would write a checkpoint: none yet this session, a reset (fewer
+    /// Whether [`CheckpointPolicy::round`] with `samples` would write a checkpoint: none yet this session, a reset (fewer
     /// samples than at the last one), or the last one at least `every` samples old.
     pub fn due(&self, samples: u64) -> bool {
         self.last.is_none_or(|s| samples < s || samples >= s + self.every)
@@ -79,14 +79,14 @@ impl<const CH: usize> Recorder<CH> {
         snapshots: &[Snapshot; CH],
         adc_overruns: u32,
         samples: u64,
-    ) -> Result<Recorded, LogError<F::Error>> {
+    ) -> Result<RoundOutcome, LogError<F::Error>> {
         self.checkpoint(log, words, snapshots, adc_overruns, samples, false)
     }
 
-    /// As [`Recorder::round`], but written whether or not it is due (a host asked for a checkpoint).
+    /// As [`CheckpointPolicy::round`], but written whether or not it is due (a host asked for a checkpoint).
     ///
     /// # Errors
-    /// As [`Recorder::round`].
+    /// As [`CheckpointPolicy::round`].
     pub fn round_now<F: LogFlash>(
         &mut self,
         log: &mut FieldLog<F>,
@@ -94,7 +94,7 @@ impl<const CH: usize> Recorder<CH> {
         snapshots: &[Snapshot; CH],
         adc_overruns: u32,
         samples: u64,
-    ) -> Result<Recorded, LogError<F::Error>> {
+    ) -> Result<RoundOutcome, LogError<F::Error>> {
         self.checkpoint(log, words, snapshots, adc_overruns, samples, true)
     }
 
@@ -106,20 +106,20 @@ impl<const CH: usize> Recorder<CH> {
         adc_overruns: u32,
         samples: u64,
         force: bool,
-    ) -> Result<Recorded, LogError<F::Error>> {
+    ) -> Result<RoundOutcome, LogError<F::Error>> {
         let new_session = self.last.is_some_and(|s| samples < s);
         if new_session {
             // A reset: the checkpoint last written pooled the session that ended.
             self.reload(log, words)?;
         }
         if !force && self.last.is_some_and(|s| samples < s + self.every) {
-            return Ok(Recorded::NotDue);
+            return Ok(RoundOutcome::NotDue);
         }
         let cp = Checkpoint::merge_session(self.base.as_ref(), snapshots, adc_overruns);
         cp.encode(words)?;
         let seq = log.append(words)?;
         self.last = Some(samples);
-        Ok(Recorded::Written { seq, sessions: cp.sessions, new_session })
+        Ok(RoundOutcome::Written { seq, sessions: cp.sessions, new_session })
     }
 
     /// Take the log's newest checkpoint as the base (none when the log is empty or it does not decode) and
@@ -174,7 +174,7 @@ mod tests {
     fn checkpoints_come_every_interval_and_pool_power_cycles() {
         let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
         let mut w = vec![0u32; Checkpoint::<2>::WORDS];
-        let (mut rec, read) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        let (mut rec, read) = CheckpointPolicy::<2>::open(&mut log, &mut w, EVERY);
         assert_eq!(read, Ok(None));
         let mut accs = [OctaveAllan::<8>::new(), OctaveAllan::<8>::new()];
         let mut written = 0;
@@ -182,7 +182,7 @@ mod tests {
             feed(&mut accs, 300, k);
             let due = rec.due(u64::from(300 * k));
             let r = rec.round(&mut log, &mut w, &snaps(&accs), 0, u64::from(300 * k)).unwrap();
-            assert_eq!(due, matches!(r, Recorded::Written { .. }), "due says what the round does");
+            assert_eq!(due, matches!(r, RoundOutcome::Written { .. }), "due says what the round does");
             written += usize::from(due);
         }
         // At 300 (the first), 1500, 2700: every 1000 samples at the earliest.
@@ -190,10 +190,10 @@ mod tests {
         assert_eq!(newest(&mut log).snapshots[0].samples, 2700);
         // Power cycle: the new session pools with the newest checkpoint.
         let mut log = FieldLog::open(log.into_flash(), Checkpoint::<2>::WORDS).unwrap();
-        let (mut rec, read) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        let (mut rec, read) = CheckpointPolicy::<2>::open(&mut log, &mut w, EVERY);
         assert!(matches!(read, Ok(Some(_))));
         let r = rec.round(&mut log, &mut w, &snaps(&fed(500, 99)), 2, 500).unwrap();
-        assert!(matches!(r, Recorded::Written { sessions: 2, new_session: false, .. }), "{r:?}");
+        assert!(matches!(r, RoundOutcome::Written { sessions: 2, new_session: false, .. }), "{r:?}");
         let cp = newest(&mut log);
         assert_eq!((cp.sessions, cp.adc_overruns, cp.snapshots[1].samples), (2, 2, 3200));
     }
@@ -203,13 +203,13 @@ mod tests {
     fn a_forced_checkpoint_is_written_when_none_is_due() {
         let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
         let mut w = vec![0u32; Checkpoint::<2>::WORDS];
-        let (mut rec, _) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        let (mut rec, _) = CheckpointPolicy::<2>::open(&mut log, &mut w, EVERY);
         let mut accs = fed(1500, 1);
-        assert!(matches!(rec.round(&mut log, &mut w, &snaps(&accs), 0, 1500).unwrap(), Recorded::Written { .. }));
+        assert!(matches!(rec.round(&mut log, &mut w, &snaps(&accs), 0, 1500).unwrap(), RoundOutcome::Written { .. }));
         feed(&mut accs, 200, 2);
-        assert_eq!(rec.round(&mut log, &mut w, &snaps(&accs), 0, 1700).unwrap(), Recorded::NotDue);
+        assert_eq!(rec.round(&mut log, &mut w, &snaps(&accs), 0, 1700).unwrap(), RoundOutcome::NotDue);
         let r = rec.round_now(&mut log, &mut w, &snaps(&accs), 0, 1700).unwrap();
-        assert!(matches!(r, Recorded::Written { seq: 2, sessions: 1, new_session: false }), "{r:?}");
+        assert!(matches!(r, RoundOutcome::Written { seq: 2, sessions: 1, new_session: false }), "{r:?}");
         assert_eq!(newest(&mut log).snapshots[0].samples, 1700);
         assert!(!rec.due(1700 + EVERY - 1) && rec.due(1700 + EVERY));
     }
@@ -220,23 +220,23 @@ mod tests {
     fn a_reset_starts_a_session_pooled_with_the_one_it_ended() {
         let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
         let mut w = vec![0u32; Checkpoint::<2>::WORDS];
-        let (mut rec, _) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        let (mut rec, _) = CheckpointPolicy::<2>::open(&mut log, &mut w, EVERY);
         let mut accs = fed(5000, 1);
         rec.round(&mut log, &mut w, &snaps(&accs), 1, 5000).unwrap();
         feed(&mut accs, 200, 2);
-        assert_eq!(rec.round(&mut log, &mut w, &snaps(&accs), 1, 5200).unwrap(), Recorded::NotDue);
+        assert_eq!(rec.round(&mut log, &mut w, &snaps(&accs), 1, 5200).unwrap(), RoundOutcome::NotDue);
         // Reset: empty accumulators, the count from 0.
         let mut after = fed(300, 3);
         assert!(rec.due(300), "a reset is due at once");
         let r = rec.round(&mut log, &mut w, &snaps(&after), 0, 300).unwrap();
-        assert!(matches!(r, Recorded::Written { sessions: 2, new_session: true, .. }), "{r:?}");
+        assert!(matches!(r, RoundOutcome::Written { sessions: 2, new_session: true, .. }), "{r:?}");
         let cp = newest(&mut log);
         // 5000 logged before the reset (the 200 after the last checkpoint are lost, as in a power cut) + 300.
         assert_eq!((cp.sessions, cp.adc_overruns, cp.snapshots[0].samples), (2, 1, 5300));
         // The next checkpoint of the new session comes EVERY samples later and still pools the ended one.
         feed(&mut after, 1000, 4);
         let r = rec.round(&mut log, &mut w, &snaps(&after), 0, 1300).unwrap();
-        assert!(matches!(r, Recorded::Written { sessions: 2, new_session: false, .. }), "{r:?}");
+        assert!(matches!(r, RoundOutcome::Written { sessions: 2, new_session: false, .. }), "{r:?}");
         assert_eq!(newest(&mut log).snapshots[1].samples, 6300);
     }
 
@@ -246,7 +246,7 @@ mod tests {
     fn a_reset_met_by_an_unreadable_log_is_retried() {
         let mut log = FieldLog::open(RamFlash::<4096>::new(), Checkpoint::<2>::WORDS).unwrap();
         let mut w = vec![0u32; Checkpoint::<2>::WORDS];
-        let (mut rec, _) = Recorder::<2>::open(&mut log, &mut w, EVERY);
+        let (mut rec, _) = CheckpointPolicy::<2>::open(&mut log, &mut w, EVERY);
         let accs = fed(5000, 1);
         rec.round(&mut log, &mut w, &snaps(&accs), 0, 5000).unwrap();
         // The power fails during the next checkpoint: the flash reads nothing until it is powered on again.
@@ -260,7 +260,7 @@ mod tests {
         flash.power_on();
         let mut log = FieldLog::open(flash, Checkpoint::<2>::WORDS).unwrap();
         let r = rec.round(&mut log, &mut w, &snaps(&fed(400, 4)), 0, 400).unwrap();
-        assert!(matches!(r, Recorded::Written { sessions: 2, new_session: true, .. }), "{r:?}");
+        assert!(matches!(r, RoundOutcome::Written { sessions: 2, new_session: true, .. }), "{r:?}");
         assert_eq!(newest(&mut log).snapshots[0].samples, 5400);
     }
 }

@@ -1,7 +1,7 @@
 //! Tests of capture verification: exact replays agree, every kind of mismatch is found and named.
 
 use super::*;
-use crate::device::simulator::{DeviceConfig, DeviceSim};
+use crate::board::simulated::{DeviceConfig, DeviceSim};
 use octavar_shared::proto::{Command, Decoder, Encoder, Frame, SnapshotPart};
 
 fn scan(i: u32) -> [u16; 5] {
