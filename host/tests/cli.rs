@@ -379,3 +379,33 @@ fn no_fit_leaves_the_statistics_and_drops_the_fit_in_text_and_json() {
     let clash = octavar(&[&args[..], &["--no-fit", "--model-out", &model]].concat(), Some(&input));
     assert_eq!(clash.status.code(), Some(2), "{}", stderr(&clash));
 }
+
+/// `--json -` writes the document to stdout instead of the text report, for `analyze` and `gap` as for `decode`:
+/// the whole output is one JSON document a pipe can read, and no file named `-` appears.
+#[test]
+fn json_dash_is_stdout_for_analyze_and_gap() {
+    let dir = tempfile::tempdir().unwrap();
+    let record = sinusoid_record(3);
+    for (args, key) in [
+        (vec!["analyze", "-", "--column", "g", "--rate", "10", "--json", "-"], "channels"),
+        (vec!["gap", "-", "--column", "g", "--rate", "10", "--seeds", "6", "--json", "-"], "verdict"),
+    ] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_octavar"))
+            .args(&args)
+            .current_dir(dir.path())
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .and_then(|mut c| {
+                use std::io::Write;
+                c.stdin.take().unwrap().write_all(record.as_bytes())?;
+                c.wait_with_output()
+            })
+            .unwrap();
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        assert!(doc.get(key).is_some(), "{args:?}: no {key} in {doc}");
+        assert!(!dir.path().join("-").exists(), "{args:?} wrote a file named -");
+    }
+}

@@ -196,8 +196,7 @@ fn verify_json_keys() {
 }
 
 /// `record --json`: the summary of a recording (here replayed from the capture file, the same document a port
-/// gives): its decode counts and the live ADEV at 1 s of each channel. Its `decode.bad_frames` stays empty even
-/// with the damaged frame in it: the recorder clears the list (the counts keep it).
+/// gives): its decode counts, the damaged frame listed with its offset, and the live ADEV at 1 s of each channel.
 #[test]
 fn record_json_keys() {
     let dir = tempfile::tempdir().expect("a temp dir");
@@ -207,6 +206,8 @@ fn record_json_keys() {
     let o = run(&["record", "--from", s(&cap), "-o", s(&out), "--json"], 0);
     let v = stdout_json(&o);
     assert_eq!(v["ended"], "source_ended", "{v}");
+    let bad = v["stats"]["decode"]["bad_frames"].as_array().expect("a list of bad frames");
+    assert_eq!(bad.len(), 1, "the capture's one damaged frame is listed: {v}");
     insta::assert_snapshot!("record", key_paths(&v));
 }
 

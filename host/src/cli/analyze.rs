@@ -56,7 +56,7 @@ pub struct Args {
     /// Skip the noise-term fit: the statistics only.
     #[arg(long, conflicts_with_all = ["model_out", "kalibr", "exports"])]
     pub no_fit: bool,
-    /// Write the JSON document here.
+    /// Write the JSON document here (`-`: to stdout, instead of the text report).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
     /// Write every point as CSV here.
@@ -195,11 +195,11 @@ impl Args {
         results: &[ChannelAnalysis],
     ) -> anyhow::Result<ExitCode> {
         let sheet = self.datasheet.as_deref().map(Datasheet::read).transpose()?;
-        analyze::write_report(&mut std::io::stdout().lock(), source, samples, rate_hz, results, sheet.as_ref())?;
+        if !super::json_out::to_stdout(self.json.as_deref()) {
+            analyze::write_report(&mut std::io::stdout().lock(), source, samples, rate_hz, results, sheet.as_ref())?;
+        }
         if let Some(path) = &self.json {
-            let doc = analyze::to_json_with(results, sheet.as_ref());
-            std::fs::write(path, serde_json::to_string_pretty(&doc)?)
-                .with_context(|| format!("writing {}", path.display()))?;
+            super::json_out::write(path, &analyze::to_json_with(results, sheet.as_ref()))?;
         }
         if let Some(path) = &self.csv {
             std::fs::write(path, analyze::to_csv(results)).with_context(|| format!("writing {}", path.display()))?;

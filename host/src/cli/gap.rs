@@ -79,7 +79,7 @@ pub struct Args {
     /// simulation has a temperature profile).
     #[arg(long, value_name = "FILE")]
     pub model_out: Option<PathBuf>,
-    /// Write the JSON document here.
+    /// Write the JSON document here (`-`: to stdout, instead of the text report).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
     /// Noise configs for a state estimator or simulator from the base fit (--export FORMAT=FILE, --kalibr FILE,
@@ -152,18 +152,19 @@ impl Args {
         if let Some(b) = bar.lock().expect("progress lock").as_ref() {
             b.finish();
         }
-        let mut out = std::io::stdout().lock();
-        writeln!(
-            out,
-            "# {}, column {}: diagnosed in {:.1} s",
-            rec.source,
-            self.column_name(),
-            t0.elapsed().as_secs_f64()
-        )?;
-        report.write_text(&mut out)?;
+        if !super::json_out::to_stdout(self.json.as_deref()) {
+            let mut out = std::io::stdout().lock();
+            writeln!(
+                out,
+                "# {}, column {}: diagnosed in {:.1} s",
+                rec.source,
+                self.column_name(),
+                t0.elapsed().as_secs_f64()
+            )?;
+            report.write_text(&mut out)?;
+        }
         if let Some(path) = &self.json {
-            std::fs::write(path, serde_json::to_string_pretty(&report.to_json())?)
-                .with_context(|| format!("writing {}", path.display()))?;
+            super::json_out::write(path, &report.to_json())?;
         }
         if self.export.any() {
             let topic = self.reading.topic.clone().unwrap_or_else(|| "/imu0".to_string());

@@ -14,6 +14,7 @@ pub mod demo;
 pub mod export_args;
 pub mod fieldlog;
 pub mod gap;
+pub mod json_out;
 pub mod progress;
 pub mod record;
 pub mod simulate;

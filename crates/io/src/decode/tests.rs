@@ -10,7 +10,7 @@ fn snapshot(samples: u32) -> Snapshot {
     acc.snapshot()
 }
 
-fn records(bytes: &[u8]) -> (Vec<Decoded>, DecodeStats) {
+fn decoded(bytes: &[u8]) -> (Vec<Decoded>, DecodeStats) {
     let mut r = CaptureReader::new(bytes, "t");
     let v = r.by_ref().collect::<Result<Vec<_>, _>>().unwrap();
     (v, r.stats().clone())
@@ -30,7 +30,7 @@ fn snapshot_parts_join_and_a_lost_part_is_counted() {
     enc.encode_to_vec(&Frame::AllanSnapshot(parts[0].clone())).unwrap();
     let second_at = bytes.len() as u64;
     bytes.extend_from_slice(&enc.encode_to_vec(&Frame::AllanSnapshot(parts[1].clone())).unwrap());
-    let (recs, stats) = records(&bytes);
+    let (recs, stats) = decoded(&bytes);
     assert_eq!(recs.len(), 1);
     assert_eq!(recs[0].message, Message::Snapshot(ChannelSnapshot { channel: 2, snapshot: snap }));
     assert_eq!(recs[0].meta.seq, 1);
@@ -50,7 +50,7 @@ fn field_log_parts_join_with_their_checkpoint() {
         bytes.extend_from_slice(&enc.encode_to_vec(&Frame::FieldLog(rec)).unwrap());
     }
     bytes.extend_from_slice(&enc.encode_to_vec(&Frame::FieldLogEnd(FieldLogEnd { checkpoints: 1 })).unwrap());
-    let (recs, stats) = records(&bytes);
+    let (recs, stats) = decoded(&bytes);
     let want =
         FieldLogSnapshot { checkpoint: 3, time_s: 600, sessions: 2, adc_overruns: 1, channel: 1, snapshot: snap };
     assert_eq!(recs[0].message, Message::FieldLog(want));
@@ -70,7 +70,7 @@ fn offsets_locate_bad_frames_and_the_tail() {
     bytes.extend_from_slice(&bad);
     bytes.extend_from_slice(&good);
     bytes.extend_from_slice(&good[..5]);
-    let (recs, stats) = records(&bytes);
+    let (recs, stats) = decoded(&bytes);
     assert_eq!(recs.len(), 2);
     assert_eq!(recs[1].meta.offset, (good.len() + bad.len()) as u64);
     assert_eq!(stats.bad_frame_count(), 1);

@@ -335,11 +335,11 @@ pub fn analyze_capture<R: Read>(
 ) -> Result<StreamAnalysis, StreamError> {
     let name = capture.name().to_string();
     let mut tally = CaptureTally::default();
-    let mut records = 0u64;
+    let mut frames = 0u64;
     for item in capture.by_ref() {
         let d = item?;
-        records += 1;
-        if records.is_multiple_of(4096) {
+        frames += 1;
+        if frames.is_multiple_of(4096) {
             progress(d.meta.offset);
         }
         tally.take(d, opts.stride)?;

@@ -181,7 +181,6 @@ impl Live {
 
     fn refresh(&mut self, start: Instant, capture_bytes: u64) -> &LiveStats {
         self.stats.decode = self.dec.stats().clone();
-        self.stats.decode.bad_frames.clear();
         self.stats.capture_bytes = capture_bytes;
         self.stats.elapsed_s = start.elapsed().as_secs_f64();
         let hello = self.stats.hello.as_ref();
