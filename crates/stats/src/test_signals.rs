@@ -1,5 +1,5 @@
-//! Deterministic test signals for the unit tests of every host crate: one 64-bit LCG (Knuth's MMIX constants) and what the tests
-//! draw from it, so every module's fixtures come from the same generator.
+//! Deterministic test signals for the unit tests of every host crate: one 64-bit LCG (Knuth's MMIX constants) and what
+//! the tests draw from it, so every module's fixtures come from the same generator.
 
 /// A 64-bit linear congruential generator.
 pub struct Lcg(u64);
