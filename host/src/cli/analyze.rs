@@ -199,7 +199,11 @@ impl Args {
             analyze::write_report(&mut std::io::stdout().lock(), source, samples, rate_hz, results, sheet.as_ref())?;
         }
         if let Some(path) = &self.json {
-            super::json_out::write(path, &analyze::to_json_with(results, sheet.as_ref()))?;
+            super::json_out::write(
+                path,
+                &analyze::to_json_with(results, sheet.as_ref()),
+                &mut std::io::stdout().lock(),
+            )?;
         }
         if let Some(path) = &self.csv {
             std::fs::write(path, analyze::to_csv(results)).with_context(|| format!("writing {}", path.display()))?;

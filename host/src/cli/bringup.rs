@@ -61,7 +61,7 @@ impl Args {
         };
         let mut port = PortSource::parse(&self.port, self.baud, Duration::from_millis(50));
         let report = bringup(&mut port, &opts)?;
-        let to_stdout = self.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
+        let to_stdout = super::json_out::to_stdout(self.json.as_deref());
         let mut out = std::io::stdout().lock();
         if !to_stdout {
             for c in &report.checks {
@@ -81,14 +81,7 @@ impl Args {
             )?;
         }
         if let Some(path) = &self.json {
-            if to_stdout {
-                serde_json::to_writer_pretty(&mut out, &report)?;
-                writeln!(out)?;
-            } else {
-                let file =
-                    std::fs::File::create(path).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
-                serde_json::to_writer_pretty(std::io::BufWriter::new(file), &report)?;
-            }
+            super::json_out::write(path, &report, &mut out)?;
         }
         Ok(if report.passed { ExitCode::SUCCESS } else { ExitCode::from(1) })
     }

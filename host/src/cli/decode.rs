@@ -28,9 +28,9 @@ impl Args {
         let reader = decode::open(&self.capture)?;
         let summary = decode::export(reader, &ExportOptions { csv_dir: self.csv.clone() })?;
         let mut out = std::io::stdout().lock();
-        let json_to_stdout = self.json.as_deref() == Some(std::path::Path::new("-"));
+        let json_to_stdout = super::json_out::to_stdout(self.json.as_deref());
         if let Some(path) = &self.json {
-            decode::write_json(&summary, path, &mut out)?;
+            super::json_out::write(path, &summary, &mut out)?;
         }
         if !json_to_stdout {
             print_summary(&mut out, &summary)?;

@@ -164,7 +164,7 @@ impl Args {
             report.write_text(&mut out)?;
         }
         if let Some(path) = &self.json {
-            super::json_out::write(path, &report.to_json())?;
+            super::json_out::write(path, &report.to_json(), &mut std::io::stdout().lock())?;
         }
         if self.export.any() {
             let topic = self.reading.topic.clone().unwrap_or_else(|| "/imu0".to_string());

@@ -283,19 +283,3 @@ pub fn export<R: Read>(mut reader: CaptureReader<R>, opts: &ExportOptions) -> Re
         csv_files,
     })
 }
-
-/// Write the summary as pretty JSON to `path` (`-`: `out`).
-///
-/// # Errors
-/// [`DecodeError::Write`] with the path.
-pub fn write_json(summary: &DecodeSummary, path: &Path, out: &mut dyn Write) -> Result<(), DecodeError> {
-    let err = |source| DecodeError::Write { path: path.to_path_buf(), source };
-    if path == Path::new("-") {
-        serde_json::to_writer_pretty(&mut *out, summary).map_err(|e| err(e.into()))?;
-        return writeln!(out).map_err(err);
-    }
-    let file = File::create(path).map_err(err)?;
-    let mut w = BufWriter::new(file);
-    serde_json::to_writer_pretty(&mut w, summary).map_err(|e| err(e.into()))?;
-    writeln!(w).and_then(|()| w.flush()).map_err(err)
-}

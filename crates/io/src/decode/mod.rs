@@ -30,7 +30,7 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{self, BufWriter, Read, Write};
+use std::io::{self, BufWriter, Read};
 use std::path::{Path, PathBuf};
 
 use octavar_shared::acc::{Snapshot, LEVELS};
@@ -47,7 +47,7 @@ mod summary;
 
 pub use checkpoints::{gyro_channels, Checkpoint, Checkpoints};
 
-pub use export::{export, write_json, ExportOptions};
+pub use export::{export, ExportOptions};
 pub use stream::{open, CaptureReader, StreamDecoder};
 pub use summary::{
     adev_codes_at, level_rows, ChannelEstimate, CheckpointSummary, DecodeSummary, EstimateSummary, LevelRow,
