@@ -16,7 +16,7 @@ pub mod text;
 pub use csv::{points_csv, to_csv};
 pub use json::{to_json, to_json_with, Document};
 pub use model::{fine_channel, model_from_fits};
-pub use text::{fit_report, report, table, write_report};
+pub use text::{fit_report, table, write_report};
 
 use rayon::prelude::*;
 use serde::Serialize;

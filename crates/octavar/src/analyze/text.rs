@@ -10,21 +10,8 @@ use crate::fit::{NoiseFit, Term};
 use crate::quantity::Quantity;
 use crate::stats::{DevPoint, Statistic};
 
-/// The whole report: a line naming the source, then each channel's tables and fit (or why it has none), and
-/// the fit against `sheet` where a datasheet was given.
-pub fn report(
-    source: &str,
-    samples: u64,
-    rate_hz: f64,
-    channels: &[ChannelAnalysis],
-    sheet: Option<&Datasheet>,
-) -> String {
-    let mut out = Vec::new();
-    write_report(&mut out, source, samples, rate_hz, channels, sheet).expect("writing to memory does not fail");
-    String::from_utf8(out).expect("the report is UTF-8")
-}
-
-/// Write [`report`] to `w`, channel by channel.
+/// Write the whole report to `w`: a line naming the source, then each channel's tables and fit (or why it has
+/// none), and the fit against `sheet` where a datasheet was given.
 ///
 /// # Errors
 /// The sink's.
