@@ -25,10 +25,10 @@ use embassy_sync::signal::Signal;
 
 use embassy_time::{Duration, Timer};
 use octavar_shared::fieldlog::{
-    Checkpoint, CheckpointPolicy, FieldLog, LogError, LogFlash, RoundOutcome, OVERHEAD_WORDS,
+    read_out_frame, Checkpoint, CheckpointPolicy, FieldLog, LogError, LogFlash, RoundOutcome, OVERHEAD_WORDS,
 };
 use octavar_shared::flash_f4::{erase_worst_us, program_worst_us, FlashError, PARALLELISM};
-use octavar_shared::proto::{Ack, CheckpointReport, FieldLogEnd, FieldLogRecord, Frame, SnapshotPart};
+use octavar_shared::proto::{Ack, CheckpointReport, FieldLogEnd, Frame};
 
 use crate::characterize::SNAPSHOT_READY;
 use crate::config::*;
@@ -228,42 +228,12 @@ async fn read_out<F: LogFlash>(
     frames::send_within(Frame::Ack(Ack { seq: read.seq }), READ_OUT_FRAME_WAIT).await?;
     let mut sent = 0;
     let mut i = 0;
-    while let Some(frame) = log_frame(log, read.from, words, i) {
+    while let Some(frame) = read_out_frame::<_, GYROS>(log, read.from, words, i, SAMPLE_RATE_HZ) {
         frames::send_within(frame, READ_OUT_FRAME_WAIT).await?;
         sent = 1;
         i += 1;
     }
     frames::send_within(Frame::FieldLogEnd(FieldLogEnd { checkpoints: sent }), READ_OUT_FRAME_WAIT).await
-}
-
-/// The `i`-th field-log frame of the newest checkpoint, if its number is at least `from`.
-fn log_frame<F: LogFlash>(
-    log: &mut FieldLog<F>,
-    from: u32,
-    words: &mut [u32; CHECKPOINT_WORDS],
-    i: usize,
-) -> Option<Frame> {
-    let seq = log.read_latest(words).ok()??;
-    if seq < from {
-        return None;
-    }
-    let cp = GyroCheckpoint::decode::<()>(words).ok()?;
-    let mut k = 0;
-    for (g, snap) in cp.snapshots.iter().enumerate() {
-        for part in SnapshotPart::split(g as u8, snap) {
-            if k == i {
-                return Some(Frame::FieldLog(FieldLogRecord {
-                    checkpoint: seq,
-                    time_s: (snap.samples / u64::from(SAMPLE_RATE_HZ)) as u32,
-                    sessions: cp.sessions,
-                    adc_overruns: cp.adc_overruns,
-                    part,
-                }));
-            }
-            k += 1;
-        }
-    }
-    None
 }
 
 /// The field log's flash on the board: sectors 1 and 2 through the shared controller sequences at x32.

@@ -315,9 +315,9 @@ mod board {
 
     use octavar_shared::acc::Snapshot;
     use octavar_shared::device::{Characterizer, DeviceConfig, FrameSink};
-    use octavar_shared::fieldlog::{Checkpoint, CheckpointPolicy, FieldLog, RamFlash, RoundOutcome};
+    use octavar_shared::fieldlog::{read_out_frame, Checkpoint, CheckpointPolicy, FieldLog, RamFlash, RoundOutcome};
     use octavar_shared::proto::{
-        Ack, CheckpointReport, Command, Decoder, Encoder, FieldLogEnd, FieldLogRecord, Frame, SnapshotPart, RESYNC,
+        Ack, CheckpointReport, Command, Decoder, Encoder, FieldLogEnd, Frame, SnapshotPart, RESYNC,
     };
 
     const GYROS: usize = 4;
@@ -387,24 +387,12 @@ mod board {
         /// (if its number is at least `from`), the end frame.
         fn read_out(&mut self, seq: u32, from: u32) {
             self.send(&Frame::Ack(Ack { seq }));
-            let mut sent = 0;
-            if let Ok(Some(number)) = self.log.read_latest(&mut self.words) {
-                if number >= from {
-                    let cp = Checkpoint::<GYROS>::decode::<()>(&self.words).expect("a checkpoint");
-                    for (g, snap) in cp.snapshots.iter().enumerate() {
-                        for part in SnapshotPart::split(g as u8, snap) {
-                            self.send(&Frame::FieldLog(FieldLogRecord {
-                                checkpoint: number,
-                                time_s: (snap.samples / u64::from(CFG.rate_hz)) as u32,
-                                sessions: cp.sessions,
-                                adc_overruns: cp.adc_overruns,
-                                part,
-                            }));
-                        }
-                    }
-                    sent = 1;
-                }
+            let mut i = 0;
+            while let Some(frame) = read_out_frame::<_, GYROS>(&mut self.log, from, &mut self.words, i, CFG.rate_hz) {
+                self.send(&frame);
+                i += 1;
             }
+            let sent = u32::from(i > 0);
             self.send(&Frame::FieldLogEnd(FieldLogEnd { checkpoints: sent }));
         }
     }

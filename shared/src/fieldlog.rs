@@ -593,7 +593,9 @@ impl<const W: usize> LogFlash for RamFlash<W> {
 }
 
 mod policy;
+mod read_out;
 pub use policy::{CheckpointPolicy, RoundOutcome};
+pub use read_out::read_out_frame;
 
 #[cfg(test)]
 mod tests {
