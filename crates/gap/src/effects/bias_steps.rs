@@ -5,7 +5,7 @@ use octavar_shared::sim::{BiasSteps, GyroSim};
 use std::sync::Arc;
 
 use super::common::*;
-use super::{Effect, EffectFit, EffectKind, TrainingData};
+use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 
 /// Fewest detected steps for a bias-step process.
 pub(super) const MIN_STEPS: usize = 3;
@@ -163,7 +163,7 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
         n_params: 2,
         gyro,
         channel: None,
-        spread: None,
+        spread: Some(ParamSpread::StepRate { steps: steps.len() as f64 }),
         cleaned: Some(Arc::new(cleaned)),
     })
 }

@@ -16,7 +16,7 @@ use super::common::*;
 use super::curve::{
     base_columns, filtered_gm_avar, joint_fit, joint_fit_keeping, less_known, with_base_terms, CURVE_DELTA_CHI2,
 };
-use super::{Effect, EffectFit, EffectKind, TrainingData};
+use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 
 /// Fewest jumps detected at the chosen window: with missed jumps and a false one or two, a few cycles are needed
 /// before the alternation means anything.
@@ -332,7 +332,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
         n_params: 3,
         gyro,
         channel: None,
-        spread: None,
+        spread: Some(ParamSpread::Dwells { low: count_low as f64, high: count_high as f64 }),
         cleaned: Some(Arc::new(cleaned)),
     })
 }

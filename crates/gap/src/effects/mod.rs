@@ -296,6 +296,31 @@ pub enum ParamSpread {
         /// Frequency of the estimate, Hz.
         f_hz: f64,
     },
+    /// Spikes': the number of runs their rate rests on. The runs of the training part are a Poisson count, so
+    /// the rate read from `runs` of them is uncertain by `1 / sqrt(runs)` of itself; each member draws its
+    /// share of spiked samples from the rate's posterior (a gamma law of shape `runs + 1/2`, Jeffreys' prior,
+    /// scaled to the fitted share on average). Without it a dozen spikes read as eight in training leave the
+    /// held-out kurtosis two ensemble spreads above every member, a gap of 2.6 where the true model gives 1.6.
+    SpikeRate {
+        /// Runs of spikes counted in the training part (the fitted share times its samples over the run length).
+        runs: f64,
+    },
+    /// Bias steps': the number of steps their rate and size rest on. Each member draws the rate as a spike rate
+    /// is drawn, and the steps' variance from its posterior under as many Gaussian steps (a scaled inverse
+    /// chi-square law of `steps` degrees of freedom).
+    StepRate {
+        /// Steps found in the training part.
+        steps: f64,
+    },
+    /// A bistable bias's: the completed dwells each state's mean dwell rests on. The time spent in a state over
+    /// its dwells is a gamma law in the dwells' rate, so each member draws each state's leaving rate from the
+    /// gamma law of shape `dwells + 1/2` about the fitted one.
+    Dwells {
+        /// Completed dwells in the low state.
+        low: f64,
+        /// Completed dwells in the high state.
+        high: f64,
+    },
 }
 
 impl ParamSpread {
@@ -330,8 +355,54 @@ impl ParamSpread {
                     c.lag_s = drawn.tan() / w;
                 }
             }
+            ParamSpread::SpikeRate { runs } => {
+                if let Some(o) = g.outliers.as_mut() {
+                    o.per_sample = (o.per_sample * rate_factor(&mut rng, *runs)).min(1.0);
+                }
+            }
+            ParamSpread::StepRate { steps } => {
+                if let Some(b) = g.bias_steps.as_mut() {
+                    b.per_hour *= rate_factor(&mut rng, *steps);
+                    let dof = steps.max(1.0);
+                    b.sigma_dps *= (dof / (2.0 * gamma(&mut rng, dof / 2.0))).sqrt();
+                }
+            }
+            ParamSpread::Dwells { low, high } => {
+                if let Some(b) = g.bistable.as_mut() {
+                    b.dwell_low_s /= rate_factor(&mut rng, *low);
+                    b.dwell_high_s /= rate_factor(&mut rng, *high);
+                }
+            }
         }
         g
+    }
+}
+
+/// A rate read from `count` Poisson events, as a factor on the fitted rate: a draw of its posterior under
+/// Jeffreys' prior (the gamma law of shape `count + 1/2`), scaled to a mean of one.
+fn rate_factor(rng: &mut SimRng, count: f64) -> f64 {
+    let shape = count.max(0.0) + 0.5;
+    gamma(rng, shape) / shape
+}
+
+/// A draw of the gamma law of shape `k` (> 0) and unit scale: Marsaglia and Tsang's squeeze (ACM TOMS 26, 2000),
+/// with the shape raised by one and a uniform's power for `k < 1`.
+fn gamma(rng: &mut SimRng, k: f64) -> f64 {
+    if k < 1.0 {
+        return gamma(rng, k + 1.0) * rng.uniform().max(f64::MIN_POSITIVE).powf(1.0 / k);
+    }
+    let d = k - 1.0 / 3.0;
+    let c = 1.0 / (9.0 * d).sqrt();
+    loop {
+        let x = rng.normal();
+        let v = (1.0 + c * x).powi(3);
+        if v <= 0.0 {
+            continue;
+        }
+        let u = rng.uniform().max(f64::MIN_POSITIVE);
+        if u.ln() < 0.5 * x * x + d - d * v + d * v.ln() {
+            return d * v;
+        }
     }
 }
 

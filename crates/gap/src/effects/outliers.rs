@@ -37,7 +37,7 @@ use std::sync::Arc;
 use super::common::*;
 use super::curve::{ar1_avar, refit_base_terms};
 use super::params::OutliersParams;
-use super::{Effect, EffectFit, EffectKind, TrainingData};
+use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 use octavar_stats::robust::mad_scale_in_place;
 
 mod mixture;
@@ -336,7 +336,8 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
         n_params: 3 + usize::from(c.rho1 > 0.0) + usize::from(c.cont_next > 0.0),
         gyro: GyroSim { outliers: Some(spikes), ..refit },
         channel: None,
-        spread: None,
+        // The rate rests on the runs counted: each is a Poisson event of the training part.
+        spread: Some(ParamSpread::SpikeRate { runs: m.eps * n as f64 / run_mean.max(1.0) }),
         cleaned: Some(Arc::new(cleaned)),
     })
 }

@@ -576,6 +576,31 @@ fn a_couplings_members_draw_its_in_band_coefficient() {
     }
 }
 
+/// A spike rate's spread draws each member's share from the gamma law of shape `runs + 1/2` about the fitted
+/// share: over 20000 members, the mean share is the fitted one times `(runs + 1/2) / (runs + 1/2)` = 1 (within 4
+/// standard errors of a mean) and its relative sd `1 / sqrt(runs + 1/2)` (within 3%), for a dozen runs and for a
+/// fraction of one (the shape below 1 takes the other branch of the draw).
+#[test]
+fn a_spike_rates_members_draw_the_rate_from_its_count() {
+    let eps = 1e-4;
+    let gyro = GyroSim {
+        outliers: Some(Outliers { per_sample: eps, size_dps: 1.0, ..Default::default() }),
+        ..Default::default()
+    };
+    for runs in [12.0, 0.3] {
+        let spread = ParamSpread::SpikeRate { runs };
+        let n = 20_000;
+        let drawn: Vec<f64> =
+            (0..n as u64).map(|seed| spread.draw(&gyro, seed).outliers.unwrap().per_sample / eps).collect();
+        let mean = drawn.iter().sum::<f64>() / n as f64;
+        let sd = (drawn.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+        let want_sd = 1.0 / (runs + 0.5f64).sqrt();
+        assert!((mean - 1.0).abs() < 4.0 * want_sd / (n as f64).sqrt(), "runs {runs}: mean {mean}");
+        assert!((sd / want_sd - 1.0).abs() < 0.03, "runs {runs}: sd {sd} vs {want_sd}");
+        assert!(drawn.iter().all(|&r| r > 0.0 && r.is_finite()), "runs {runs}: a share out of range");
+    }
+}
+
 /// A parameter of an estimate or its standard error, by its key in the report's JSON.
 fn param(e: &EffectFit, key: &str) -> f64 {
     let json = serde_json::to_value(&e.params).unwrap();
