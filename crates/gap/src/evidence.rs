@@ -105,6 +105,13 @@ const OUTLIERS_LR: f64 = effects::OUTLIERS_MIN_LR;
 /// total by a few percent.
 pub const VIEWS_TOLERANCE: f64 = 1.1;
 
+/// The views' total below which a model agrees with the record as well as the ensemble's own members agree
+/// with each other (each view's gap is about 1 there): a model named by its estimator may take the total up to
+/// it, however far below it the model before stood. Beneath 1 a total moves by far more than
+/// [`VIEWS_TOLERANCE`] from one ensemble draw to the next (0.5 to 0.9 with a resonance added to a bistable bias
+/// that had taken every view to agreement), so a tolerance relative to it alone would refuse the true effect.
+pub const AGREEMENT_TOTAL: f64 = 1.0;
+
 /// Whether `effect`'s test is the fall of a curve's chi-square (the Allan curve's for a filter corner, the
 /// spectrum's for a resonance), which measures the effect only against a model that fits the rest of the curve:
 /// where the model leaves a significant gap, the curve's misfit is that gap's, and any added freedom lowers it.

@@ -388,9 +388,10 @@ impl Search<'_, '_> {
             self.progress.expect("evidence", 1);
             let mut after = self.evaluate(&m, known.as_deref(), fit.effect.name())?;
             let mut m = m;
-            // Named on its own test, it must still leave the views no worse than it found them, and a curve's test
-            // beside a significant gap must take that gap below significance.
-            let allowed = evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training);
+            // Named on its own test, it must still leave the views no worse than it found them (or in agreement),
+            // and a curve's test beside a significant gap must take that gap below significance.
+            let allowed =
+                (evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training)).max(evidence::AGREEMENT_TOTAL);
             let worse_than_before = |e: &Evaluated| rank::total_of(&e.training) > allowed;
             let mut worse = worse_than_before(&after);
             // The estimator refitted the base terms alone beside its effect, on a curve whose other effects it took
