@@ -121,6 +121,16 @@ pub fn needs_a_fitting_model(effect: Effect) -> bool {
     matches!(effect, Effect::Resonance | Effect::Bandwidth)
 }
 
+/// Whether `effect`'s curve test may name it beside a model that already agrees with the record in every view
+/// (a views' total at most [`AGREEMENT_TOTAL`]), where the views cannot find the model with it better. A bump
+/// with a centre and a width (a resonance) is a shape no other process of the vocabulary draws, so a spectrum's
+/// chi-square that falls by more than its threshold with the bump in place is the bump's. A filter corner is not:
+/// a Gauss-Markov process's roll-off over the white noise bends the Allan curve the same way, and a corner read
+/// into it lowers the curve's chi-square and nothing else.
+pub fn curve_test_names_beside_agreement(effect: Effect) -> bool {
+    effect == Effect::Resonance
+}
+
 /// The fits, among the `remaining` effects that have a test, whose evidence names them, strongest first (the
 /// statistic furthest beyond its threshold), each estimated on `data`, or taken from `estimated` where the step's
 /// ranking estimated it already (`Some(fit)`, with `None` inside where its estimator found nothing).

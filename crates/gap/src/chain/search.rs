@@ -411,10 +411,11 @@ impl Search<'_, '_> {
             // A curve's test names an effect only where the views find the model with it better: beside a
             // significant gap, below significance in the gap's band; elsewhere, a total lower by more than the
             // ensemble's draw moves it (a filter corner read into a Gauss-Markov process's roll-off lowers the
-            // curve's chi-square and nothing else).
+            // curve's chi-square and nothing else), or, for a bump, a model before it already in agreement.
             let curve_test = evidence::needs_a_fitting_model(fit.effect);
-            let better =
-                evidence::VIEWS_TOLERANCE * rank::total_of(&after.training) < rank::total_of(&self.eval.training);
+            let before = rank::total_of(&self.eval.training);
+            let better = evidence::VIEWS_TOLERANCE * rank::total_of(&after.training) < before
+                || (before <= evidence::AGREEMENT_TOTAL && evidence::curve_test_names_beside_agreement(fit.effect));
             if worse || (curve_test && if significant { !clears } else { !better }) {
                 continue;
             }
