@@ -117,21 +117,10 @@ impl Row {
 /// The true model `gyro` (on `channel`) without `effect`: its field cleared, or for quantisation the record's
 /// lattice taken away.
 fn without(gyro: &GyroSim, channel: Option<&Channel>, effect: Effect) -> (GyroSim, Option<Channel>) {
-    let mut g = gyro.clone();
-    let mut ch = channel.cloned();
-    match effect {
-        Effect::Temperature => g.temperature = None,
-        Effect::Sinusoid => g.sinusoids.clear(),
-        Effect::Bandwidth => g.bandwidth_hz = None,
-        Effect::GaussMarkov => g.gauss_markov = None,
-        Effect::Quantization => ch = None,
-        Effect::BiasSteps => g.bias_steps = None,
-        Effect::Outliers => g.outliers = None,
-        Effect::Resonance => g.resonance = None,
-        Effect::Bistable => g.bistable = None,
-        Effect::WarmUp => g.warm_up = None,
+    match effect.taken_from(gyro) {
+        Some(g) => (g, channel.cloned()),
+        None => (gyro.clone(), None),
     }
-    (g, ch)
 }
 
 fn finite(x: f64) -> Option<f64> {

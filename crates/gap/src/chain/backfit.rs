@@ -16,17 +16,10 @@ use octavar_stats::fit::NoiseFit;
 /// the ones it leaves as found: quantisation (a channel, not a field) and the effects that recovered a realisation
 /// (the samples the others learnt from have it taken out).
 pub fn without(gyro: &GyroSim, effect: Effect) -> Option<GyroSim> {
-    let mut g = gyro.clone();
     match effect {
-        Effect::Temperature => g.temperature = None,
-        Effect::Sinusoid => g.sinusoids.clear(),
-        Effect::Bandwidth => g.bandwidth_hz = None,
-        Effect::GaussMarkov => g.gauss_markov = None,
-        Effect::Resonance => g.resonance = None,
-        Effect::WarmUp => g.warm_up = None,
-        Effect::Quantization | Effect::BiasSteps | Effect::Outliers | Effect::Bistable => return None,
+        Effect::BiasSteps | Effect::Outliers | Effect::Bistable => None,
+        _ => effect.taken_from(gyro),
     }
-    Some(g)
 }
 
 /// One backfitting round over a chain of two or more effects: each effect, in the chain's order, is estimated

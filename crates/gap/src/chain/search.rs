@@ -390,8 +390,8 @@ impl Search<'_, '_> {
             let mut m = m;
             // Named on its own test, it must still leave the views no worse than it found them (or in agreement),
             // and a curve's test beside a significant gap must take that gap below significance.
-            let allowed =
-                (evidence::VIEWS_TOLERANCE * rank::total_of(&self.eval.training)).max(evidence::AGREEMENT_TOTAL);
+            let before = rank::total_of(&self.eval.training);
+            let allowed = (evidence::VIEWS_TOLERANCE * before).max(evidence::AGREEMENT_TOTAL);
             let worse_than_before = |e: &Evaluated| rank::total_of(&e.training) > allowed;
             let mut worse = worse_than_before(&after);
             // The estimator refitted the base terms alone beside its effect, on a curve whose other effects it took
@@ -413,7 +413,6 @@ impl Search<'_, '_> {
             // ensemble's draw moves it (a filter corner read into a Gauss-Markov process's roll-off lowers the
             // curve's chi-square and nothing else), or, for a bump, a model before it already in agreement.
             let curve_test = evidence::needs_a_fitting_model(fit.effect);
-            let before = rank::total_of(&self.eval.training);
             let better = evidence::VIEWS_TOLERANCE * rank::total_of(&after.training) < before
                 || (before <= evidence::AGREEMENT_TOTAL && evidence::curve_test_names_beside_agreement(fit.effect));
             if worse || (curve_test && if significant { !clears } else { !better }) {

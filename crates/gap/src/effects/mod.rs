@@ -124,6 +124,25 @@ impl Effect {
         matches!(self, Effect::BiasSteps | Effect::Bistable)
     }
 
+    /// `gyro` without this effect: its field of the model cleared (every sinusoid, for [`Effect::Sinusoid`]).
+    /// `None` for quantisation, which is the ADC channel's lattice and no field of the model.
+    pub fn taken_from(self, gyro: &GyroSim) -> Option<GyroSim> {
+        let mut g = gyro.clone();
+        match self {
+            Effect::Temperature => g.temperature = None,
+            Effect::Sinusoid => g.sinusoids.clear(),
+            Effect::Bandwidth => g.bandwidth_hz = None,
+            Effect::GaussMarkov => g.gauss_markov = None,
+            Effect::Quantization => return None,
+            Effect::BiasSteps => g.bias_steps = None,
+            Effect::Outliers => g.outliers = None,
+            Effect::Resonance => g.resonance = None,
+            Effect::Bistable => g.bistable = None,
+            Effect::WarmUp => g.warm_up = None,
+        }
+        Some(g)
+    }
+
     /// The effect of a name (as [`Effect::name`] gives it; `-` is accepted for `_`, case is ignored).
     pub fn parse(s: &str) -> Option<Effect> {
         let s = s.trim().to_ascii_lowercase().replace('-', "_");
