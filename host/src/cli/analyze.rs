@@ -169,10 +169,18 @@ impl Args {
         let read = self.reading.read_options(self.column_lists(), None, &self.reading.filters, self.channels)?;
         let rec = formats::read_recording(&self.input, format, &read)?;
         let opts = AnalyzeOptions { stats, taus, confidence: self.confidence, fit: self.fit_options() };
-        let mut results: Vec<ChannelAnalysis> = Vec::new();
-        for (i, (name, data)) in rec.names.iter().zip(&rec.channels).enumerate() {
-            results.push(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?.with_quantity(rec.quantity(i)));
-        }
+        // The channels side by side on the cores: each one's fit is serial, while its deviations are parallel.
+        let results: Vec<ChannelAnalysis> = {
+            use rayon::prelude::*;
+            let channels: Vec<(usize, (&String, &Vec<f64>))> =
+                rec.names.iter().zip(&rec.channels).enumerate().collect();
+            channels
+                .into_par_iter()
+                .map(|(i, (name, data))| {
+                    Ok(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?.with_quantity(rec.quantity(i)))
+                })
+                .collect::<anyhow::Result<_>>()?
+        };
         // The largest |rate| sets the simulated ADC's range of a model written with --model-out.
         let range = || {
             use rayon::prelude::*;

@@ -226,10 +226,8 @@ pub fn read_csv_sized<R: BufRead + Send>(
         if n == 1 {
             channels[0].extend_from_slice(rows);
         } else {
-            for row in rows.chunks_exact(n) {
-                for (c, v) in channels.iter_mut().zip(row) {
-                    c.push(*v);
-                }
+            for (k, c) in channels.iter_mut().enumerate() {
+                c.extend(rows[k..].iter().step_by(n));
             }
         }
         if let Some(t) = temp {
@@ -258,8 +256,8 @@ const DETECT_ROWS: usize = 20;
 ///
 /// The dialect is [`CsvOptions::delimiter`] and [`CsvOptions::decimal_comma`], or detected from the header and
 /// the first rows (see [`crate::csv::rows::Dialect`]). Lines are read in blocks of about 8 MB and parsed on
-/// every core while the next block is read; the samples are then handed on in order, so memory
-/// stays bounded (two blocks).
+/// every core while the rows of the block before are handed on, in order, and the block after is read, so memory
+/// stays bounded (two blocks of text and two of parsed rows).
 ///
 /// # Errors
 /// A missing or duplicated column, a cell that is not a number, a row whose field count differs from the
@@ -328,27 +326,51 @@ fn read_csv_rows<R: BufRead + Send>(
     if timed.is_none() {
         out.info.rate_hz = opts.rate_hz.unwrap_or(0.0);
     }
-    // The tasks' outputs, kept from block to block.
-    let mut parts: Vec<Parsed> = Vec::new();
-    while block.len > 0 {
-        // The block in byte ranges of whole lines, one per task; each task checks its UTF-8, finds its lines and
-        // parses them, numbering from 1; the numbers are made absolute after, in order.
-        // The next block is read (and decompressed) while this one is parsed.
+    // A pipeline of three stages on the cores at once: the tasks parse one block (split into byte ranges of whole
+    // lines, each task checking its UTF-8 and numbering its lines from 1) while this thread hands on the rows of
+    // the block before it, in order, and reads (and decompresses) the block after it.
+    let (mut parts, mut ready): (Vec<Parsed>, Vec<Parsed>) = (Vec::new(), Vec::new());
+    let mut read_error = None;
+    loop {
+        let parsing = block.len > 0;
         let bytes = block.bytes();
-        let ranges = task_ranges(bytes, 4 * rayon::current_num_threads());
+        let ranges = if parsing { task_ranges(bytes, 16 * rayon::current_num_threads()) } else { Vec::new() };
         parts.resize_with(ranges.len(), Parsed::default);
-        let ((), read) = rayon::join(|| parse_tasks(&parser, bytes, &ranges, &mut parts), || next.read(&mut reader));
+        let mut handed_on = Ok(());
+        rayon::in_place_scope(|scope| {
+            if parsing {
+                let (parser, ranges, parts) = (&parser, &ranges, &mut parts);
+                scope.spawn(move |_| parse_tasks(parser, bytes, ranges, parts));
+            }
+            for part in &mut ready {
+                handed_on = out.part(part, line_no + 1, timed.as_mut(), path);
+                if handed_on.is_err() {
+                    break;
+                }
+                line_no += part.lines;
+            }
+            next.len = 0;
+            if parsing && read_error.is_none() {
+                read_error = next.read(&mut reader).err();
+                if read_error.is_some() {
+                    next.len = 0;
+                }
+            }
+        });
+        handed_on?;
+        if !parsing {
+            break;
+        }
         if let (0, Some(total)) = (out.expected_rows, input_bytes) {
             // The rows the whole input will give, from this first block, so that a collector can make room once.
             let rows: u64 = parts.iter().map(|p| p.lines).sum();
             out.expected_rows = (total as f64 / block.len as f64 * rows as f64 * 1.01) as usize + 16;
         }
-        for part in &mut parts {
-            out.part(part, line_no + 1, timed.as_mut(), path)?;
-            line_no += part.lines;
-        }
-        read.map_err(io)?;
+        std::mem::swap(&mut ready, &mut parts);
         std::mem::swap(&mut block, &mut next);
+    }
+    if let Some(err) = read_error {
+        return Err(io(err));
     }
     if let Some(timed) = &mut timed {
         timed.finish(path, &mut |v, t| out.emit(v, t, count_gaps(v)))?;

@@ -204,6 +204,7 @@ const EXACT_POW10: [f64; 23] = [
 /// With at most 2^53 as the digits and a power of ten up to 22 either way, both are exact in an `f64` and one
 /// multiplication or division rounds correctly (Clinger's fast path), so the value is the one [`parse_number`]
 /// gives; other digit strings go to `fast-float2`.
+#[inline]
 pub fn parse_plain(bytes: &[u8], decimal: u8) -> Option<(f64, usize)> {
     let mut i = 0;
     let negative = match bytes.first() {
@@ -276,6 +277,7 @@ pub fn parse_plain(bytes: &[u8], decimal: u8) -> Option<(f64, usize)> {
 
 /// The digits at `bytes[*i..]` appended to `mantissa`, eight at a time where it can: how many there were, or
 /// `None` where `mantissa` would pass 19 digits.
+#[inline]
 fn digit_run(bytes: &[u8], i: &mut usize, mantissa: &mut u64) -> Option<u32> {
     let mut count = 0;
     while let Some(eight) = eight_digits(bytes, *i) {
@@ -299,6 +301,7 @@ fn digit_run(bytes: &[u8], i: &mut usize, mantissa: &mut u64) -> Option<u32> {
 
 /// The eight bytes at `bytes[i..]` as a number when all are ASCII digits (the first the most significant), with
 /// three multiplications on the bytes as one `u64`.
+#[inline]
 fn eight_digits(bytes: &[u8], i: usize) -> Option<u64> {
     let word = u64::from_le_bytes(bytes.get(i..i + 8)?.try_into().ok()?);
     let digits = word.wrapping_sub(0x3030_3030_3030_3030);

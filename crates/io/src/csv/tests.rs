@@ -207,3 +207,29 @@ fn the_values_are_those_of_the_csv_crate() {
     }
     assert_eq!(r.temp_c.as_deref(), Some(&temps[..]));
 }
+
+#[test]
+fn rows_of_many_blocks_come_out_in_order_and_a_late_fault_names_its_line() {
+    // About 2.5 times BLOCK_BYTES, so that blocks are parsed while the one before is handed on: every row arrives
+    // once and in file order, and a fault in the third block is reported at its own line with nothing after it.
+    let rows = 5 * super::BLOCK_BYTES / 10;
+    let mut text = String::with_capacity(rows * 12 + 8);
+    text.push_str("i,g\n");
+    for i in 0..rows {
+        text.push_str(&format!("{i},{}.5\n", i % 10));
+    }
+    let r = read(&text, &opts(&["i"])).unwrap();
+    assert_eq!(r.channels[0].len(), rows);
+    assert!(r.channels[0].iter().enumerate().all(|(i, &v)| v == i as f64), "rows out of order");
+
+    let bad = rows - 1234;
+    let text = text.replacen(&format!("\n{bad},"), &format!("\n{bad}x,"), 1);
+    let mut seen = 0usize;
+    let e = read_csv_stream(text.as_bytes(), "f.csv", &CsvOptions { rate_hz: Some(1.0), ..opts(&["i"]) }, |row, _| {
+        assert_eq!(row[0], seen as f64);
+        seen += 1;
+    })
+    .unwrap_err();
+    assert!(matches!(e, RecordingError::NotANumber { line, .. } if line == bad as u64 + 2), "{e}");
+    assert_eq!(seen, bad, "every row before the fault and none after it");
+}
