@@ -16,7 +16,8 @@ m/s units), the samples to imu.csv (columns t, gx, gy, gz in rad/s, ax, ay, az i
 repr so a reader gets the same doubles), and the same samples as sensor_msgs Imu messages with header.stamp on an
 exact grid to those of "formats" (default all): imu_none.bag, imu_bz2.bag, imu_lz4.bag (ROS 1,
 rosbags.rosbag1.Writer), imu_db3/ (rosbag2 SQLite storage) and imu_mcap/ (rosbag2 MCAP storage), both through
-rosbags.rosbag2.Writer.
+rosbags.rosbag2.Writer, and those storages with rosbag2's zstd compression of whole files or of each message
+(imu_db3_zstd_file/, imu_db3_zstd_message/, imu_mcap_zstd_file/, imu_mcap_zstd_message/).
 
 mode "cases": small bags for the error paths: several.bag (two Imu topics), noimu_db3/ (a bag with only a
 String topic), disorder.bag and disorder_db3/ (stamps out of order and repeated: message order 0 1 3 2 4 4 5 ...;
@@ -31,7 +32,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import lfilter
 from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin, Writer as Writer2
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
 T0_NS = 1_700_000_000_000_000_000
@@ -112,9 +113,13 @@ def write_ros1(path, topics, compression=None):
     w.close()
 
 
-def write_ros2(path, topics, storage):
+def write_ros2(path, topics, storage, compression=None):
+    """compression: None, or rosbag2's zstd compression mode, "file" or "message"."""
     _, ts2 = typestores()
     w = Writer2(path, version=9, storage_plugin=storage)
+    if compression:
+        mode = {"file": CompressionMode.FILE, "message": CompressionMode.MESSAGE}[compression]
+        w.set_compression(mode, CompressionFormat.ZSTD)
     w.open()
     items = []
     for name, (kind, msgs) in topics.items():
@@ -139,7 +144,8 @@ def serialized(stamps, log, gyro, acc):
 
 
 def write_all(out, name, stamps, log, gyro, acc, formats):
-    """The messages as NAME_{none,bz2,lz4}.bag, NAME_db3/ and NAME_mcap/, those of `formats`."""
+    """The messages as NAME_{none,bz2,lz4}.bag, NAME_db3/ and NAME_mcap/, and with rosbag2's zstd compression
+    NAME_{db3,mcap}_zstd_{file,message}/: those of `formats`."""
     ros1, cdr = serialized(stamps, log, gyro, acc)
     fmt = {"none": None, "bz2": Writer1.CompressionFormat.BZ2, "lz4": Writer1.CompressionFormat.LZ4}
     for kind in formats:
@@ -149,6 +155,9 @@ def write_all(out, name, stamps, log, gyro, acc, formats):
             write_ros2(out / f"{name}_db3", {"/imu/data": (IMU, cdr)}, StoragePlugin.SQLITE3)
         elif kind == "mcap":
             write_ros2(out / f"{name}_mcap", {"/imu/data": (IMU, cdr)}, StoragePlugin.MCAP)
+        elif kind.startswith(("db3_zstd_", "mcap_zstd_")):
+            storage = StoragePlugin.SQLITE3 if kind.startswith("db3") else StoragePlugin.MCAP
+            write_ros2(out / f"{name}_{kind}", {"/imu/data": (IMU, cdr)}, storage, kind.rsplit("_", 1)[1])
 
 
 def record(out, spec):

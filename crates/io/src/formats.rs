@@ -3,8 +3,8 @@
 //! [`crate::ros2_bag`]; ROS 2 in rosbag2's SQLite storage, a `.db3` file or a bag directory,
 //! [`crate::ros2_db3`]; ROS 1, [`crate::ros1_bag`]), raw little-endian samples, or the raw samples of a
 //! device capture. `analyze` and `gap` read through here, so both take every format. The format is the `--format`
-//! flag, or else the file's extension (`.tdms`, `.mcap`, `.bag`, `.db3`; a directory with `metadata.yaml` and
-//! `.db3` files is a rosbag2 bag), or else CSV.
+//! flag, or else the file's extension (`.tdms`, `.mcap`, `.bag`, `.db3`, and rosbag2's compressed `.mcap.zstd`
+//! and `.db3.zstd`; a directory with `metadata.yaml` and `.db3` files is a rosbag2 bag), or else CSV.
 use std::io::Read;
 use std::path::Path;
 
@@ -49,12 +49,16 @@ impl RecordingFormat {
                 "capture" => Some(RecordingFormat::Capture),
                 _ => BinaryFormat::parse(&f).map(RecordingFormat::Binary),
             },
-            None if ros2_db3::is_db3_dir(path) => Some(RecordingFormat::Db3),
+            None if ros2_db3::is_db3_dir(path) || ros2_db3::is_db3_name(path) => Some(RecordingFormat::Db3),
             None => {
                 let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
                 Some(match ext.as_str() {
                     "tdms" => RecordingFormat::Tdms,
                     "mcap" => RecordingFormat::Mcap,
+                    // rosbag2's file compression (a `.db3.zstd` is caught above).
+                    "zstd" if path.to_string_lossy().to_ascii_lowercase().ends_with(".mcap.zstd") => {
+                        RecordingFormat::Mcap
+                    }
                     "db3" => RecordingFormat::Db3,
                     "bag" => RecordingFormat::Ros1Bag,
                     "cap" | "capture" => RecordingFormat::Capture,

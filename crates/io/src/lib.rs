@@ -20,4 +20,5 @@ pub mod recording;
 pub mod ros1_bag;
 pub mod ros2_bag;
 pub mod ros2_db3;
+mod rosbag2_zstd;
 pub mod tdms;

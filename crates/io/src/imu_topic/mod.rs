@@ -56,8 +56,11 @@ pub enum BagError {
     /// A rosbag2 SQLite file that SQLite cannot read, or whose tables are not rosbag2's.
     #[error("{path}: {what}")]
     Sqlite { path: String, what: String },
+    /// A storage file compressed by rosbag2 (zstd, file mode) that does not decompress.
+    #[error("{path}: {what}")]
+    Decompress { path: String, what: String },
     /// A bag directory without the bag files octavar reads.
-    #[error("{path}: a directory with no .db3 files (rosbag2's SQLite storage)")]
+    #[error("{path}: a directory with no .db3 or .db3.zstd files (rosbag2's SQLite storage)")]
     EmptyBagDir { path: String },
     /// No topic named, and the bag has no Imu topic.
     #[error("{path}: no {kind} topic (the bag has: {topics})")]

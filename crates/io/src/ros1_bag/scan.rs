@@ -75,7 +75,9 @@ impl Scan {
             let hint = match buf.len() {
                 0 => ": the file is empty",
                 n if n < MAGIC.len() && MAGIC.starts_with(buf) => ": the file is cut short",
-                _ if buf.starts_with(b"#ROSBAG V") => ": it is a bag of an older format; `rosbag fix` migrates it",
+                _ if buf.starts_with(b"#ROSBAG V") || buf.starts_with(b"#ROSRECORD V") => {
+                    ": it is a bag of an older format; `rosbag filter OLD.bag NEW.bag True` rewrites it as 2.0"
+                }
                 _ if buf.starts_with(b"\x89MCAP") => ": it is MCAP, a ROS 2 bag",
                 _ if buf.starts_with(b"SQLite format 3") => ": it is SQLite, a ROS 2 bag's .db3",
                 _ => "",

@@ -251,9 +251,12 @@ fn cut_damaged_unclosed_and_foreign_files_are_errors() {
     let err = read_imu_bag(&write(&dir, "zstd.bag", &odd), None, None).unwrap_err();
     assert!(matches!(err, BagError::UnsupportedCompression { .. }), "{err}");
     // Not a bag.
-    for (bytes, hint) in
-        [(&b"\x89MCAP0\r\n"[..], "MCAP"), (b"SQLite format 3\0", "SQLite"), (b"#ROSBAG V1.2\n", "older")]
-    {
+    for (bytes, hint) in [
+        (&b"\x89MCAP0\r\n"[..], "MCAP"),
+        (b"SQLite format 3\0", "SQLite"),
+        (b"#ROSBAG V1.2\n", "older"),
+        (b"#ROSRECORD V1.2\n", "rewrites it as 2.0"),
+    ] {
         let err = read_imu_bag(&write(&dir, "x.bag", bytes), None, None).unwrap_err();
         assert!(matches!(err, BagError::NotRos1Bag { .. }) && err.to_string().contains(hint), "{err}");
     }

@@ -53,11 +53,14 @@ pub mod msg {
     }
 }
 
-/// Decode one CDR-encoded `sensor_msgs/msg/Imu` (the 4-byte encapsulation header, then the message).
+/// Decode one CDR-encoded `sensor_msgs/msg/Imu` (the 4-byte encapsulation header, then the message), first
+/// decompressed where rosbag2 compressed it (a zstd frame: its message compression mode).
 ///
 /// # Errors
-/// What is wrong, as text: a short payload, an encapsulation other than plain CDR, bytes left over.
+/// What is wrong, as text: a short payload, an encapsulation other than plain CDR, bytes left over, a compressed
+/// message that does not decompress.
 pub fn decode_imu(data: &[u8]) -> Result<msg::Imu, String> {
+    let data = &*crate::rosbag2_zstd::message(data)?;
     let Some((head, body)) = data.split_first_chunk::<4>() else {
         return Err(format!("{} bytes, shorter than the 4-byte CDR encapsulation header", data.len()));
     };

@@ -88,13 +88,20 @@ pub(super) fn walk_records(
 /// One pass over the bag at `path`: its topics, and the samples of those `want` names.
 pub(super) fn scan(path: &Path, want: Want) -> Result<Scan, BagError> {
     let name = path.display().to_string();
-    let buf = std::fs::read(path).map_err(|err| BagError::Io { path: name.clone(), err })?;
+    let mut buf = std::fs::read(path).map_err(|err| BagError::Io { path: name.clone(), err })?;
+    if crate::rosbag2_zstd::is_zstd(&buf) {
+        // A storage file that rosbag2 compressed whole (`NAME_0.mcap.zstd`).
+        buf = crate::rosbag2_zstd::whole(&buf).map_err(|e| BagError::Decompress {
+            path: name.clone(),
+            what: format!("decompressing it (zstd, rosbag2's file compression): {e}"),
+        })?;
+    }
     if !buf.starts_with(mcap::MAGIC) {
         let hint = match buf.len() {
             0 => ": the file is empty",
             n if n < mcap::MAGIC.len() && mcap::MAGIC.starts_with(&buf) => ": the file is cut short",
             _ if buf.starts_with(b"SQLite format 3") => {
-                ": it is SQLite, rosbag2's older storage; `ros2 bag convert` writes MCAP"
+                ": it is SQLite, rosbag2's older storage: read it as such (--format db3)"
             }
             _ if buf.starts_with(b"#ROSBAG") => ": it is a ROS 1 bag",
             _ => "",

@@ -8,7 +8,8 @@
 //! and the errors are [`crate::imu_topic`]'s; a row's `timestamp` (when the recorder received the message)
 //! stands in for `header.stamp` when every stamp is zero. SQLite is compiled from rusqlite's bundled source.
 //!
-//! Not read: bags compressed by rosbag2 (`.db3.zstd` files, or zstd messages): `ros2 bag decompress` them first.
+//! Bags compressed by rosbag2 are read as they are: a storage file compressed whole (`.db3.zstd`) is decompressed
+//! into a temporary file, and zstd-compressed messages one at a time (see `rosbag2_zstd`).
 //!
 //! ```no_run
 //! let bag = octavar_io::ros2_db3::read_imu_bag(std::path::Path::new("rosbag2_run/"), None, None)?;
@@ -23,7 +24,7 @@ mod tests;
 
 use std::path::Path;
 
-pub use files::is_db3_dir;
+pub use files::{is_db3_dir, is_db3_name};
 
 use crate::imu_topic::{self, BagError, ImuBag, Want};
 use scan::scan;

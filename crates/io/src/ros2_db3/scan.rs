@@ -35,30 +35,39 @@ pub(super) fn scan(path: &Path, want: Want) -> Result<Topics, BagError> {
 fn scan_file(path: &Path, want: &Want, topics: &mut Topics) -> Result<(), BagError> {
     let name = path.display().to_string();
     let sqlite = |what: String| BagError::Sqlite { path: name.clone(), what };
-    let mut head = [0u8; 16];
-    let got = {
-        use std::io::Read;
-        let mut f = std::fs::File::open(path).map_err(|err| BagError::Io { path: name.clone(), err })?;
-        let mut n = 0;
-        while n < head.len() {
-            match f.read(&mut head[n..]) {
-                Ok(0) => break,
-                Ok(k) => n += k,
-                Err(err) => return Err(BagError::Io { path: name.clone(), err }),
-            }
-        }
-        n
-    };
-    if head[..got] != SQLITE_MAGIC[..got] || got < SQLITE_MAGIC.len() {
-        let hint = match &head[..got] {
+    let head = file_head(path, &name)?;
+    if crate::rosbag2_zstd::is_zstd(&head) {
+        // A storage file that rosbag2 compressed whole (`NAME_0.db3.zstd`): SQLite reads a decompressed copy.
+        let copy = crate::rosbag2_zstd::to_temp_file(path)
+            .map_err(|what| BagError::Decompress { path: name.clone(), what })?;
+        return scan_database(copy.path(), &name, want, topics);
+    }
+    if head != SQLITE_MAGIC {
+        let hint = match &head[..] {
             [] => "the file is empty",
             h if h.starts_with(b"\x89MCAP") => "it is MCAP: read it as such (--format mcap)",
             h if h.starts_with(b"#ROSBAG") => "it is a ROS 1 bag (--format bag)",
-            _ if got < SQLITE_MAGIC.len() => "the file is cut short",
+            h if h.len() < SQLITE_MAGIC.len() && SQLITE_MAGIC.starts_with(h) => "the file is cut short",
             _ => "it does not start with the SQLite magic bytes",
         };
         return Err(sqlite(format!("not a rosbag2 SQLite file: {hint}")));
     }
+    scan_database(path, &name, want, topics)
+}
+
+/// The first bytes of the file at `path` (as many as the SQLite magic, fewer in a shorter file).
+fn file_head(path: &Path, name: &str) -> Result<Vec<u8>, BagError> {
+    use std::io::Read;
+    let io = |err| BagError::Io { path: name.to_string(), err };
+    let mut head = Vec::with_capacity(SQLITE_MAGIC.len());
+    std::fs::File::open(path).map_err(io)?.take(SQLITE_MAGIC.len() as u64).read_to_end(&mut head).map_err(io)?;
+    Ok(head)
+}
+
+/// Scan the SQLite database at `path`, named `name` in errors (the bag's file, where `path` is a decompressed copy).
+fn scan_database(path: &Path, name: &str, want: &Want, topics: &mut Topics) -> Result<(), BagError> {
+    let name = name.to_string();
+    let sqlite = |what: String| BagError::Sqlite { path: name.clone(), what };
     let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
     let db = Connection::open_with_flags(path, flags).map_err(|e| sqlite(format!("SQLite cannot open it: {e}")))?;
 
