@@ -4,7 +4,7 @@
 //! [`crate::ros2_db3`]; ROS 1, [`crate::ros1_bag`]), raw little-endian samples, or the raw samples of a
 //! device capture. `analyze` and `gap` read through here, so both take every format. The format is the `--format`
 //! flag, or else the file's extension (`.tdms`, `.mcap`, `.bag`, `.db3`, and rosbag2's compressed `.mcap.zstd`
-//! and `.db3.zstd`; a directory with `metadata.yaml` and `.db3` files is a rosbag2 bag), or else CSV.
+//! and `.db3.zstd`; a folder with `metadata.yaml` and `.db3` or `.mcap` files is a rosbag2 bag), or else CSV.
 use std::io::Read;
 use std::path::Path;
 
@@ -12,6 +12,7 @@ use crate::binary::BinaryFormat;
 use crate::csv::{CsvOptions, RecordingError};
 use crate::imu_topic::{BagError, ImuBag};
 use crate::recording::{RateUnit, Recording, StreamInfo};
+use crate::rosbag2_dir::Storage;
 use crate::tdms::{self, TdmsError};
 use crate::{ros1_bag, ros2_bag, ros2_db3};
 
@@ -36,7 +37,8 @@ pub enum RecordingFormat {
 
 impl RecordingFormat {
     /// The format named by `flag` (csv, tdms, mcap, db3, bag, capture, f64le, f32le, i16le, u16le), or else the
-    /// one `path`'s extension says (a rosbag2 directory of `.db3` files is [`Self::Db3`]), or else CSV. `None` for
+    /// one `path`'s extension says (a rosbag2 folder of `.db3` files is [`Self::Db3`], of `.mcap` files
+    /// [`Self::Mcap`]), or else CSV. `None` for
     /// a flag naming no format read here.
     pub fn of(path: &Path, flag: Option<&str>) -> Option<RecordingFormat> {
         match flag.map(|f| f.trim().to_ascii_lowercase()) {
@@ -49,16 +51,15 @@ impl RecordingFormat {
                 "capture" => Some(RecordingFormat::Capture),
                 _ => BinaryFormat::parse(&f).map(RecordingFormat::Binary),
             },
-            None if ros2_db3::is_db3_dir(path) || ros2_db3::is_db3_name(path) => Some(RecordingFormat::Db3),
+            None if Storage::Sqlite.is_bag_dir(path) || Storage::Sqlite.is_file_name(path) => {
+                Some(RecordingFormat::Db3)
+            }
+            None if Storage::Mcap.is_bag_dir(path) || Storage::Mcap.is_file_name(path) => Some(RecordingFormat::Mcap),
             None => {
                 let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
                 Some(match ext.as_str() {
                     "tdms" => RecordingFormat::Tdms,
                     "mcap" => RecordingFormat::Mcap,
-                    // rosbag2's file compression (a `.db3.zstd` is caught above).
-                    "zstd" if path.to_string_lossy().to_ascii_lowercase().ends_with(".mcap.zstd") => {
-                        RecordingFormat::Mcap
-                    }
                     "db3" => RecordingFormat::Db3,
                     "bag" => RecordingFormat::Ros1Bag,
                     "cap" | "capture" => RecordingFormat::Capture,

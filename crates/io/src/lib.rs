@@ -20,5 +20,6 @@ pub mod recording;
 pub mod ros1_bag;
 pub mod ros2_bag;
 pub mod ros2_db3;
+pub mod rosbag2_dir;
 mod rosbag2_zstd;
 pub mod tdms;

@@ -21,8 +21,8 @@ use super::export_args::ExportArgs;
 /// with intervals, and the files to go on with.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, a ROS bag (.mcap or .db3, a
-    /// rosbag2 directory of .db3 files, a ROS 1 .bag), a capture.
+    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, a ROS bag (.mcap or .db3, also
+    /// zstd-compressed, or a rosbag2 folder of them; a ROS 1 .bag), a capture.
     pub input: PathBuf,
     /// A rate column to analyse (repeat for several channels; required for CSV; `group/channel` in a TDMS file;
     /// x, y or z of a bag's angular velocity, all three by default; names the channels of a binary input).
@@ -75,8 +75,9 @@ pub struct Args {
     /// datasheet with the interval, in the report and the JSON.
     #[arg(long, value_name = "FILE.toml")]
     pub datasheet: Option<PathBuf>,
-    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap: a ROS 2 bag), db3 (default
-    /// for .db3 and a rosbag2 directory: a ROS 2 bag in SQLite), bag (default for .bag: a ROS 1 bag), capture
+    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap and a rosbag2 folder of them:
+    /// a ROS 2 bag), db3 (default for .db3 and a rosbag2 folder of them: a ROS 2 bag in SQLite), bag (default for
+    /// .bag: a ROS 1 bag), capture
     /// (default for .cap/.capture files), or raw little-endian samples f64le, f32le, i16le, u16le (streamed: OADEV
     /// at octave tau and the fit, any length in bounded memory).
     #[arg(long, value_name = "FORMAT")]
@@ -259,7 +260,6 @@ const STREAM_CSV_BYTES: u64 = 1 << 30;
 impl Args {
     /// The streamed input, if this one is streamed: raw binary, capture, or a CSV with --stream or above 1 GiB.
     fn stream_kind(&self) -> anyhow::Result<Option<StreamKind>> {
-        let ext = self.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         let kind = match self.format.as_deref().map(|f| f.trim().to_ascii_lowercase()) {
             Some(f) if f == "csv" => None,
             Some(f) if matches!(f.as_str(), "tdms" | "mcap" | "bag" | "db3") => return Ok(None),
@@ -267,9 +267,12 @@ impl Args {
             Some(f) => Some(StreamKind::Binary(octavar::io::binary::BinaryFormat::parse(&f).with_context(|| {
                 format!("--format {f:?}: use csv, tdms, mcap, db3, bag, capture, f64le, f32le, i16le or u16le")
             })?)),
-            None if ext == "cap" || ext == "capture" => Some(StreamKind::Capture),
-            None if matches!(ext.as_str(), "tdms" | "mcap" | "bag" | "db3") => return Ok(None),
-            None => None,
+            // The format the path says (its extension, or a rosbag2 folder): only a CSV may be streamed.
+            None => match RecordingFormat::of(&self.input, None) {
+                Some(RecordingFormat::Capture) => Some(StreamKind::Capture),
+                Some(RecordingFormat::Csv) => None,
+                _ => return Ok(None),
+            },
         };
         let size = std::fs::metadata(&self.input).map(|m| m.len()).unwrap_or(0);
         let kind = kind.or((self.stream || size > STREAM_CSV_BYTES).then_some(StreamKind::Csv));

@@ -36,7 +36,7 @@ pub struct CsvArgs {
     /// Accept rows with more or fewer fields than the header (otherwise such a row is an error).
     #[arg(long)]
     pub flexible: bool,
-    /// The IMU topic of a ROS bag (.mcap, .db3 or a rosbag2 directory, ROS 1 .bag), e.g. /imu/data (default: the
+    /// The IMU topic of a ROS bag (.mcap, .db3 or a rosbag2 folder, ROS 1 .bag), e.g. /imu/data (default: the
     /// bag's only sensor_msgs Imu topic).
     #[arg(long, value_name = "TOPIC")]
     pub topic: Option<String>,

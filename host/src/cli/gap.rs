@@ -25,8 +25,9 @@ use super::progress::Progress;
 /// Transient disturbances are found and masked first; a gap no candidate explains is described.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, a ROS bag (.mcap or .db3, a
-    /// rosbag2 directory of .db3 files, a ROS 1 .bag), a device capture (its raw samples), or raw samples (--format).
+    /// The recording: CSV with a header (.gz is read as such; - is stdin), .tdms, a ROS bag (.mcap or .db3, also
+    /// zstd-compressed, or a rosbag2 folder of them; a ROS 1 .bag), a device capture (its raw samples), or raw
+    /// samples (--format).
     pub input: PathBuf,
     /// The rate column to diagnose (`group/channel` in a TDMS file; x, y or z of a bag's angular velocity).
     #[arg(long, value_name = "NAME", required_unless_present = "accel_column", conflicts_with = "accel_column")]
@@ -34,8 +35,8 @@ pub struct Args {
     /// An accelerometer column to diagnose instead (in --accel-unit; ax, ay or az of a bag's linear acceleration).
     #[arg(long, value_name = "NAME")]
     pub accel_column: Option<String>,
-    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap), db3 (default for .db3 and a
-    /// rosbag2 directory), bag (default for .bag: ROS 1), capture (default for
+    /// Input format: csv (default), tdms (default for .tdms), mcap (default for .mcap and a rosbag2 folder of them),
+    /// db3 (default for .db3 and a rosbag2 folder of them), bag (default for .bag: ROS 1), capture (default for
     /// .cap/.capture: the raw samples, --column a channel's name), or one channel of raw little-endian samples
     /// f64le, f32le, i16le, u16le (with --rate).
     #[arg(long, value_name = "FORMAT")]

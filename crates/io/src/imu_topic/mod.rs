@@ -60,8 +60,8 @@ pub enum BagError {
     #[error("{path}: {what}")]
     Decompress { path: String, what: String },
     /// A bag directory without the bag files octavar reads.
-    #[error("{path}: a directory with no .db3 or .db3.zstd files (rosbag2's SQLite storage)")]
-    EmptyBagDir { path: String },
+    #[error("{path}: a directory with no {wanted} files (a rosbag2 bag folder holds its storage files)")]
+    EmptyBagDir { path: String, wanted: String },
     /// No topic named, and the bag has no Imu topic.
     #[error("{path}: no {kind} topic (the bag has: {topics})")]
     NoImuTopic { path: String, kind: &'static str, topics: String },

@@ -1,7 +1,8 @@
 //! Reading ROS 2 bags in MCAP format: one `sensor_msgs/msg/Imu` topic as a
 //! [`Recording`](crate::recording::Recording).
 //!
-//! Reads MCAP files (rosbag2's default storage, and what the `mcap` writers make), with chunks uncompressed,
+//! Reads MCAP files (rosbag2's default storage, and what the `mcap` writers make), alone or as a rosbag2 bag folder
+//! (`metadata.yaml` beside the split files, read in order; see [`crate::rosbag2_dir`]), with chunks uncompressed,
 //! zstd or lz4 (decompressed in pure Rust and checked against their CRC), or no chunks at all. Of each message
 //! of the topic (schema `sensor_msgs/msg/Imu`, definition `ros2msg` or `ros2idl`, message encoding `cdr`, plain
 //! CDR in either byte order) it keeps `header.stamp`, `angular_velocity` and `linear_acceleration`; orientation and

@@ -12,6 +12,7 @@ use mcap::McapError;
 use super::imu::{decode_imu, kept};
 use super::{BagError, IMU_TYPE};
 use crate::imu_topic::{Topics, Want};
+use crate::rosbag2_dir::Storage;
 
 /// What a cut-off MCAP file's error suggests.
 const TRUNCATED_HINT: &str =
@@ -85,44 +86,56 @@ pub(super) fn walk_records(
     Ok(())
 }
 
-/// One pass over the bag at `path`: its topics, and the samples of those `want` names.
+/// One pass over the bag at `path` (an MCAP file, or a rosbag2 folder of them read in split order): its topics,
+/// and the samples of those `want` names.
 pub(super) fn scan(path: &Path, want: Want) -> Result<Scan, BagError> {
-    let name = path.display().to_string();
-    let mut buf = std::fs::read(path).map_err(|err| BagError::Io { path: name.clone(), err })?;
-    if crate::rosbag2_zstd::is_zstd(&buf) {
-        // A storage file that rosbag2 compressed whole (`NAME_0.mcap.zstd`).
-        buf = crate::rosbag2_zstd::whole(&buf).map_err(|e| BagError::Decompress {
-            path: name.clone(),
-            what: format!("decompressing it (zstd, rosbag2's file compression): {e}"),
-        })?;
-    }
-    if !buf.starts_with(mcap::MAGIC) {
-        let hint = match buf.len() {
-            0 => ": the file is empty",
-            n if n < mcap::MAGIC.len() && mcap::MAGIC.starts_with(&buf) => ": the file is cut short",
-            _ if buf.starts_with(b"SQLite format 3") => {
-                ": it is SQLite, rosbag2's older storage: read it as such (--format db3)"
-            }
-            _ if buf.starts_with(b"#ROSBAG") => ": it is a ROS 1 bag",
-            _ => "",
-        };
-        return Err(BagError::NotMcap { path: name, hint });
-    }
+    let files = Storage::Mcap.bag_files(path)?;
     let mut scan = Scan {
-        topics: Topics::new(name.clone(), IMU_TYPE),
-        path: name,
+        topics: Topics::new(path.display().to_string(), IMU_TYPE),
+        path: String::new(),
         want,
         schemas: HashMap::new(),
         channels: HashMap::new(),
         zstd: None,
         scratch: Vec::new(),
     };
-    let len = buf.len() as u64;
-    walk_records(&buf, false, |offset, record| scan.record(offset, record, false)).map_err(|e| match e {
-        WalkError::Stop(err) => err,
-        WalkError::Mcap { offset, err } => scan.mcap_error(offset, len, err),
-    })?;
+    for file in files {
+        scan.file(&file)?;
+    }
     Ok(scan)
+}
+
+impl Scan {
+    /// One MCAP file of the bag, its schema and channel ids its own.
+    fn file(&mut self, path: &Path) -> Result<(), BagError> {
+        let name = path.display().to_string();
+        let mut buf = std::fs::read(path).map_err(|err| BagError::Io { path: name.clone(), err })?;
+        if crate::rosbag2_zstd::is_zstd(&buf) {
+            // A storage file that rosbag2 compressed whole (`NAME_0.mcap.zstd`).
+            buf = crate::rosbag2_zstd::whole(&buf).map_err(|e| BagError::Decompress {
+                path: name.clone(),
+                what: format!("decompressing it (zstd, rosbag2's file compression): {e}"),
+            })?;
+        }
+        if !buf.starts_with(mcap::MAGIC) {
+            let hint = match buf.len() {
+                0 => ": the file is empty",
+                n if n < mcap::MAGIC.len() && mcap::MAGIC.starts_with(&buf) => ": the file is cut short",
+                _ if buf.starts_with(b"SQLite format 3") => {
+                    ": it is SQLite, rosbag2's older storage: read it as such (--format db3)"
+                }
+                _ if buf.starts_with(b"#ROSBAG") => ": it is a ROS 1 bag",
+                _ => "",
+            };
+            return Err(BagError::NotMcap { path: name, hint });
+        }
+        (self.path, self.schemas, self.channels) = (name, HashMap::new(), HashMap::new());
+        let len = buf.len() as u64;
+        walk_records(&buf, false, |offset, record| self.record(offset, record, false)).map_err(|e| match e {
+            WalkError::Stop(err) => err,
+            WalkError::Mcap { offset, err } => self.mcap_error(offset, len, err),
+        })
+    }
 }
 
 impl Scan {

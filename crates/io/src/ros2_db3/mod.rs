@@ -17,14 +17,11 @@
 //! # Ok::<(), octavar_io::imu_topic::BagError>(())
 //! ```
 
-mod files;
 mod scan;
 #[cfg(test)]
 mod tests;
 
 use std::path::Path;
-
-pub use files::{is_db3_dir, is_db3_name};
 
 use crate::imu_topic::{self, BagError, ImuBag, Want};
 use scan::scan;

@@ -9,9 +9,9 @@ use std::path::Path;
 
 use rusqlite::{Connection, OpenFlags};
 
-use super::files::bag_files;
 use crate::imu_topic::{BagError, Topics, Want};
 use crate::ros2_bag::{decode_imu, kept, IMU_TYPE};
+use crate::rosbag2_dir::Storage;
 
 /// The first bytes of a SQLite database file.
 const SQLITE_MAGIC: &[u8] = b"SQLite format 3\0";
@@ -26,7 +26,7 @@ struct FileTopic {
 /// `want` names.
 pub(super) fn scan(path: &Path, want: Want) -> Result<Topics, BagError> {
     let mut topics = Topics::new(path.display().to_string(), IMU_TYPE);
-    for file in bag_files(path)? {
+    for file in Storage::Sqlite.bag_files(path)? {
         scan_file(&file, &want, &mut topics)?;
     }
     Ok(topics)

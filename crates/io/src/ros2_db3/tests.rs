@@ -83,7 +83,7 @@ fn a_file_and_a_split_directory_read_alike() {
     let topics2 = [(7, "/imu", IMU_TYPE), (2, "/status", "std_msgs/msg/String")];
     let rest: Vec<_> = rows[5..].iter().map(|(t, ts, d)| (if *t == 1 { 7 } else { *t }, *ts, d.clone())).collect();
     db3(&bag.join("rosbag2_split_1.db3"), &topics2, &rest);
-    assert!(is_db3_dir(&bag));
+    assert!(crate::rosbag2_dir::Storage::Sqlite.is_bag_dir(&bag));
     let split = read_imu_bag(&bag, Some("/imu"), None).unwrap();
     assert_eq!(format!("{:?}", split.recording.channels), format!("{:?}", b.recording.channels));
     assert_eq!((split.out_of_order, split.duplicates), (1, 1));
