@@ -19,7 +19,9 @@
 //!   parameters must cut the total by more than 15% against an effect with none to win. A gap in the temperature
 //!   view goes to the temperature coupling when it explains the total and scores within [`DRIVER_PREFERENCE`]
 //!   of the best or clears that view: a sinusoid at the temperature's cycle imitates it, but only the coupling
-//!   has a driver.
+//!   has a driver. A Gauss-Markov process that leaves no white noise beside it is white noise through a
+//!   first-order filter, the same spectrum a filter corner draws: the corner is chosen when it scores within
+//!   [`FILTER_PREFERENCE`] of it.
 
 use serde::Serialize;
 
@@ -50,6 +52,15 @@ pub const SOFT_CAP: f64 = 10.0;
 /// How much worse a temperature coupling's score may be than the best candidate's and still be chosen, when the
 /// gap lies in the temperature view (see [`choose`]).
 pub const DRIVER_PREFERENCE: f64 = 1.25;
+
+/// How much worse a filter corner's score may be than a Gauss-Markov process's and still be chosen in its place,
+/// where the process left no white noise beside it (see [`choose`]): a single ensemble draw moves a total by about
+/// this much.
+pub const FILTER_PREFERENCE: f64 = 1.10;
+
+/// The white noise a Gauss-Markov process may leave beside it, as a fraction of its own low-frequency density
+/// `sigma sqrt(2 T)`, and still be read as the white noise seen through a filter (see [`choose`]).
+pub const WHITE_LEFT: f64 = 0.05;
 
 /// |z| above which a point is part of the gap's band.
 pub const BAND_Z: f64 = 3.0;
@@ -301,6 +312,17 @@ fn weak_coupling(c: &CandidateResult) -> bool {
     c.effect == Effect::Temperature && c.fit.as_ref().and_then(super::evidence::of).is_some_and(|ev| !ev.names())
 }
 
+/// Whether `c` is a Gauss-Markov process that took the white noise's place: its model keeps less white noise than
+/// [`WHITE_LEFT`] of the process's own low-frequency density. White noise through a first-order low-pass filter is
+/// exactly such a process (an AR(1) with the filter's time constant), so its spectrum is a filter corner's.
+fn white_through_a_filter(c: &CandidateResult) -> bool {
+    let Some(fit) = c.fit.as_ref().filter(|_| c.effect == Effect::GaussMarkov) else { return false };
+    fit.gyro
+        .gauss_markov
+        .as_ref()
+        .is_some_and(|g| fit.gyro.n_deg_per_rt_s < WHITE_LEFT * g.sigma_dps * (2.0 * g.tau_s).sqrt())
+}
+
 /// The candidate that explains the current model's gap (see the module doc), by its index in `candidates`;
 /// `None` when none removes a quarter of the total `total_before`. `loc` is where the gap lies.
 ///
@@ -310,6 +332,10 @@ fn weak_coupling(c: &CandidateResult) -> bool {
 /// best or leaves no significant gap in the temperature view. The second clause matters because the coupling is
 /// judged there on what it leaves, which a 4% error in the coefficient over ten cycles already shows, while a
 /// sinusoid is judged on the raw coherence.
+///
+/// A Gauss-Markov process that took the white noise's place ([`white_through_a_filter`]) gives way to a filter
+/// corner that explains the total and scores within [`FILTER_PREFERENCE`] of it: the two draw one spectrum, and a
+/// sensor's bandwidth is the reading with the fewer parameters.
 pub fn choose(candidates: &[CandidateResult], total_before: f64, loc: Option<&Location>) -> Option<usize> {
     let in_temperature_view = loc.is_some_and(|l| l.view == ViewKind::Temperature);
     let explains = |c: &CandidateResult| {
@@ -333,6 +359,16 @@ pub fn choose(candidates: &[CandidateResult], total_before: f64, loc: Option<&Lo
             return coupling;
         }
     }
+    if white_through_a_filter(b) {
+        let corner = candidates.iter().position(|c| {
+            c.effect == Effect::Bandwidth
+                && explains(c)
+                && c.score.is_some_and(|s| s <= FILTER_PREFERENCE * b.score.unwrap_or(0.0))
+        });
+        if corner.is_some() {
+            return corner;
+        }
+    }
     Some(best)
 }
 
@@ -341,6 +377,7 @@ mod tests {
     use super::*;
     use crate::compare::{worst_window, PointZ};
     use crate::views::PointInfo;
+    use octavar_shared::sim::GyroSim;
 
     fn view(kind: ViewKind, zs: &[f64]) -> ViewGap {
         let points: Vec<PointZ> = zs
@@ -393,6 +430,52 @@ mod tests {
         // A view shorter than a decade is one window; the sign follows the summed z.
         let loc = locate(&[view(ViewKind::Adev, &[0.1, -2.0, 1.0])]).unwrap();
         assert_eq!((loc.points, loc.sign), (3, Sign::Below));
+    }
+
+    /// A candidate of `effect` with `gyro` as its model, scoring `score` with no parameters.
+    fn candidate(effect: Effect, gyro: GyroSim, score: f64) -> CandidateResult {
+        use crate::effects::params::{BandwidthParams, GaussMarkovParams};
+        let params = match effect {
+            Effect::GaussMarkov => GaussMarkovParams { sigma_dps: 0.0, tau_s: 0.0, delta_chi2: 0.0 }.into(),
+            _ => BandwidthParams { bandwidth_hz: 0.0, n_deg_per_rt_s: 0.0, delta_chi2: 0.0 }.into(),
+        };
+        let fit = EffectFit { effect, params, n_params: 0, gyro, channel: None, spread: None, cleaned: None };
+        CandidateResult {
+            effect,
+            fit: Some(fit),
+            eval: None,
+            gap_after: Some(score),
+            worst_after: Some(score),
+            total_after: Some(score),
+            score: Some(score),
+            holdout_after: None,
+            holdout_worst_after: None,
+        }
+    }
+
+    #[test]
+    fn a_markov_process_that_took_the_white_noise_s_place_gives_way_to_a_filter_corner() {
+        use octavar_shared::sim::GaussMarkovSim;
+        // White noise of density 3.3e-3 deg/sqrt(s) through a 10.6 Hz corner: a process of T = 15 ms whose
+        // sigma sqrt(2T) is that density, with no white noise left beside it.
+        let markov = |n: f64| GyroSim {
+            n_deg_per_rt_s: n,
+            gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.019, tau_s: 0.015 }),
+            ..Default::default()
+        };
+        let corner = GyroSim { n_deg_per_rt_s: 3.3e-3, bandwidth_hz: Some(10.6), ..Default::default() };
+        let pick = |n: f64, corner_score: f64| {
+            let c = [
+                candidate(Effect::GaussMarkov, markov(n), 1.11),
+                candidate(Effect::Bandwidth, corner.clone(), corner_score),
+            ];
+            c[choose(&c, 40.0, None).unwrap()].effect
+        };
+        assert_eq!(pick(0.0, 1.19), Effect::Bandwidth);
+        // Clearly worse, the corner does not replace it.
+        assert_eq!(pick(0.0, 1.30), Effect::GaussMarkov);
+        // A process beside white noise of its own is not a filter's doing.
+        assert_eq!(pick(1e-3, 1.19), Effect::GaussMarkov);
     }
 
     #[test]
