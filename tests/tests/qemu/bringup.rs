@@ -79,11 +79,12 @@ fn bringup_passes_every_check_qemu_can_answer() {
     let child = KillOnDrop(child);
 
     // The clock limit: QEMU's emulated converter against the host's clock, over a 4 s run with 0.5 s flash
-    // stalls in it, reads within a few thousand ppm (QEMU's timers are no crystal); 2% still tells any wrong
-    // clock setting (another crystal is 33-50% off).
+    // stalls in it, reads within a few thousand ppm on an idle host (QEMU's timers are no crystal), and 25,000 ppm
+    // on one whose two cores are busy with other work (QEMU's timers follow the host's scheduling); 5% still tells
+    // any wrong clock setting (another crystal is 33-50% off).
     let opts = BringupOptions {
         duration: Duration::from_secs(4),
-        clock_ppm_limit: 20_000.0,
+        clock_ppm_limit: 50_000.0,
         answer_within: Duration::from_secs(3),
         hello_on_connect: false,
         ..Default::default()
