@@ -36,8 +36,8 @@ use crate::util::coarse_channel;
 const N_SAMPLES: usize = 1 << 18;
 
 /// The effects that can be named by their estimator's test.
-const TESTED: [Effect; 5] =
-    [Effect::Temperature, Effect::WarmUp, Effect::Resonance, Effect::Bandwidth, Effect::Outliers];
+const TESTED: [Effect; 6] =
+    [Effect::Temperature, Effect::WarmUp, Effect::Resonance, Effect::Bandwidth, Effect::Outliers, Effect::Sinusoid];
 
 /// Which generator made a record.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -15,23 +15,24 @@
 //! | resonance | `delta_chi2`: the fall of the Welch spectrum's chi-square with the bump | 100 | the estimator's own acceptance |
 //! | bandwidth | `delta_chi2`: the fall of the Allan curve's log chi-square with the corner | 30 | the estimator's own acceptance |
 //! | outliers | `lr`: twice the log-likelihood the spike law gains over the Gaussian core | 50 | the estimator's own acceptance |
+//! | sinusoid | `short_period_z`: amplitude / its standard error, among sinusoids of 20 cycles or more per part | 8 | effect-free records reach 5.5 |
 //!
 //! Beside a significant gap the model leaves, the two chi-square tests name only an effect that takes that gap
 //! below significance itself: a curve's chi-square falls with any added freedom where the model misses something
 //! else, so there it measures that gap (a filter corner took 8,000 of the Allan curve's chi-square beside a
 //! sinusoid and a bistable bias the chain had not named), while a t weighs its effect against the noise alone.
 //!
-//! On 300 effect-free records of each generator (`evidence_statistics` in tests/tests/gap_evidence.rs) these five
+//! On 300 effect-free records of each generator (`evidence_statistics` in tests/tests/gap_evidence.rs) these six
 //! estimators found a trace beyond its threshold once: a temperature t of 5.46 on one record of the independent
-//! generator (a rate of 0.3%, below 1.6% at 95% confidence). Two others have a statistic but no test here,
-//! because their estimators find traces on effect-free records: the sinusoid's periodogram peak (on 4-7% of
-//! them, peaks 7-50 beyond the look-elsewhere level, nearly all at periods of a third to a fifth of the record,
-//! where flicker and random walk make the lowest bins of a short record stand above any smooth background) and
-//! the Gauss-Markov process's fall of the Allan chi-square (on 3%, up to 160: flicker is a sum of Gauss-Markov
-//! processes). The sinusoid's amplitude over its standard error under the noise model (`amplitude_z`) reaches
-//! 4.0 and 5.5 on those records of the two generators, but a sinusoid of about two cycles per part that the views
-//! barely see reaches only 5.3 (20 times its local noise), and a narrow resonance passes any threshold the
-//! controls allow: it names nothing on its own either. The other effects' estimators find a trace only where a view would show it too (a
+//! generator (a rate of 0.3%, below 1.6% at 95% confidence). The sinusoid's test is its amplitude over its
+//! standard error under the noise model, only among sinusoids of at least
+//! [`effects::SHORT_PERIOD_CYCLES`] cycles in the training part: its periodogram finds traces on 4-7% of
+//! effect-free records, nearly all at periods of a third to a fifth of the record, where flicker and random walk
+//! make the lowest bins of a short record stand above any smooth background, and there the amplitude's z (5.5 at
+//! most) cannot be told from a sinusoid of two cycles that the views barely see (5.3). At 20 cycles and more the
+//! z stays at or below 4.0 and 5.5 on the two generators, while a sinusoid the views lose beside a bistable bias
+//! stands at 33. The Gauss-Markov process's fall of the Allan chi-square has no test here: it reaches 160 on 3%
+//! of effect-free records (flicker is a sum of Gauss-Markov processes). The other effects' estimators find a trace only where a view would show it too (a
 //! lattice), or their detection threshold is a rate of events, not a standard error. Rare spikes are the
 //! exception among events: a dozen spikes of 6 sigma in a quarter of a million samples leave every view's gap
 //! below 1, while the spike law's likelihood ratio stands at 80-150; no effect-free record of either generator
@@ -72,6 +73,7 @@ pub fn test(effect: Effect) -> Option<(&'static str, f64)> {
         Effect::Resonance => Some(("delta_chi2", RESONANCE_DELTA_CHI2)),
         Effect::Bandwidth => Some(("delta_chi2", BANDWIDTH_DELTA_CHI2)),
         Effect::Outliers => Some(("lr", OUTLIERS_LR)),
+        Effect::Sinusoid => Some(("short_period_z", SINUSOID_Z)),
         _ => None,
     }
 }
@@ -94,6 +96,10 @@ const RESONANCE_DELTA_CHI2: f64 = 100.0;
 /// The bandwidth's: the fall of the Allan curve's log chi-square with its corner (the estimator's own
 /// acceptance).
 const BANDWIDTH_DELTA_CHI2: f64 = 30.0;
+
+/// The sinusoid's: the amplitude over its standard error, among sinusoids of at least
+/// [`effects::SHORT_PERIOD_CYCLES`] cycles in the training part.
+const SINUSOID_Z: f64 = 8.0;
 
 /// The outliers': twice the log-likelihood the spike law gains over a Gaussian core (the estimator's own
 /// acceptance, with its other checks: the law's centre clear of the core, an excess of residuals beyond 5 core

@@ -59,6 +59,7 @@ mod warm_up;
 
 /// The outliers estimator's own acceptance, which its evidence test shares ([`crate::evidence`]).
 pub(crate) use outliers::MIN_LR as OUTLIERS_MIN_LR;
+pub use sinusoid::SHORT_PERIOD_CYCLES;
 
 /// A candidate effect: something the IEEE 952 base model does not have.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]

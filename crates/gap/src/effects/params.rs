@@ -145,8 +145,11 @@ pub struct SinusoidsParams {
     /// (a peak counts beyond 7).
     pub peak_excess: f64,
     /// The largest amplitude over its standard error under the noise model (flicker and random walk leaking
-    /// through the record's window included): the estimator's own test statistic.
+    /// through the record's window included).
     pub amplitude_z: f64,
+    /// The same among the sinusoids of at least [`crate::effects::SHORT_PERIOD_CYCLES`] cycles in the training
+    /// part (0 where there is none): the estimator's own test, where slow noise cannot raise a false peak.
+    pub short_period_z: f64,
     pub sinusoids: Vec<SinusoidParams>,
 }
 
@@ -203,9 +206,13 @@ mod tests {
             phase_rad: 0.0,
             peak_excess: 9.0,
             amplitude_z: 12.0,
+            short_period_z: 12.0,
             sinusoids: vec![one],
         });
-        assert_eq!(keys(&s), ["amplitude_dps", "amplitude_z", "peak_excess", "period_s", "phase_rad", "sinusoids"]);
+        assert_eq!(
+            keys(&s),
+            ["amplitude_dps", "amplitude_z", "peak_excess", "period_s", "phase_rad", "short_period_z", "sinusoids"]
+        );
         assert_eq!(
             keys(&s["sinusoids"][0]),
             ["amplitude_dps", "amplitude_se_dps", "period_s", "period_se_s", "phase_rad"]

@@ -118,6 +118,10 @@ const RSS_TOL: f64 = 1e-5;
 
 /// The fewest cycles in the record of a sinusoid looked for beyond the periodogram's reach (three cycles).
 const LONG_PERIOD_CYCLES: f64 = 1.5;
+/// Cycles in the training part from which a sinusoid's amplitude z is its estimator's test
+/// ([`crate::evidence`]): a twentieth of the part and shorter, well clear of the lowest periodogram bins, where
+/// flicker and random walk raise the peaks of effect-free records.
+pub const SHORT_PERIOD_CYCLES: f64 = 20.0;
 /// The amplitude, in its standard deviations under the base fit's noise, that a sinusoid of fewer than three
 /// cycles in the record must reach to be a candidate.
 const LONG_PERIOD_Z: f64 = 4.0;
@@ -351,6 +355,12 @@ impl EffectKind for Kind {
 
     fn estimate(data: &TrainingData) -> Option<EffectFit> {
         sinusoid(data)
+    }
+
+    /// The amplitude's z among the sinusoids of many cycles ([`SHORT_PERIOD_CYCLES`]): the false peaks of
+    /// effect-free records lie at a third to a fifth of the record, where flicker and random walk leak.
+    fn test_statistic(p: &SinusoidsParams) -> Option<f64> {
+        Some(p.short_period_z)
     }
 
     /// The joint fit moves each sinusoid's amplitude and phase; the periods are held.
@@ -678,6 +688,13 @@ fn sinusoids_fit(
     }
     let s0 = list[0];
     let amplitude_z = list.iter().zip(&se).map(|(s, e)| s.amplitude_dps / e[0]).fold(f64::NAN, f64::max);
+    let training_s = d.rate_dps.len() as f64 / d.rate_hz;
+    let short_period_z = list
+        .iter()
+        .zip(&se)
+        .filter(|(s, _)| training_s / s.period_s >= SHORT_PERIOD_CYCLES)
+        .map(|(s, e)| s.amplitude_dps / e[0])
+        .fold(0.0, f64::max);
     let all: Vec<SinusoidParams> = list
         .iter()
         .zip(&se)
@@ -697,6 +714,7 @@ fn sinusoids_fit(
             phase_rad: s0.phase_rad,
             peak_excess,
             amplitude_z,
+            short_period_z,
             sinusoids: all,
         }
         .into(),
