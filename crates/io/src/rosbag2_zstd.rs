@@ -13,7 +13,7 @@ use std::path::Path;
 use ruzstd::decoding::StreamingDecoder;
 
 /// The first four bytes of a zstd frame (RFC 8878, 0xFD2FB528 little-endian).
-pub(crate) const MAGIC: [u8; 4] = [0x28, 0xb5, 0x2f, 0xfd];
+const MAGIC: [u8; 4] = [0x28, 0xb5, 0x2f, 0xfd];
 
 /// The largest message octavar decompresses: an Imu message in CDR is about 330 bytes, so anything near this is
 /// not one (and a corrupt frame cannot claim memory without bound).
@@ -35,7 +35,8 @@ fn decode_frames<R: Read, W: Write>(input: R, out: &mut W, limit: u64) -> Result
         if input.fill_buf().map_err(|e| e.to_string())?.is_empty() {
             return Ok(written);
         }
-        let frame = StreamingDecoder::new(&mut input).map_err(|e| format!("zstd frame {}: {e}", written))?;
+        let frame = StreamingDecoder::new(&mut input)
+            .map_err(|e| format!("the zstd frame after {written} decompressed bytes: {e}"))?;
         let mut frame = frame.take(limit.saturating_sub(written).saturating_add(1));
         let n = std::io::copy(&mut frame, out).map_err(|e| e.to_string())?;
         written += n;

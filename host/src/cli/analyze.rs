@@ -173,10 +173,10 @@ impl Args {
         // The channels side by side on the cores: each one's fit is serial, while its deviations are parallel.
         let results: Vec<ChannelAnalysis> = {
             use rayon::prelude::*;
-            let channels: Vec<(usize, (&String, &Vec<f64>))> =
-                rec.names.iter().zip(&rec.channels).enumerate().collect();
-            channels
-                .into_par_iter()
+            rec.names
+                .par_iter()
+                .zip(&rec.channels)
+                .enumerate()
                 .map(|(i, (name, data))| {
                     Ok(analyze::analyze_channel(name, data, rec.rate_hz, &opts)?.with_quantity(rec.quantity(i)))
                 })
