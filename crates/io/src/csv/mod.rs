@@ -518,11 +518,19 @@ fn parse_tasks(parser: &LineParser<'_>, bytes: &[u8], ranges: &[(usize, usize)],
     use rayon::prelude::*;
     parts.par_iter_mut().zip(ranges).for_each(|(part, &(a, b))| {
         part.clear();
-        match std::str::from_utf8(&bytes[a..b]) {
+        match simdutf8::basic::from_utf8(&bytes[a..b]) {
             Ok(text) => parser.parse(text, part),
-            Err(e) => {
-                let line = 1 + memchr::memchr_iter(b'\n', &bytes[a..a + e.valid_up_to()]).count() as u64;
-                part.error = Some(not_utf8(parser.path, line));
+            Err(_) => {
+                // The whole lines before the fault are read as any others, and the fault is the next line's.
+                let bytes = &bytes[a..b];
+                let valid = std::str::from_utf8(bytes).map_or_else(|e| e.valid_up_to(), |t| t.len());
+                let whole = memchr::memrchr(b'\n', &bytes[..valid]).map_or(0, |i| i + 1);
+                let text = std::str::from_utf8(&bytes[..whole]).expect("checked up to the fault");
+                parser.parse(text, part);
+                if part.error.is_none() {
+                    part.lines += 1;
+                    part.error = Some(not_utf8(parser.path, part.lines));
+                }
             }
         }
     })

@@ -165,6 +165,25 @@ fn faults_far_into_a_file_name_their_line_across_blocks_and_tasks() {
     assert!(matches!(e, RecordingError::NotANumber { line, .. } if line == want), "{e}");
 }
 
+/// A byte that is not UTF-8 (a Latin-1 degree sign in a comment column) far into the file: the error names its
+/// line, in whichever parallel task it falls.
+#[test]
+fn a_byte_that_is_not_utf8_names_its_line() {
+    const ROWS: usize = 120_000;
+    let mut bytes = b"g,note\n".to_vec();
+    for i in 0..ROWS {
+        bytes.extend_from_slice(format!("{}.5,", i % 9).as_bytes());
+        if i == ROWS - 500 {
+            bytes.extend_from_slice(b"25 \xb0C");
+        }
+        bytes.push(b'\n');
+    }
+    let e = read_csv(&bytes[..], "f.csv", &opts(&["g"])).unwrap_err();
+    let want = 2 + (ROWS - 500) as u64;
+    assert!(matches!(e, RecordingError::BadRow { line, .. } if line == want), "{e}");
+    assert_eq!(e.to_string(), format!("f.csv, line {want}: not valid UTF-8"));
+}
+
 #[test]
 fn the_values_are_those_of_the_csv_crate() {
     // An independent reader (the csv crate with str::parse) on the same file, with gaps and odd spacing.
