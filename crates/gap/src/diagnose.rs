@@ -56,7 +56,7 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, report_progress: &ProgressF
     let found = chain::search(
         &judge,
         &opts.effects,
-        base_model,
+        base_model.clone(),
         base_eval.clone(),
         &base_fit,
         training,
@@ -64,6 +64,14 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, report_progress: &ProgressF
         rate_hz,
         &mut progress,
     )?;
+    // The backward step: each effect the views named, tried out of the chain learnt again without it.
+    let found = chain::prune(found, |effects, rounds| {
+        let (m, realised) = chain::learn(effects, rounds, &base_model, &base_fit, training, temp_train, rate_hz);
+        progress.expect("prune", 1);
+        let eval = judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), realised.as_deref(), "prune")?;
+        progress.tick("prune");
+        Ok((m, eval))
+    })?;
 
     // The held-out check against predictive ensembles (see [`holdout`]), of the base model and the whole chain.
     let predictive_views = if predictive {

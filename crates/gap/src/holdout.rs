@@ -110,7 +110,7 @@ impl Learner<'_> {
     ) -> (GyroSim, Option<Channel>) {
         let (f, base) = self.base(train);
         let start = Model { gyro: base, spreads: Vec::new(), channel: self.channel };
-        let m = chain::learn(effects, rounds, &start, &f, train, self.temp_c, self.rate_hz);
+        let (m, _) = chain::learn(effects, rounds, &start, &f, train, self.temp_c, self.rate_hz);
         (m.gyro, m.channel)
     }
 }

@@ -70,7 +70,9 @@ pub fn backfit(
 /// step from the base model `base` (fitted as `base_fit`), each step from the samples less what the steps before
 /// recovered ([`StepData::take_out`]), with a backfitting round ([`backfit`]) and a joint re-estimation
 /// ([`joint::reestimate`]) after step `k` where `rounds[k]` says the diagnosis kept them; an effect whose
-/// estimator finds no trace is skipped.
+/// estimator finds no trace is skipped. Returns the model and the realisations the steps recovered (the training
+/// samples less what the last step learnt from; `None` where no step recovered one), which an ensemble of the
+/// model on these samples is given.
 pub fn learn(
     effects: &[Effect],
     rounds: &[Rounds],
@@ -79,13 +81,14 @@ pub fn learn(
     training: &[f64],
     temp_c: Option<&[f64]>,
     rate_hz: f64,
-) -> Model {
+) -> (Model, Option<Vec<f64>>) {
     let mut model = base.clone();
     let gaps = gap_runs(training);
     let recorded = fill_gaps(training);
     let mut series = recorded.clone();
     let mut shaped: Option<Vec<f64>> = None;
     let mut fits = Vec::new();
+    let mut recovered = false;
     for (k, &effect) in effects.iter().enumerate() {
         let data = StepData::new(&model.gyro, &series, shaped.as_deref(), &gaps, temp_c, rate_hz, base_fit, k == 0);
         if let Some(f) =
@@ -93,6 +96,7 @@ pub fn learn(
         {
             if f.cleaned.is_some() {
                 shaped = data.shaped_with(shaped.as_deref(), &f);
+                recovered = true;
             }
             data.take_out(&mut series, &f);
             model = model.with(&f);
@@ -116,5 +120,6 @@ pub fn learn(
             }
         }
     }
-    model
+    let realised = recovered.then(|| recorded.iter().zip(&series).map(|(r, s)| r - s).collect());
+    (model, realised)
 }

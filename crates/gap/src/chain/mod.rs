@@ -36,17 +36,24 @@
 //! effects found so far covers part of the gap the next one leaves (a resonance widened over a filter's
 //! roll-off), and that effect then goes unnamed.
 //!
+//! Last, each effect the views named is tried out of the chain ([`prune`]): an effect read early in place of part
+//! of a later one (a Gauss-Markov process before the filter corner it imitated) is dropped where the chain
+//! without it agrees with the record as well.
+//!
 //! `model` holds the types, `data` what a step learns from, `backfit` the re-estimation of one effect at a time,
-//! `joint` the joint one and `search` the steps.
+//! `joint` the joint one, `search` the steps and `prune` the backward step.
 
 mod backfit;
 mod data;
 pub mod joint;
 mod model;
+mod prune;
 mod search;
 
 pub use backfit::{backfit, learn, without};
 pub use data::{deterministic_part, StepData};
 pub use model::{Model, NamedBy, Rounds, Step, MAX_STEPS};
+pub(crate) use prune::prune;
+pub use prune::Pruned;
 pub use search::ProgressFn;
 pub(crate) use search::{search, Found, Progress};

@@ -69,6 +69,8 @@ pub(crate) struct Found {
     pub model: Model,
     /// Its comparison with the record.
     pub eval: Evaluated,
+    /// The effects the backward step took out of the chain, in the order taken ([`super::prune`]).
+    pub pruned: Vec<super::Pruned>,
 }
 
 /// The search's fixed inputs and its state between steps.
@@ -164,7 +166,7 @@ pub(crate) fn search<'p>(
     if !s.steps.is_empty() {
         s.joint_round()?;
     }
-    Ok(Found { steps: s.steps, first_candidates, last_tried, model: s.model, eval: s.eval })
+    Ok(Found { steps: s.steps, first_candidates, last_tried, model: s.model, eval: s.eval, pruned: Vec::new() })
 }
 
 impl Search<'_, '_> {

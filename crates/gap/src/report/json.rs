@@ -45,6 +45,7 @@ impl GapReport {
                 unexplained: self.chain.unexplained.as_ref(),
                 total: self.total[1],
                 worst: self.worst[1],
+                pruned: self.pruned_docs(),
             },
             effect: self.effect_name(),
             view: loc.map(|l| l.view),
@@ -92,7 +93,18 @@ impl GapReport {
             missing_samples,
             rate_hz: self.input.rate_hz,
             seeds: self.input.seeds,
+            pruned: self.pruned_docs(),
         }
+    }
+
+    /// The effects taken out of the chain as redundant.
+    fn pruned_docs(&self) -> Vec<PrunedDoc> {
+        let doc = |p: &crate::chain::Pruned| PrunedDoc {
+            effect: p.effect.name(),
+            total_with: p.total_with,
+            total_without: p.total_without,
+        };
+        self.chain.pruned.iter().map(doc).collect()
     }
 
     /// The first step's candidates, each with its gaps after on training and held out.
@@ -278,6 +290,7 @@ pub struct Document<'a> {
     #[serde(rename = "fs_hz")]
     rate_hz: f64,
     seeds: usize,
+    pruned: Vec<PrunedDoc>,
 }
 
 /// The located band's size.
@@ -456,6 +469,16 @@ struct ChainDoc<'a> {
     /// The total over views and the worst view's gap, on the training part.
     total: f64,
     worst: f64,
+    /// The effects taken out of the chain as redundant.
+    pruned: Vec<PrunedDoc>,
+}
+
+/// An effect taken out of the chain as redundant, with the views' training totals of the chain with and without it.
+#[derive(Debug, Serialize)]
+struct PrunedDoc {
+    effect: &'static str,
+    total_with: f64,
+    total_without: f64,
 }
 
 fn finite(v: f64) -> Option<f64> {

@@ -18,7 +18,8 @@
 //! `fit_strain` (the base fit's reduced chi-square when it is far above 1), `size`, `significant`, `explained`,
 //! `threshold`, `total_before`, `total_after`, `base_model`, `base_fit`, `views` (every view's gap on both parts,
 //! base and chain), `worst`, `views_detail`, `n_train`, `n_holdout`, `missing_samples` `{training, holdout}`,
-//! `fs_hz` (the sample rate), `seeds`; `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
+//! `fs_hz` (the sample rate), `seeds`, `pruned` `[{effect, total_with, total_without}]` (the effects the views
+//! named that a later one made redundant, taken out of the chain: the views' training totals with and without); `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
 //! [`super::input::HoldoutCheck::Predictive`] (null without).
 //!
 //! The report itself ([`GapReport`]) is nested: the record as diagnosed ([`InputSummary`]), the base model
@@ -132,6 +133,9 @@ pub struct ChainResult {
     pub eval: Evaluated,
     /// What the significant gap left after the chain looks like (`None`: nothing significant is left).
     pub unexplained: Option<GapShape>,
+    /// The effects the views named that a later one made redundant, taken out of the chain
+    /// ([`crate::chain::prune`]).
+    pub pruned: Vec<crate::chain::Pruned>,
 }
 
 /// The held-out checks.
@@ -158,7 +162,7 @@ pub(crate) fn assemble(
     predictive: Option<PredictiveViews>,
 ) -> GapReport {
     let (gyro, fit, base_eval, real_adev) = base;
-    let Found { steps, first_candidates, last_tried, model, eval: last_eval } = found;
+    let Found { steps, first_candidates, last_tried, model, eval: last_eval, pruned } = found;
     let location = rank::locate(&base_eval.training);
     let in_band = |v: &[ViewGap]| -> Option<f64> { location.as_ref().and_then(|l| rank::band_gap(v, l)) };
     let gap_before = rank::gap_of(&base_eval.training);
@@ -201,7 +205,15 @@ pub(crate) fn assemble(
     GapReport {
         input,
         base: BaseResult { gyro, fit, eval: base_eval, real_adev, location, significant },
-        chain: ChainResult { steps, candidates: first_candidates, last_tried, model, eval: last_eval, unexplained },
+        chain: ChainResult {
+            steps,
+            candidates: first_candidates,
+            last_tried,
+            model,
+            eval: last_eval,
+            unexplained,
+            pruned,
+        },
         holdout: HoldoutResult {
             first: first_held,
             total: holdout_total,

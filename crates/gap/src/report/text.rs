@@ -167,6 +167,15 @@ impl GapReport {
             )?;
             candidate_lines(s, &self.chain.last_tried, None)?;
         }
+        for p in &self.chain.pruned {
+            writeln!(
+                s,
+                "taken out of the chain: {}, made redundant by a later effect (the chain learnt without it: total over views {:.2}, with it {:.2})",
+                p.effect.name(),
+                p.total_without,
+                p.total_with
+            )?;
+        }
         if self.chain.steps.is_empty() {
             writeln!(
                 s,
