@@ -142,6 +142,7 @@ mod tests {
             "model_channel",
             "n_holdout",
             "n_train",
+            "pruned",
             "seeds",
             "shrink",
             "sign",
@@ -171,7 +172,7 @@ mod tests {
         assert_eq!((doc["input"]["kind"].as_str(), doc["input"]["unit"].as_str()), (Some("gyro"), Some("deg/s")));
         let base = ["band_s", "fit", "fit_strain", "model", "sign", "significant", "size", "total", "view", "worst"];
         assert_eq!(section_keys("base"), base);
-        let chain = ["effects", "model", "model_channel", "total", "unexplained", "verdict", "worst"];
+        let chain = ["effects", "model", "model_channel", "pruned", "total", "unexplained", "verdict", "worst"];
         assert_eq!(section_keys("chain"), chain);
         for (section, key, flat) in [
             ("input", "missing_samples", "missing_samples"),
