@@ -118,7 +118,7 @@ pub fn analyze_channel(
         .par_iter()
         .map(|&v| if v.is_finite() { (v, 1usize, 0usize) } else { (0.0, 0, usize::from(v.is_nan())) })
         .reduce(|| (0.0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
-    let counts = Counts { tau0_s: 1.0 / rate_hz, n_samples: data.len(), n_gaps };
+    let counts = Counts { tau0_s, n_samples: data.len(), n_gaps };
     let mean = (kept > 0).then(|| sum / kept as f64);
     Ok(ChannelAnalysis { mean, ..ChannelAnalysis::fitted(name, counts, stats, fit_points, opts.fit.as_ref()) })
 }
