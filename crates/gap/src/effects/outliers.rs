@@ -10,6 +10,12 @@
 //!   out of the windows, so a spike's partner in its run does not pull
 //!   the median (in runs of two at 6-13 sds it read the magnitudes 2% low, which the base N, fitted on what the
 //!   spikes leave of the Allan variance, took up as 8%). Samples whose window touches a gap are left out.
+//! - **Lattice.** Where the samples sit on an ADC lattice, the residuals are read on the samples plus a Gaussian
+//!   dither of half a step: a step coarser than the noise leaves most residuals at exactly 0, where the core has
+//!   no scale and every sample one step off reads as a spike. The spikes' magnitudes are held beyond three steps (a
+//!   sample a step off its neighbours is the lattice's own), and flagged samples are cleaned back onto the
+//!   lattice. Where the model's channel already rounds to the lattice, its base terms (the quantisation
+//!   estimator's, N the analog noise under the lattice) stay as they are.
 //! - **Mixture.** The residuals' magnitudes are fitted by maximum likelihood as a Gaussian core plus spikes whose
 //!   magnitude is uniform on `centre +- spread` ([`mixture`]): the core's scale is read where the core dominates,
 //!   not inflated by the contamination as a MAD would be, and spikes too small to stand above any threshold are
@@ -31,12 +37,14 @@
 //!   point's degrees of freedom scaled by the share left squared (its sampling error is the whole variance's). The flagged spikes, replaced by their neighbours' median, are the realisation
 //!   the chain's later steps learn without.
 
+use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::{GyroSim, Outliers};
 use std::sync::Arc;
 
 use super::common::*;
 use super::curve::{ar1_avar, refit_base_terms};
 use super::params::OutliersParams;
+use super::quantization::lattice;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 use octavar_stats::robust::mad_scale_in_place;
 
@@ -211,9 +219,10 @@ impl Contamination {
     }
 }
 
-/// Read the contamination of `x` (deg/s; `gap` marks missing or masked samples); `None` without a residual scale.
-pub(super) fn read(x: &[f64], gap: &[bool]) -> Option<Contamination> {
-    let first = read_with(x, gap, None)?;
+/// Read the contamination of `x` (deg/s; `gap` marks missing or masked samples), the spikes' magnitudes beyond
+/// `least` deg/s; `None` without a residual scale.
+pub(super) fn read(x: &[f64], gap: &[bool], least: f64) -> Option<Contamination> {
+    let first = read_with(x, gap, None, least)?;
     // Spikes that stand clear of the core are flagged nearly all and nothing else; small dense ones are flagged
     // in part and with the core's own extremes, and leaving those out would bend the core: one pass.
     if first.mix.centre < SECOND_PASS_SIGMAS * first.mix.sigma {
@@ -223,11 +232,11 @@ pub(super) fn read(x: &[f64], gap: &[bool]) -> Option<Contamination> {
     for &(i, _) in &first.flagged {
         skip[i] = true;
     }
-    read_with(x, gap, Some(&skip))
+    read_with(x, gap, Some(&skip), least)
 }
 
 /// One pass of [`read`]: the residuals (their windows without the samples in `skip`), the mixture, the flags.
-fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Option<Contamination> {
+fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>, least: f64) -> Option<Contamination> {
     let r = residuals(x, gap, skip);
     let mut valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
     if valid.len() < 64 {
@@ -236,7 +245,7 @@ fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Option<Contamina
     let k = valid.len() / 2;
     let med = *valid.select_nth_unstable_by(k, f64::total_cmp).1;
     let abs: Vec<f64> = valid.iter().map(|v| (v - med).abs()).collect();
-    let mix = mixture::fit(&abs)?;
+    let mix = mixture::fit(&abs, least)?;
     let n_valid = abs.len();
     // Flag where the spike is the likelier, from FLAG_SIGMAS out.
     let mut flag = FLAG_SIGMAS * mix.sigma;
@@ -301,7 +310,13 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
             *v = true;
         }
     }
-    let c = read(x, &gap)?;
+    // On an ADC lattice the residuals sit on a few values (most on 0 where the step is coarser than the noise):
+    // a dither makes them continuous, so the core has a scale, and the spikes' magnitudes are held beyond the steps
+    // the lattice itself takes between neighbours.
+    let lattice = lattice(&outside_gaps(d.recorded_dps, d.gaps));
+    let dithered = lattice.map(|(q, _)| dither(x, q));
+    let least = lattice.map_or(0.0, |(q, _)| LATTICE_LEAST_STEPS * q);
+    let c = read(dithered.as_deref().unwrap_or(x), &gap, least)?;
     if !c.is_process(n) {
         return None;
     }
@@ -318,7 +333,11 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let refit = refit_without(d, &spikes);
     let mut cleaned = x.to_vec();
     for &(i, r) in &c.flagged {
-        cleaned[i] = x[i] - r;
+        // The dithered neighbours' median, back on the lattice where the sample was.
+        cleaned[i] = match lattice {
+            Some((q, _)) => x[i] - q * (r / q).round(),
+            None => x[i] - r,
+        };
     }
     Some(EffectFit {
         effect: Effect::Outliers,
@@ -342,6 +361,26 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     })
 }
 
+/// `x` plus a Gaussian dither of sd [`DITHER_STEPS`] lattice steps `q` (a fixed stream, so the diagnosis is
+/// repeatable).
+fn dither(x: &[f64], q: f64) -> Vec<f64> {
+    let mut rng = SimRng::new(DITHER_SEED);
+    x.iter().map(|v| v + DITHER_STEPS * q * rng.normal()).collect()
+}
+
+/// The dither's sd, lattice steps: the residuals' lattice (steps and half steps) smoothed to within a percent of
+/// a continuous density (a Gaussian of sd s over a comb of spacing q ripples by `exp(-2 pi^2 s^2 / q^2)`), while a
+/// spike of three steps still stands six dithered sds out.
+const DITHER_STEPS: f64 = 0.5;
+
+/// The dither's stream.
+const DITHER_SEED: u64 = 0xd1_7e4;
+
+/// On a lattice, the spikes' magnitude law is held beyond this many steps: below it, a sample one step off its
+/// neighbours (the noise crossing a decision level) is the lattice's own, and on a coarse lattice those are
+/// common enough to fit as a spike law of their own.
+const LATTICE_LEAST_STEPS: f64 = 3.0;
+
 /// The Allan variance of the spike process of `o` at `m` samples, from its autocovariance: `R0 = eps E s^2` and
 /// `R_k = R1 c2^(k-1)`, `R1 = eps centre^2 (1 - 1 / run_mean)` (a run's spikes share a sign). With `c2 > 0` that is
 /// white `R0 - R1 / c2` plus an AR(1) of pole c2 and variance `R1 / c2`; with `c2 = 0`, `(R0 + 2 R1) / m - 3 R1 / m^2`.
@@ -361,6 +400,12 @@ fn spike_avar(o: &Outliers, m: f64) -> f64 {
 /// each point's EDF is scaled by the share left squared, since its sampling error is the whole variance's.
 fn refit_without(d: &TrainingData, o: &Outliers) -> GyroSim {
     let rate_hz = d.rate_hz;
+    // Where the model's channel has a lattice, the base's N is the analog noise the quantisation estimator
+    // recovered under it, which a curve of rounded samples does not give back (below a step the rounding error
+    // is neither white nor independent of the noise): the base terms stay.
+    if d.lattice_dps.is_some() {
+        return d.base.clone();
+    }
     let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz)
         .into_iter()
         .filter_map(|mut p| {

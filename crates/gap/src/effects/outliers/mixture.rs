@@ -123,21 +123,30 @@ fn fit_gaussian(b: &Binned, scale: f64) -> (f64, f64) {
     (u.exp(), -nll)
 }
 
-/// The mixture of the parameter vector `(ln sigma, logit(2 eps), ln centre, logit(spread / centre))`.
-fn decode(th: &[f64; 4]) -> Mixture {
+/// The mixture of the parameter vector `(ln sigma, logit(2 eps), ln (centre - least), logit(spread / (centre -
+/// least)))`: the magnitude law's lower edge held beyond `least`.
+fn decode(th: &[f64; 4], least: f64) -> Mixture {
     let logistic = |v: f64| 1.0 / (1.0 + (-v).exp());
-    let centre = th[2].exp();
-    Mixture { sigma: th[0].exp(), eps: 0.5 * logistic(th[1]), centre, spread: centre * logistic(th[3]), lr: 0.0 }
+    let above = th[2].exp();
+    Mixture {
+        sigma: th[0].exp(),
+        eps: 0.5 * logistic(th[1]),
+        centre: least + above,
+        spread: above * logistic(th[3]),
+        lr: 0.0,
+    }
 }
 
-fn encode(m: &Mixture) -> [f64; 4] {
+fn encode(m: &Mixture, least: f64) -> [f64; 4] {
     let logit = |p: f64| (p / (1.0 - p)).ln();
-    [m.sigma.ln(), logit(2.0 * m.eps), m.centre.ln(), logit((m.spread / m.centre).clamp(1e-4, 1.0 - 1e-4))]
+    let above = (m.centre - least).max(1e-3 * m.centre);
+    [m.sigma.ln(), logit(2.0 * m.eps), above.ln(), logit((m.spread / above).clamp(1e-4, 1.0 - 1e-4))]
 }
 
-/// The mixture of largest likelihood for residual magnitudes `abs` (finite, non-negative, at least 64), from a few
-/// starts over the magnitude law's centre; `None` when the data have no scale.
-pub(super) fn fit(abs: &[f64]) -> Option<Mixture> {
+/// The mixture of largest likelihood for residual magnitudes `abs` (finite, non-negative, at least 64), the
+/// spikes' magnitudes beyond `least` (0: anywhere), from a few starts over the magnitude law's centre; `None` when the
+/// data have no scale.
+pub(super) fn fit(abs: &[f64], least: f64) -> Option<Mixture> {
     if abs.len() < 64 {
         return None;
     }
@@ -155,22 +164,22 @@ pub(super) fn fit(abs: &[f64]) -> Option<Mixture> {
     }
     let b = Binned::new(abs, scale);
     let (sigma_g, ll_g) = fit_gaussian(&b, scale);
-    let nll = |th: &[f64; 4]| -b.log_lik(|x| decode(th).sf(x));
+    let nll = |th: &[f64; 4]| -b.log_lik(|x| decode(th, least).sf(x));
     let mut best: Option<([f64; 4], f64)> = None;
     for centre in [3.0, 4.5, 7.0, 11.0, 18.0, 30.0, 50.0] {
-        let c = centre * sigma_g;
+        let c = (centre * sigma_g).max(1.25 * least);
         // The share beyond the centre less a sd, less what the Gaussian puts there: where the spikes are.
         let excess = b.share_beyond((centre - 1.0) * sigma_g) - 2.0 * normal_sf(centre - 1.0);
         let eps = (2.0 * excess).clamp(1e-6, 0.45);
         let start = Mixture { sigma: sigma_g, eps, centre: c, spread: 0.3 * c, lr: 0.0 };
-        let (th, v) = nelder_mead(encode(&start), 0.3, 400, nll);
+        let (th, v) = nelder_mead(encode(&start, least), 0.3, 400, nll);
         if best.is_none_or(|(_, bv)| v < bv) {
             best = Some((th, v));
         }
     }
     let (th, _) = best?;
     let (th, v) = nelder_mead(th, 0.1, 600, nll);
-    let mut m = decode(&th);
+    let mut m = decode(&th, least);
     m.lr = 2.0 * (-v - ll_g);
     (m.sigma.is_finite() && m.sigma > 0.0).then_some(m)
 }
