@@ -199,19 +199,42 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
     let d = samples as f64 / rate_hz;
     let tau0 = 1.0 / rate_hz;
     let white = base.white_sd(rate_hz);
+    let effects = kind.effects();
+    let stream_of = |e: Effect| StdRng::seed_from_u64(0xeffe_c700 ^ (seed << 8) ^ e as u64);
+    // A lattice raises K so that the walk crosses a few steps, and its rounding adds white noise of about
+    // `step^2 / 12` a sample. Both are the record's noise: every other effect is sized against `noise`, the base
+    // with them (at long taus the walk can be ten times the base's Allan deviation; a step of 3.8 white sds
+    // doubles the white floor a resonance stands on).
+    let lattice = effects.contains(&Effect::Quantization).then(|| {
+        let mut r = stream_of(Effect::Quantization);
+        let step = size(&mut r) / 3.0 * white;
+        Lattice { step_dps: step, offset_dps: uniform(&mut r, 0.0, step) }
+    });
+    let base = match &lattice {
+        Some(q) => IndepGyro { k_dps_per_rt_s: base.k_dps_per_rt_s.max(q.step_dps / d.sqrt()), ..base },
+        None => base,
+    };
+    let noise = match &lattice {
+        Some(q) => IndepGyro {
+            n_deg_per_rt_s: (base.n_deg_per_rt_s.powi(2) + q.step_dps.powi(2) / 12.0 / rate_hz).sqrt(),
+            ..base.clone()
+        },
+        None => base.clone(),
+    };
+    // The white noise's per-sample sd with the rounding, in the analog white noise's sds.
+    let white_ratio = noise.white_sd(rate_hz) / white;
     let mut g = base.clone();
     let mut what = Vec::new();
     let mut bump = None;
-    let effects = kind.effects();
     for &e in &effects {
-        let mut r = StdRng::seed_from_u64(0xeffe_c700 ^ (seed << 8) ^ e as u64);
+        let mut r = stream_of(e);
         match e {
             Effect::Temperature => {
                 let p = log_uniform(&mut r, (300.0f64).max(20.0 * tau0), d / 3.0);
                 let swing = uniform(&mut r, 1.0, 5.0);
                 let lag = log_uniform(&mut r, 3.0 * tau0, 0.5 * p);
                 let h = 1.0 / (1.0 + (2.0 * PI * lag / p).powi(2)).sqrt();
-                let k = size(&mut r) * adev(&base, p / 3.0) / (0.5 * swing * h)
+                let k = size(&mut r) * adev(&noise, p / 3.0) / (0.5 * swing * h)
                     * if r.random::<bool>() { 1.0 } else { -1.0 };
                 g.bench = Some(bench(&mut r, p, swing));
                 g.coupling = Some(Coupling { dps_per_c: k, lag_s: lag, ref_c: 23.5 });
@@ -219,7 +242,7 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
             }
             Effect::Sinusoid => {
                 let p = log_uniform(&mut r, 4.0 * tau0, d / 3.0);
-                let a = size(&mut r) * adev(&base, 0.37 * p);
+                let a = size(&mut r) * adev(&noise, 0.37 * p);
                 g.sinusoids.push(Sine { amplitude_dps: a, period_s: p, phase_rad: uniform(&mut r, -PI, PI) });
                 what.push(format!("sinusoid A {a:.2e} P {p:.3e}"));
             }
@@ -230,26 +253,25 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
             }
             Effect::GaussMarkov => {
                 let t = log_uniform(&mut r, 4.0 * tau0, d / 3.0);
-                let sigma = size(&mut r) * adev(&base, 2.0 * t) / 0.62;
+                let sigma = size(&mut r) * adev(&noise, 2.0 * t) / 0.62;
                 g.gauss_markov = Some(Markov { sigma_dps: sigma, tau_s: t });
                 what.push(format!("gauss_markov sigma {sigma:.2e} T {t:.3e}"));
             }
             Effect::Quantization => {
-                let step = size(&mut r) / 3.0 * white;
-                g.k_dps_per_rt_s = g.k_dps_per_rt_s.max(step / d.sqrt());
-                g.lattice = Some(Lattice { step_dps: step, offset_dps: uniform(&mut r, 0.0, step) });
-                what.push(format!("quantization {:.2} sigma", step / white));
+                let q = lattice.expect("drawn above");
+                what.push(format!("quantization {:.2} sigma", q.step_dps / white));
+                g.lattice = Some(q);
             }
             Effect::BiasSteps => {
                 let count = log_uniform(&mut r, 8.0, 80.0);
-                let floor = (0..60).map(|i| adev(&base, tau0 * 1.4f64.powi(i))).fold(f64::INFINITY, f64::min);
+                let floor = (0..60).map(|i| adev(&noise, tau0 * 1.4f64.powi(i))).fold(f64::INFINITY, f64::min);
                 let sd = size(&mut r) * 5.0 / 3.0 * SQRT_2 * floor;
                 g.jumps = Some(Jumps { per_hour: count / (d / 3600.0), sigma_dps: sd });
                 what.push(format!("bias_steps {count:.0}/record sd {sd:.2e}"));
             }
             Effect::Outliers => {
                 let per_half = log_uniform(&mut r, 10.0, 300.0);
-                let s = size(&mut r) * 8.0 / 3.0;
+                let s = size(&mut r) * 8.0 / 3.0 * white_ratio;
                 g.contamination = Some(Contamination {
                     per_sample: per_half / (samples / 2) as f64,
                     size_sigma: [0.9 * s, 1.1 * s],
@@ -262,21 +284,21 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
                 let top = g.bandwidth_hz.map_or(0.4 * rate_hz, |f| (0.7 * f).min(0.4 * rate_hz));
                 let f0 = log_uniform(&mut r, (256.0 * q / d).min(0.5 * top), top);
                 let ratio = size(&mut r);
-                let sigma = (ratio * base.n_deg_per_rt_s.powi(2) * PI * f0 / q).sqrt();
+                let sigma = (ratio * noise.n_deg_per_rt_s.powi(2) * PI * f0 / q).sqrt();
                 g.resonance = Some(Oscillator { sigma_dps: sigma, freq_hz: f0, q });
                 what.push(format!("resonance f0 {f0:.3e} Q {q:.1} peak x{ratio:.1}"));
             }
             Effect::Bistable => {
                 let (lo, hi) = ((30.0 * tau0).max(d / 3000.0), d / 40.0);
                 let (low, high) = (log_uniform(&mut r, lo, hi), log_uniform(&mut r, lo, hi));
-                let step = size(&mut r) * 8.0 / 3.0 * SQRT_2 * adev(&base, 0.1 * low.min(high));
+                let step = size(&mut r) * 8.0 / 3.0 * SQRT_2 * adev(&noise, 0.1 * low.min(high));
                 g.telegraph = Some(Telegraph { step_dps: step, dwell_low_s: low, dwell_high_s: high });
                 what.push(format!("bistable step {step:.2e} dwells {low:.3e}/{high:.3e}"));
             }
             Effect::WarmUp => {
                 let tau = log_uniform(&mut r, d / 400.0, d / 3.0);
                 let sign = if r.random::<bool>() { 1.0 } else { -1.0 };
-                let s = sign * size(&mut r) * 10.0 * SQRT_2 * adev(&base, tau);
+                let s = sign * size(&mut r) * 10.0 * SQRT_2 * adev(&noise, tau);
                 g.settling = Some(Settling { size_dps: s, tau_s: tau });
                 what.push(format!("warm_up {s:.2e} tau {tau:.3e}"));
             }

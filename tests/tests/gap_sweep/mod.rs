@@ -28,7 +28,7 @@
 //! | sinusoid | `adev(0.37 P)` (amplitude) | P from 4 samples to D/3 | |
 //! | bandwidth | (none: the white noise sets it) | corner 0.05-0.4 of the rate | above 0.4 the sampled filter hardly bends the curve; the corner time constant is then 0.4-3 samples |
 //! | gauss_markov | `adev(2T) / 0.62` (sigma) | T from 4 samples to D/3 | |
-//! | quantization | `sigma_w / 3` (the step; sigma_w the white noise's per-sample sd): steps of 0.7-10 sigma_w | (K raised so the walk crosses a few steps) | |
+//! | quantization | `sigma_w / 3` (the step; sigma_w the white noise's per-sample sd): steps of 0.7-10 sigma_w | (K raised so the walk crosses a few steps) | the case's other effects are sized against the record's noise: the base with that walk and the rounding's white noise (`step^2 / 12` a sample) |
 //! | bias_steps | `(5/3) sqrt(2) floor` (step sd; floor the smallest base Allan deviation) | 8 to 80 steps per record | fewer than 8 is not a rate; more, each step is a random walk's |
 //! | outliers | `(8/3) sigma_w` (spike size; sizes spread 0.9-1.1 of it): 5-80 sigma_w | 10 to 300 spikes per half record | |
 //! | resonance | the white noise's PSD (the bump's peak PSD is s times it) | f0 from 256 Q / D (a bump 4 bins wide in a Welch segment of D/64) to 0.4 of the rate, or 0.7 of a filter's corner; Q 3-30 | a bump the anti-alias filter removes is not there to be named |
