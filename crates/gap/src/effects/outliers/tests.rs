@@ -160,42 +160,12 @@ fn gaussian_controls_have_no_outliers() {
     assert!(quantised.is_empty(), "quantised white noise named outliers at seeds {quantised:?}");
 }
 
-/// The effect through `fit_effect`: the model carries the mixture and the base N is the white noise's without the
-/// spikes' variance (within 3%).
-#[test]
-fn the_fitted_model_carries_the_mixture_and_the_clean_white_noise() {
-    let rate_hz = 100.0;
-    let spec = Spec { share: 0.05, lo: 6.0, hi: 13.0, run_max: 2 };
-    let (x, _) = contaminated(N, SIGMA, Some(spec), 7);
-    let pts = oadev_points(&x, rate_hz);
-    let f = octavar_stats::fit::fit(&pts, &octavar_stats::fit::FitOptions::default()).unwrap();
-    let base = crate::base_model(&f, &x);
-    let d = TrainingData {
-        rate_dps: &x,
-        recorded_dps: &x,
-        temp_c: None,
-        rate_hz,
-        base: &base,
-        base_fit: &f,
-        gaps: &[],
-        lattice_dps: None,
-        shaped_dps: None,
-    };
-    let e = outliers(&d).expect("outliers");
-    let o = e.gyro.outliers.unwrap();
-    let n_true = SIGMA / rate_hz.sqrt();
-    eprintln!("{:?}; N {} (truth {n_true}, base {})", e.params, e.gyro.n_deg_per_rt_s, base.n_deg_per_rt_s);
-    assert!((e.gyro.n_deg_per_rt_s / n_true - 1.0).abs() < 0.03, "N {}", e.gyro.n_deg_per_rt_s);
-    assert!(o.run_mean > 1.3 && o.spread_dps > 0.0);
-    let json = serde_json::to_value(&e.params).unwrap();
-    for key in ["per_sample", "size_dps", "spread_dps", "run_mean", "robust_sigma_dps", "count"] {
-        assert!(json[key].is_number(), "{key}");
-    }
-}
+/// The rate of the records given to [`estimated`], Hz.
+const RATE_HZ: f64 = 100.0;
 
-/// `x` (100 Hz) through `outliers` as the chain's first step would see it: the base fit's model, no gaps.
+/// `x` (at [`RATE_HZ`]) through `outliers` as the chain's first step would see it: the base fit's model, no gaps.
 fn estimated(x: &[f64]) -> Option<EffectFit> {
-    let rate_hz = 100.0;
+    let rate_hz = RATE_HZ;
     let pts = oadev_points(x, rate_hz);
     let f = octavar_stats::fit::fit(&pts, &octavar_stats::fit::FitOptions::default()).unwrap();
     let base = crate::base_model(&f, x);
@@ -211,6 +181,24 @@ fn estimated(x: &[f64]) -> Option<EffectFit> {
         shaped_dps: None,
     };
     outliers(&d)
+}
+
+/// The effect through `fit_effect`: the model carries the mixture and the base N is the white noise's without the
+/// spikes' variance (within 3%).
+#[test]
+fn the_fitted_model_carries_the_mixture_and_the_clean_white_noise() {
+    let spec = Spec { share: 0.05, lo: 6.0, hi: 13.0, run_max: 2 };
+    let (x, _) = contaminated(N, SIGMA, Some(spec), 7);
+    let e = estimated(&x).expect("outliers");
+    let o = e.gyro.outliers.unwrap();
+    let n_true = SIGMA / RATE_HZ.sqrt();
+    eprintln!("{:?}; N {} (truth {n_true})", e.params, e.gyro.n_deg_per_rt_s);
+    assert!((e.gyro.n_deg_per_rt_s / n_true - 1.0).abs() < 0.03, "N {}", e.gyro.n_deg_per_rt_s);
+    assert!(o.run_mean > 1.3 && o.spread_dps > 0.0);
+    let json = serde_json::to_value(&e.params).unwrap();
+    for key in ["per_sample", "size_dps", "spread_dps", "run_mean", "robust_sigma_dps", "count"] {
+        assert!(json[key].is_number(), "{key}");
+    }
 }
 
 /// White noise under a slow walk (so the samples cross several levels), rounded to a lattice of `step` white
