@@ -392,11 +392,15 @@ impl Search<'_, '_> {
             self.progress.expect("evidence", 1);
             let mut after = self.evaluate(&m, known.as_deref(), fit.effect.name())?;
             let mut m = m;
-            // Named on its own test, it must still leave the views no worse than it found them (or in agreement),
-            // and a curve's test beside a significant gap must take that gap below significance.
+            // Named on its own test, it must still leave the views no worse than it found them, or in agreement
+            // ([`evidence::still_agrees`]), and a curve's test beside a significant gap must take that gap below
+            // significance.
             let before = rank::total_of(&self.eval.training);
             let allowed = (evidence::VIEWS_TOLERANCE * before).max(evidence::AGREEMENT_TOTAL);
-            let worse_than_before = |e: &Evaluated| rank::total_of(&e.training) > allowed;
+            let worse_than_before = |e: &Evaluated| {
+                let total = rank::total_of(&e.training);
+                total > allowed && !evidence::still_agrees(total, rank::gap_of(&e.training))
+            };
             let mut worse = worse_than_before(&after);
             // The estimator refitted the base terms alone beside its effect, on a curve whose other effects it took
             // as known; where that leaves the views worse, the model's stochastic terms re-estimated together with

@@ -7,14 +7,14 @@ use std::sync::Arc;
 use super::common::*;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 
-/// Fewest detected steps for a bias-step process.
-pub(super) const MIN_STEPS: usize = 3;
+/// Fewest detected steps for which the base terms are re-fitted on the record without them.
+const REFIT_STEPS: usize = 3;
 
 /// The scan's threshold in robust scales of its statistic: `max(FLOOR, sqrt(2 ln(N/L)) + MARGIN)`.
-/// `sqrt(2 ln(N/L))` is about the largest of the N/L independent windows' Gaussian noise; a process needs
-/// [`MIN_STEPS`] peaks beyond it at once, which noise alone reaches far more rarely than one peak, so the margin
-/// is lower than a threshold for one event would need: a record whose steps stand 9.4, 5.1 and 5.1 scales out is
-/// found, and the effect-free records of the withheld sweep stay clear.
+/// `sqrt(2 ln(N/L))` is about the largest of the N/L independent windows' Gaussian noise. The margin is lower
+/// than a threshold for one event alone would need (noise passes it in about one record in ten), since a peak
+/// only names the process through the views: the estimator has no test of its own, and a step is named only
+/// where its simulation takes a significant gap of the record away.
 const THRESHOLD_MARGIN: f64 = 1.5;
 /// The threshold's floor, in robust scales.
 const THRESHOLD_FLOOR: f64 = 4.5;
@@ -83,6 +83,23 @@ pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
     Some(Scan { threshold, steps })
 }
 
+/// The share of a step's size that the mean difference across windows a quarter as long must keep for a lone
+/// step to count as a step ([`is_sharp`]).
+const SHARPNESS: f64 = 0.5;
+
+/// Whether the change of size `size` the scan found at sample `t` with window `l` is sharp: a step keeps its size
+/// in the mean difference across windows of `l / 4` (within a window of where the scan put it), while a smooth
+/// change over a time longer than the window (a warm-up settling, found where its decay meets the record's start)
+/// keeps about a quarter. Where a process shows only one or two steps, each must be sharp; a run of steps
+/// proves itself by their number.
+fn is_sharp(x: &[f64], l: usize, t: usize, size: f64) -> bool {
+    let q = (l / 4).max(1);
+    let mean = |a: usize, b: usize| x[a..b].iter().sum::<f64>() / (b - a) as f64;
+    let (lo, hi) = (t.saturating_sub(l / 2).max(q), (t + l / 2).min(x.len().saturating_sub(q)));
+    let step = (l / 32).max(1);
+    (lo..=hi).step_by(step).any(|u| ((mean(u, u + q) - mean(u - q, u)) * size.signum()) >= SHARPNESS * size.abs())
+}
+
 /// The biassteps effect: [`bias_steps`] and its parameters.
 pub(super) struct Kind;
 
@@ -104,20 +121,25 @@ impl EffectKind for Kind {
 /// `max(4.5, sqrt(2 ln(N/L)) + 1.5)` scales ([`THRESHOLD_MARGIN`]), at least 2L from a larger one; its time
 /// and size are refined on a finer grid. Steps are Gaussian and the small ones go unseen: sigma comes from the
 /// truncated-normal likelihood of the sizes seen beyond the threshold, and the rate from the count divided by the
-/// detection probability (at least 0.2); fewer than three steps are events, not a process, and give no fit (a
-/// moment fit from D's fourth cumulant cannot stand in: over 16 blocks its t-statistic is no larger on step
-/// records than on effect-free ones). The
-/// base terms are re-fitted on the record without the detected steps (the base fit took their random-walk-like
-/// Allan variance, `lambda sigma^2 tau / 3`, for K).
+/// detection probability (at least 0.2). A single step gives a fit: a Poisson process seen through half a record
+/// often leaves one or two steps there, and the views decide whether the process explains the gap (a moment fit
+/// from D's fourth cumulant cannot stand in for the scan: over 16 blocks its t-statistic is no larger on step
+/// records than on effect-free ones). From
+/// [`REFIT_STEPS`] steps on, the base terms are re-fitted on the record without the detected steps (the base fit
+/// took their random-walk-like Allan variance, `lambda sigma^2 tau / 3`, for K).
 pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n = x.len();
     let rate_hz = d.rate_hz;
     let l = scan_window(x, rate_hz)?;
-    let Scan { threshold: thr, steps } = mosum_scan(x, l)?;
-    // A rate and a size distribution need a few steps: one or two are events (a knock, a connector), not a
-    // process that a simulation could repeat; CATS gyro_y has one jump, and its gap is the temperature's.
-    if steps.len() < MIN_STEPS {
+    let Scan { threshold: thr, mut steps } = mosum_scan(x, l)?;
+    if steps.len() < REFIT_STEPS {
+        steps.retain(|&(t, size)| is_sharp(x, l, t, size));
+    }
+    // One step is enough to fit the process: a Poisson rate seen through a training part may leave a single step
+    // there and many in the held-out part, and the views, not a count, judge whether the process explains the
+    // record (a knock or a connector's jump is a transient, masked before the chain).
+    if steps.is_empty() {
         return None;
     }
     let sizes: Vec<f64> = steps.iter().map(|s| s.1).collect();
@@ -146,7 +168,13 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
             v - level
         })
         .collect();
-    let refit = refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0);
+    // One or two steps barely move the Allan curve, so the base terms stay as they are: a re-fit there would
+    // change the model by the re-fit, not by the steps, and the views would judge the wrong thing.
+    let refit = if steps.len() >= REFIT_STEPS {
+        refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0)
+    } else {
+        d.base.clone()
+    };
     let gyro = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }), ..refit };
     let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / rate_hz).collect();
     Some(EffectFit {

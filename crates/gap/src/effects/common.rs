@@ -11,7 +11,7 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
-use super::curve::less_known;
+use super::curve::{base_columns, less_known};
 use super::TrainingData;
 use crate::fill::with_gaps;
 pub(super) use crate::spectral::{block_means, sine_tapers};
@@ -77,14 +77,66 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
 /// with them as gaps, as the base fit took it. The stochastic effects the base already carries (a Gauss-Markov
 /// process, a resonance) and the quantisation noise of the model's ADC lattice ([`less_known`]) are taken off the
 /// curve first, so that the IEEE terms do not absorb them a second time.
+///
+/// Where an earlier step took jumps out of the samples (bias steps, a bistable bias's levels: `d.shaped_dps`),
+/// the samples carry that recovery's residue (a flip placed a sample late leaves a one-sample pulse), and the
+/// model's base terms were fitted beside the process on the curve as recorded, where its Allan variance hides the
+/// flicker beneath. The model is simulated whole and compared with the record as recorded, so there its terms
+/// are re-fitted on its own base curve less what this effect's component takes out of the samples' curve
+/// ([`less_taken_out`]); what the samples carry, for a generalised least-squares test, is [`refit_noise`]'s.
 pub(super) fn refit_base(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, [f64; 5])> {
+    match d.shaped_dps {
+        Some(_) => {
+            let pts = less_taken_out(d, &gapped_oadev_points(cleaned, d.gaps, d.rate_hz));
+            ieee_refit(d.base, &pts)
+        }
+        None => refit_noise(d, cleaned),
+    }
+}
+
+/// The IEEE fit on the curve of `cleaned` (the step's samples less an effect's component), less the effects the
+/// model already carries ([`less_known`]): the noise those samples carry, which a generalised least-squares test
+/// on them weighs its frequencies by. It is [`refit_base`]'s model except after a step that took jumps out.
+pub(super) fn refit_noise(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, [f64; 5])> {
     let (base, rate_hz) = (d.base, d.rate_hz);
     let pts = gapped_oadev_points(cleaned, d.gaps, rate_hz);
-    let pts = less_known(&pts, base, base.bandwidth_hz, rate_hz, d.lattice_dps);
+    ieee_refit(base, &less_known(&pts, base, base.bandwidth_hz, rate_hz, d.lattice_dps))
+}
+
+/// The noise of the step's samples as they are: the model's base where they are the record less deterministic
+/// parts, the IEEE fit of the samples themselves where jumps were taken out ([`refit_noise`]).
+pub(super) fn samples_noise(d: &TrainingData) -> GyroSim {
+    match d.shaped_dps {
+        Some(_) => refit_noise(d, d.rate_dps).map_or_else(|| d.base.clone(), |r| r.0),
+        None => d.base.clone(),
+    }
+}
+
+/// `base` with its IEEE terms fitted on `pts` (default options, its bandwidth; the ramp only where it has one).
+fn ieee_refit(base: &GyroSim, pts: &[FitPoint]) -> Option<(GyroSim, [f64; 5])> {
     let terms = Term::ALL.into_iter().filter(|t| *t != Term::R || base.r_dps_per_s != 0.0).collect();
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
-    let f = fit(&pts, &opts).ok()?;
+    let f = fit(pts, &opts).ok()?;
     Some((f.sim_terms(base.clone()), f.squares))
+}
+
+/// The base terms' Allan variance under `d.base` at the points `cleaned` (the samples less an effect's component),
+/// less what the component took out of the samples' curve there (`d.rate_dps`'s Allan variance less `cleaned`'s),
+/// each point kept at no less than a tenth of the base curve.
+fn less_taken_out(d: &TrainingData, cleaned: &[FitPoint]) -> Vec<FitPoint> {
+    let before = gapped_oadev_points(d.rate_dps, d.gaps, d.rate_hz);
+    let b = d.base;
+    let cols = base_columns(cleaned, d.rate_hz, b.bandwidth_hz, true);
+    let squares = [b.n_deg_per_rt_s, b.b_dps, b.k_dps_per_rt_s, b.r_dps_per_s, b.q_deg].map(|v| v * v);
+    cleaned
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let model: f64 = (0..squares.len()).map(|j| squares[j] * cols[j][i]).sum();
+            let taken = before.iter().find(|q| q.tau_s == p.tau_s).map_or(0.0, |q| q.avar - p.avar);
+            FitPoint { avar: (model - taken).max(0.1 * model), ..*p }
+        })
+        .collect()
 }
 
 /// `x`, samples that bias jumps `shaped` were taken out of sharp, with those jumps taken out through the sensor's

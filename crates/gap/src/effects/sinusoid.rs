@@ -568,7 +568,7 @@ fn long_period_peak(d: &TrainingData, b: &Blocks, p: &Periodogram, chosen: &[usi
     let f0 = k as f64 * df;
     let (f, _) = brent((f0 - df).max(df * 0.5), f0 + df, HANN_TOL * df, 40, |f| -hann_power(&b.y, f, b.dt));
     let z = sinusoid_ls(&b.y, &[f], b.dt, b.t_off).and_then(|ls| {
-        let noise = NoiseSpectrum::of(d.base, d.rate_hz);
+        let noise = NoiseSpectrum::of(&samples_noise(d), d.rate_hz);
         let sd = ls_amplitude_sd(&ls, b.y.len(), b.dt, b.t_off, &[f], 0, &noise)?.0;
         Some(ls.coef[3].hypot(ls.coef[4]) / sd)
     });
@@ -671,7 +671,10 @@ fn sinusoids_fit(
         })
         .collect();
     let mut gyro = refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0);
-    let noise = NoiseSpectrum::of(&gyro, d.rate_hz);
+    let noise = match d.shaped_dps {
+        Some(_) => NoiseSpectrum::of(&refit_noise(d, &cleaned).map_or_else(|| gyro.clone(), |r| r.0), d.rate_hz),
+        None => NoiseSpectrum::of(&gyro, d.rate_hz),
+    };
     let se: Vec<[f64; 3]> = found
         .iter()
         .map(|f| match ls_amplitude_sd(ls, b.y.len(), b.dt, b.t_off, freqs, f.index, &noise) {

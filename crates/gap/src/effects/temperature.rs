@@ -54,8 +54,9 @@ pub(super) fn temperature(d: &TrainingData) -> Option<EffectFit> {
     // The first pass's noises: the base fit's, and the base fit's without its random walk and ramp, which a slow
     // temperature cycle of a few periods per record may have become (the GLS then weighs the cycle against its
     // own power and finds nothing); the stronger test is kept.
-    let quiet = GyroSim { k_dps_per_rt_s: 0.0, r_dps_per_s: 0.0, ..d.base.clone() };
-    let pass = [d.base, &quiet]
+    let noise = samples_noise(d);
+    let quiet = GyroSim { k_dps_per_rt_s: 0.0, r_dps_per_s: 0.0, ..noise.clone() };
+    let pass = [&noise, &quiet]
         .into_iter()
         .filter_map(|first| g.second_pass(first))
         .filter(|p| p.se > 0.0)
@@ -213,7 +214,7 @@ impl<'a> Regression<'a> {
         let lag1 = self.best_lag(&self.rt1, &s1);
         let (k1, _, _) = self.gls(&self.transform(&self.lagged(lag1)), &self.rt1, &s1);
         let cleaned1 = self.cleaned_of(k1, lag1);
-        let (refit1, _) = refit_base(d, &cleaned1)?;
+        let (refit1, _) = refit_noise(d, &cleaned1)?;
         let noise = NoiseSpectrum::of_block_means(&refit1, d.rate_hz, m);
         let mut r2 = self.r.clone();
         if !d.gaps.is_empty() {

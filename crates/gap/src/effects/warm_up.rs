@@ -271,14 +271,15 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     };
     // The first pass's noises: the base fit's, and the base fit's without its random walk and ramp, which may be
     // the warm-up's own long tail.
-    let quiet = GyroSim { k_dps_per_rt_s: 0.0, r_dps_per_s: 0.0, ..d.base.clone() };
-    let firsts = [d.base, &quiet].map(|g| scan(x, rate_hz, &BlockNoise::of(g), g.r_dps_per_s != 0.0));
+    let noise = samples_noise(d);
+    let quiet = GyroSim { k_dps_per_rt_s: 0.0, r_dps_per_s: 0.0, ..noise.clone() };
+    let firsts = [&noise, &quiet].map(|g| scan(x, rate_hz, &BlockNoise::of(g), g.r_dps_per_s != 0.0));
     let (size, se, tau_s) = firsts
         .into_iter()
         .flatten()
         .filter(|&(size1, se1, _)| (size1 / se1).abs() > T_STAT_FIRST)
         .filter_map(|(size1, _, tau1)| {
-            let (refit1, _) = refit_base(d, &cleaned_of(size1, tau1))?;
+            let (refit1, _) = refit_noise(d, &cleaned_of(size1, tau1))?;
             scan(x, rate_hz, &BlockNoise::of(&refit1), refit1.r_dps_per_s != 0.0)
         })
         .max_by(|a, b| (a.0 / a.1).abs().total_cmp(&(b.0 / b.1).abs()))?;
