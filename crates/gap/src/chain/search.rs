@@ -397,9 +397,14 @@ impl Search<'_, '_> {
             // significance.
             let before = rank::total_of(&self.eval.training);
             let allowed = (evidence::VIEWS_TOLERANCE * before).max(evidence::AGREEMENT_TOTAL);
+            let band_before = rank::band_gap(&self.eval.training, location);
             let worse_than_before = |e: &Evaluated| {
                 let total = rank::total_of(&e.training);
-                total > allowed && !evidence::still_agrees(total, rank::gap_of(&e.training))
+                let band_kept = match (band_before, rank::band_gap(&e.training, location)) {
+                    (Some(b), Some(a)) => a <= evidence::VIEWS_TOLERANCE * b,
+                    _ => false,
+                };
+                total > allowed && !(band_kept && evidence::still_agrees(total, rank::gap_of(&e.training)))
             };
             let mut worse = worse_than_before(&after);
             // The estimator refitted the base terms alone beside its effect, on a curve whose other effects it took
