@@ -90,12 +90,17 @@ const SHARPNESS: f64 = 0.5;
 /// Whether the change of size `size` the scan found at sample `t` with window `l` is sharp: a step keeps its size
 /// in the mean difference across windows of `l / 4` (within a window of where the scan put it), while a smooth
 /// change over a time longer than the window (a warm-up settling, found where its decay meets the record's start)
-/// keeps about a quarter. Where a process shows only one or two steps, each must be sharp; a run of steps
-/// proves itself by their number.
+/// keeps about a quarter. Where a process shows only one or two steps, each must be sharp and at least two
+/// windows from either end of the record; a run of steps proves itself by their number.
 fn is_sharp(x: &[f64], l: usize, t: usize, size: f64) -> bool {
+    // Within two windows of an end, a change cannot be told from a start settling (a warm-up) or an end drifting.
+    if t < 2 * l || t + 2 * l > x.len() {
+        return false;
+    }
     let q = (l / 4).max(1);
     let mean = |a: usize, b: usize| x[a..b].iter().sum::<f64>() / (b - a) as f64;
-    let (lo, hi) = (t.saturating_sub(l / 2).max(q), (t + l / 2).min(x.len().saturating_sub(q)));
+    // The scan placed the step within an eighth of a window (its grid refined); a step keeps its size there.
+    let (lo, hi) = (t - l / 8, t + l / 8);
     let step = (l / 32).max(1);
     (lo..=hi).step_by(step).any(|u| ((mean(u, u + q) - mean(u - q, u)) * size.signum()) >= SHARPNESS * size.abs())
 }
@@ -192,6 +197,9 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
         gyro,
         channel: None,
         spread: Some(ParamSpread::StepRate { steps: steps.len() as f64 }),
-        cleaned: Some(Arc::new(cleaned)),
+        // A lone step or two is named as a process the views judge, not as a realisation the chain takes out:
+        // taken out, a jump that falls with a temperature swing would take the record's coherence with the
+        // temperature along with it (CATS gyro_y), and the temperature view would credit the steps.
+        cleaned: (steps.len() >= REFIT_STEPS).then(|| Arc::new(cleaned)),
     })
 }
