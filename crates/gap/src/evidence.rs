@@ -128,10 +128,10 @@ pub const AGREEMENT_TOTAL: f64 = 1.0;
 /// misfit there, refused.
 pub const NAMED_AGREEMENT_TOTAL: f64 = 1.5;
 
-/// Whether a model named by an estimator, whose views' `total` and worst view's `gap` are given, still agrees
-/// with the record ([`NAMED_AGREEMENT_TOTAL`]; the caller checks the located band).
-pub fn still_agrees(total: f64, gap: f64) -> bool {
-    total <= NAMED_AGREEMENT_TOTAL && gap <= crate::rank::SIGNIFICANT_GAP
+/// Whether a model named by an estimator, whose views' `total` is given and whose views have a significant gap
+/// or not, still agrees with the record ([`NAMED_AGREEMENT_TOTAL`]; the caller checks the located band).
+pub fn still_agrees(total: f64, significant: bool) -> bool {
+    total <= NAMED_AGREEMENT_TOTAL && !significant
 }
 
 /// Whether `effect`'s test is the fall of a curve's chi-square (the Allan curve's for a filter corner, the

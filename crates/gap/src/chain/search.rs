@@ -404,7 +404,8 @@ impl Search<'_, '_> {
                     (Some(b), Some(a)) => a <= evidence::VIEWS_TOLERANCE * b,
                     _ => false,
                 };
-                total > allowed && !(band_kept && evidence::still_agrees(total, rank::gap_of(&e.training)))
+                total > allowed
+                    && !(band_kept && evidence::still_agrees(total, rank::gap_of(&e.training) > rank::SIGNIFICANT_GAP))
             };
             let mut worse = worse_than_before(&after);
             // The estimator refitted the base terms alone beside its effect, on a curve whose other effects it took
