@@ -494,17 +494,26 @@ fn a_case_from_the_independent_generator() {
     assert!(row.pass, "{row:?}");
 }
 
+/// Each of `cases` (generator, effects, seed) diagnosed and passing; `ci_only` cases run only where `CI` is set.
+fn cases_pass(cases: &[(Gen, &[Effect], u64)], ci_only: bool) {
+    if ci_only && std::env::var_os("CI").is_none() {
+        println!("skipped: runs where CI is set");
+        return;
+    }
+    for &(gen, effects, seed) in cases {
+        let row = run_case(gen, &Kind::Effects(effects.to_vec()), seed);
+        log_row(&row);
+        assert!(row.pass, "seed {seed}: {row:?}");
+    }
+}
+
 /// Two records of the sweep whose training part holds one or two of a Poisson process's bias steps (seeds 7 and 8
 /// of shared::sim: 11 and 14 steps a record, most of them in the held-out part): the steps' heavy-tailed Allan
 /// differences are a significant gap in the distribution view, and the process fitted to the steps the training
 /// part shows takes it away, so the diagnosis names `bias_steps` and holds out below 2.5.
 #[test]
 fn bias_steps_seen_once_in_training_are_named() {
-    for seed in [7, 8] {
-        let row = run_case(Gen::Sim, &Kind::Effects(vec![Effect::BiasSteps]), seed);
-        log_row(&row);
-        assert!(row.pass, "seed {seed}: {row:?}");
-    }
+    cases_pass(&[(Gen::Sim, &[Effect::BiasSteps], 7), (Gen::Sim, &[Effect::BiasSteps], 8)], false);
 }
 
 /// A sinusoid of 6.5 s beside a bistable bias whose flips every few seconds hide it from every view (the
@@ -513,13 +522,7 @@ fn bias_steps_seen_once_in_training_are_named() {
 /// response with every view's gap near 1, so it is named. Where `CI` is set (20 s).
 #[test]
 fn a_sinusoid_a_bistable_bias_hides_is_named() {
-    if std::env::var_os("CI").is_none() {
-        println!("skipped: runs where CI is set");
-        return;
-    }
-    let row = run_case(Gen::Indep, &Kind::Effects(vec![Effect::Sinusoid, Effect::Bistable]), 0);
-    log_row(&row);
-    assert!(row.pass, "{row:?}");
+    cases_pass(&[(Gen::Indep, &[Effect::Sinusoid, Effect::Bistable], 0)], true);
 }
 
 /// Spikes beside a coarse ADC lattice (seed 5 of both generators: 5.6 white sds a step, 22 spikes of 34 robust
@@ -528,13 +531,6 @@ fn a_sinusoid_a_bistable_bias_hides_is_named() {
 /// nothing out of the samples, so the estimators' route is open to the spikes after it). Where `CI` is set (20 s).
 #[test]
 fn spikes_on_a_lattice_are_named_after_it() {
-    if std::env::var_os("CI").is_none() {
-        println!("skipped: runs where CI is set");
-        return;
-    }
-    for gen in [Gen::Sim, Gen::Indep] {
-        let row = run_case(gen, &Kind::Effects(vec![Effect::Quantization, Effect::Outliers]), 5);
-        log_row(&row);
-        assert!(row.pass, "{row:?}");
-    }
+    let lattice_spikes: &[Effect] = &[Effect::Quantization, Effect::Outliers];
+    cases_pass(&[(Gen::Sim, lattice_spikes, 5), (Gen::Indep, lattice_spikes, 5)], true);
 }

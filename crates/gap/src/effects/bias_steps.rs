@@ -7,8 +7,10 @@ use std::sync::Arc;
 use super::common::*;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 
-/// Fewest detected steps for which the base terms are re-fitted on the record without them.
-const REFIT_STEPS: usize = 3;
+/// Fewest detected steps that show a process by their number: from it on, the steps need not be sharp
+/// ([`is_sharp`]), the base terms are re-fitted on the record without them, and the chain takes them out of the
+/// samples.
+pub(super) const PROCESS_STEPS: usize = 3;
 
 /// The scan's threshold in robust scales of its statistic: `max(FLOOR, sqrt(2 ln(N/L)) + MARGIN)`.
 /// `sqrt(2 ln(N/L))` is about the largest of the N/L independent windows' Gaussian noise. The margin is lower
@@ -88,7 +90,7 @@ pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
 const SHARPNESS: f64 = 0.5;
 
 /// Whether the change of size `size` the scan found at sample `t` with window `l` is sharp: a step keeps its size
-/// in the mean difference across windows of `l / 4` (within a window of where the scan put it), while a smooth
+/// in the mean difference across windows of `l / 4` (within an eighth of a window of where the scan put it), while a smooth
 /// change over a time longer than the window (a warm-up settling, found where its decay meets the record's start)
 /// keeps about a quarter. Where a process shows only one or two steps, each must be sharp and at least two
 /// windows from either end of the record; a run of steps proves itself by their number.
@@ -130,7 +132,7 @@ impl EffectKind for Kind {
 /// often leaves one or two steps there, and the views decide whether the process explains the gap (a moment fit
 /// from D's fourth cumulant cannot stand in for the scan: over 16 blocks its t-statistic is no larger on step
 /// records than on effect-free ones). From
-/// [`REFIT_STEPS`] steps on, the base terms are re-fitted on the record without the detected steps (the base fit
+/// [`PROCESS_STEPS`] steps on, the base terms are re-fitted on the record without the detected steps (the base fit
 /// took their random-walk-like Allan variance, `lambda sigma^2 tau / 3`, for K).
 pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
@@ -138,7 +140,8 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let rate_hz = d.rate_hz;
     let l = scan_window(x, rate_hz)?;
     let Scan { threshold: thr, mut steps } = mosum_scan(x, l)?;
-    if steps.len() < REFIT_STEPS {
+    let lone = steps.len() < PROCESS_STEPS;
+    if lone {
         steps.retain(|&(t, size)| is_sharp(x, l, t, size));
     }
     // One step is enough to fit the process: a Poisson rate seen through a training part may leave a single step
@@ -175,11 +178,7 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
         .collect();
     // One or two steps barely move the Allan curve, so the base terms stay as they are: a re-fit there would
     // change the model by the re-fit, not by the steps, and the views would judge the wrong thing.
-    let refit = if steps.len() >= REFIT_STEPS {
-        refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0)
-    } else {
-        d.base.clone()
-    };
+    let refit = if lone { d.base.clone() } else { refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0) };
     let gyro = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }), ..refit };
     let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / rate_hz).collect();
     Some(EffectFit {
@@ -200,6 +199,6 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
         // A lone step or two is named as a process the views judge, not as a realisation the chain takes out:
         // taken out, a jump that falls with a temperature swing would take the record's coherence with the
         // temperature along with it (CATS gyro_y), and the temperature view would credit the steps.
-        cleaned: (steps.len() >= REFIT_STEPS).then(|| Arc::new(cleaned)),
+        cleaned: (!lone).then(|| Arc::new(cleaned)),
     })
 }

@@ -542,7 +542,8 @@ fn a_settling_warm_up_is_not_a_lone_bias_step() {
 
 /// The bias-step scan's threshold holds on noise without steps: over 40 records of the base gyro's white noise,
 /// flicker and random walk (the robust scale of a red-noise scan statistic is read from few independent
-/// windows, so its peaks reach further than a Gaussian's), none shows three peaks beyond the threshold, and at
+/// windows, so its peaks reach further than a Gaussian's), none shows the [`bias_steps::PROCESS_STEPS`] peaks
+/// beyond the threshold that show a process by their number, and at
 /// most 4 show one or more. A peak only fits the process: the views then judge whether its simulation explains a
 /// significant gap, and the withheld sweep's controls measure how often that names it on effect-free records.
 #[test]
@@ -556,7 +557,7 @@ fn bias_step_scan_holds_its_threshold_on_noise() {
             bias_steps::mosum_scan(&x, l).unwrap().steps.len()
         })
         .collect();
-    let many = counts.iter().filter(|&&c| c >= 3).count();
+    let many = counts.iter().filter(|&&c| c >= bias_steps::PROCESS_STEPS).count();
     let any = counts.iter().filter(|&&c| c > 0).count();
     assert!(many == 0 && any <= 4, "peaks beyond the threshold per record: {counts:?}");
 }
