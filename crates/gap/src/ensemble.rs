@@ -15,6 +15,7 @@ use octavar_shared::sim::{GyroSim, SimError, VirtualGyro};
 use rayon::prelude::*;
 
 use super::effects::ParamSpread;
+use super::fill::{fill_gaps, gap_runs, with_gaps};
 use super::views::{Measure, Plan};
 
 /// The target the ensemble imitates: a recording split into its training part and its holdout.
@@ -123,6 +124,43 @@ pub fn simulate(
         }
     }
     Ok(out)
+}
+
+/// The training part of each member of `gyro`'s ensemble (as [`simulate`] draws it) with `less` applied to it,
+/// measured on `train_plan`: `less` gets the member's training samples with the record's gaps filled
+/// ([`fill_gaps`]), and the gaps are copied back in before the measure.
+///
+/// # Errors
+/// The model's [`SimError`] (a parameter out of range).
+pub fn simulate_less(
+    gyro: &GyroSim,
+    spreads: &[ParamSpread],
+    channel: Option<&Channel>,
+    rec: &Target,
+    train_plan: &Plan,
+    seeds: &[u64],
+    less: &(dyn Fn(&mut [f64]) + Sync),
+) -> Result<Vec<Measure>, SimError> {
+    let fs_sim = rec.rate_hz * rec.oversample.max(1) as f64;
+    VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
+    let table = code_table(channel);
+    Ok(seeds
+        .par_iter()
+        .map(|&seed| {
+            let drawn = (!spreads.is_empty()).then(|| draw_all(spreads, gyro, seed));
+            let g = drawn.as_ref().filter(|g| VirtualGyro::new(g, adc_of(channel), fs_sim, 0).is_ok()).unwrap_or(gyro);
+            let x = member(g, channel, &table, rec, rec.n_train, seed);
+            train_plan.measure(&less_in_gaps(&x, less), rec.training_temp(), false)
+        })
+        .collect())
+}
+
+/// `x` (NaN in its gaps) with `less` applied to it gaps filled, and its gaps back in.
+pub fn less_in_gaps(x: &[f64], less: &(dyn Fn(&mut [f64]) + Sync)) -> Vec<f64> {
+    let runs = gap_runs(x);
+    let mut y = fill_gaps(x);
+    less(&mut y);
+    with_gaps(&y, &runs)
 }
 
 /// `gyro` with the parameters of each spread drawn for the member of `seed` (the k-th spread with its own salt, so

@@ -101,6 +101,31 @@ impl<'a> Judge<'a> {
         self.real_hold.as_ref()
     }
 
+    /// `gyro`'s ensemble compared with the record on the training part, in the views of the samples themselves
+    /// (Allan deviation, spectrum, distribution), with `less` applied to the real training samples and to every
+    /// member's alike ([`ensemble::simulate_less`]): with a named jump process's scan as `less`
+    /// ([`effects::JumpScan`]), record and members are compared with their jumps taken out the same way, so the
+    /// members' fresh jumps no longer hide what else the record holds. `name` names the model in an error.
+    ///
+    /// # Errors
+    /// [`GapError::Sim`]: the simulator rejects the model.
+    pub fn less_jumps(
+        &self,
+        gyro: &GyroSim,
+        spreads: &[effects::ParamSpread],
+        ch: Option<&Channel>,
+        less: &(dyn Fn(&mut [f64]) + Sync),
+        name: &str,
+    ) -> Result<Vec<ViewGap>, GapError> {
+        let rec = self.record();
+        let members = ensemble::simulate_less(gyro, spreads, ch, &rec, &self.train_plan, &self.seeds, less)
+            .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
+        let real = self.train_plan.measure(&ensemble::less_in_gaps(rec.training(), less), rec.training_temp(), true);
+        let mut views = compare::compare(&self.train_plan, &real, &members);
+        views.retain(|v| v.view != views::ViewKind::Temperature);
+        Ok(views)
+    }
+
     /// `gyro`'s ensemble (its members drawing their effects' parameters from `spreads`, on channel `ch` or as the analog rate)
     /// compared with the record on both parts. A model with a temperature coupling is judged in the temperature
     /// view on what its coupling leaves, on the real record as on each member. `realised` is the realisation of

@@ -525,6 +525,31 @@ fn a_sinusoid_a_bistable_bias_hides_is_named() {
     cases_pass(&[(Gen::Indep, &[Effect::Sinusoid, Effect::Bistable], 0)], true);
 }
 
+/// Partners a bistable bias hides from the plain views, whose members each draw a fresh telegraph: a Gauss-Markov
+/// process (the independent generator's pair of seed 0) and bias steps (shared::sim's pair of seed 0). Neither
+/// has a test of its own, so only the views with the telegraph's jumps taken out of the record and of every member
+/// alike name them (the chain's third route); without it each diagnosis names the bias alone. Where `CI` is set
+/// (40 s).
+#[test]
+fn partners_a_bistable_bias_hides_are_named_with_its_jumps_out() {
+    cases_pass(
+        &[
+            (Gen::Indep, &[Effect::GaussMarkov, Effect::Bistable], 0),
+            (Gen::Sim, &[Effect::BiasSteps, Effect::Bistable], 0),
+        ],
+        true,
+    );
+}
+
+/// A bistable bias alone (shared::sim's seed 4: 60 jumps of 0.48 deg/s) whose scan gives one stretch of 1,500 s
+/// the wrong state: the levels put it back, so the views with the jumps out find no step the bias does not
+/// explain, and the bias alone is named (with that stretch left wrong, `bias_steps` was named beside it). Where
+/// `CI` is set (10 s).
+#[test]
+fn a_telegraph_read_whole_leaves_no_partner() {
+    cases_pass(&[(Gen::Sim, &[Effect::Bistable], 4)], true);
+}
+
 /// Spikes beside a coarse ADC lattice (seed 5 of both generators: 5.6 white sds a step, 22 spikes of 34 robust
 /// sigma a half): once the quantisation step has explained the lattice, no view's gap is significant, and the
 /// spikes are named by their law's likelihood ratio, read on the dithered samples (the quantisation step takes

@@ -8,7 +8,7 @@
 //! with the model itself as their base, so that the effect they add is added to every effect found before. The
 //! IEEE base terms are re-fitted on those samples for the estimators that need a base fit.
 //!
-//! A step names an effect by one of two routes ([`search`], [`NamedBy`]):
+//! A step names an effect by one of three routes ([`search`], [`NamedBy`]):
 //! - **the views**: while a significant gap remains, the remaining candidates are ranked on the model so far and
 //!   the best is added when it removes at least a quarter of the gap's excess over what a right model leaves
 //!   ([`crate::rank::explains`]). When no single candidate does, two effects may share the gap, each too
@@ -18,6 +18,12 @@
 //! - **the estimators**: an effect whose own test names it beyond a threshold calibrated on effect-free records
 //!   ([`crate::evidence`]) is added where the views name nothing: a warm-up over the first minutes, a small
 //!   temperature coupling beside a larger effect.
+//! - **the views less the jumps**: beside a named jump process (a bistable bias, bias steps), the plain views
+//!   compare the record with members that draw the process afresh, and its spread hides a partner of several
+//!   times the base noise. Where neither route above names anything, the record and every member are compared
+//!   again with their jumps found and taken out by the process's own scan, the same way on both
+//!   ([`crate::judge::Judge::less_jumps`]); a remaining effect that removes a quarter of that comparison's
+//!   significant gap, and leaves the plain views no worse, is added.
 //!
 //! Each step reports where the gap lay on the model before it, the gap there before and after on both parts, its
 //! ranking and what named it; the held-out check of the whole chain compares the base model with the last one,

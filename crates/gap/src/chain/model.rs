@@ -42,6 +42,15 @@ pub enum NamedBy {
     /// The effect's own estimator, beyond a threshold calibrated on effect-free records, where no view's gap
     /// named it ([`crate::evidence`]).
     Estimator(Evidence),
+    /// The views with a named jump process's jumps taken out of the record and of every member alike
+    /// ([`crate::judge::Judge::less_jumps`]), where the process's fresh jumps in the members hid the effect from
+    /// the plain views: it removed at least a quarter of that comparison's significant gap.
+    ViewsLessJumps {
+        /// The gap of that comparison on the model before the effect.
+        gap_before: f64,
+        /// The same with the effect.
+        gap_after: f64,
+    },
 }
 
 /// One step of the chain.

@@ -11,7 +11,7 @@ use super::data::StepData;
 use super::joint;
 use super::model::{Model, NamedBy, Step, MAX_STEPS};
 use crate::compare::ViewGap;
-use crate::effects::{self, Effect, EffectFit};
+use crate::effects::{self, Effect, EffectFit, JumpScan};
 use crate::error::GapError;
 use crate::evidence;
 use crate::fill::{fill_gaps, gap_runs};
@@ -156,7 +156,13 @@ pub(crate) fn search<'p>(
             }
         }
         // The estimators' route.
+        let ranked = candidates.clone();
         if s.evidence_step(&remaining, &data, candidates, &location, first.then_some(&mut first_candidates))? {
+            last_tried.clear();
+            continue;
+        }
+        // The views' route with a named jump process's jumps taken out of record and members alike.
+        if !first && s.less_jumps_step(&remaining, &data, &ranked, &location)? {
             last_tried.clear();
             continue;
         }
@@ -396,18 +402,7 @@ impl Search<'_, '_> {
             // ([`evidence::still_agrees`]), and a curve's test beside a significant gap must take that gap below
             // significance.
             let before = rank::total_of(&self.eval.training);
-            let allowed = (evidence::VIEWS_TOLERANCE * before).max(evidence::AGREEMENT_TOTAL);
-            let band_before = rank::band_gap(&self.eval.training, location);
-            let worse_than_before = |e: &Evaluated| {
-                let total = rank::total_of(&e.training);
-                let band_kept = match (band_before, rank::band_gap(&e.training, location)) {
-                    (Some(b), Some(a)) => a <= evidence::VIEWS_TOLERANCE * b,
-                    _ => false,
-                };
-                total > allowed
-                    && !(band_kept && evidence::still_agrees(total, rank::gap_of(&e.training) > rank::SIGNIFICANT_GAP))
-            };
-            let mut worse = worse_than_before(&after);
+            let mut worse = self.worse_than_now(&after, location);
             // The estimator refitted the base terms alone beside its effect, on a curve whose other effects it took
             // as known; where that leaves the views worse, the model's stochastic terms re-estimated together with
             // the new effect in place may not.
@@ -415,7 +410,7 @@ impl Search<'_, '_> {
                 if let Some(j) = self.reestimated(&m) {
                     self.progress.expect("evidence", 1);
                     let joint = self.evaluate(&j, known.as_deref(), fit.effect.name())?;
-                    if !worse_than_before(&joint) {
+                    if !self.worse_than_now(&joint, location) {
                         fit = EffectFit { params: fit.params.reestimated(&j.gyro), gyro: j.gyro.clone(), ..fit };
                         (m, after, worse) = (j, joint, false);
                     }
@@ -446,6 +441,98 @@ impl Search<'_, '_> {
         }
         self.model = m;
         self.add(data, fit, after, candidates, location, NamedBy::Estimator(ev), None);
+        Ok(true)
+    }
+
+    /// Whether the views find `e` worse than the model so far: its training total beyond
+    /// [`evidence::VIEWS_TOLERANCE`] times the model's (and beyond [`evidence::AGREEMENT_TOTAL`]), unless it keeps
+    /// the band `location` no worse and still agrees with the record ([`evidence::still_agrees`]).
+    fn worse_than_now(&self, e: &Evaluated, location: &Location) -> bool {
+        let before = rank::total_of(&self.eval.training);
+        let allowed = (evidence::VIEWS_TOLERANCE * before).max(evidence::AGREEMENT_TOTAL);
+        let total = rank::total_of(&e.training);
+        let band_kept = match (rank::band_gap(&self.eval.training, location), rank::band_gap(&e.training, location)) {
+            (Some(b), Some(a)) => a <= evidence::VIEWS_TOLERANCE * b,
+            _ => false,
+        };
+        total > allowed
+            && !(band_kept && evidence::still_agrees(total, rank::gap_of(&e.training) > rank::SIGNIFICANT_GAP))
+    }
+
+    /// The route beside a named jump process (the chain's module doc): where the chain took a bistable bias's or
+    /// bias steps' realisation out, the record and every member of the model so far are compared with their jumps
+    /// found and taken out by the process's own scan ([`Judge::less_jumps`]); where that comparison leaves a
+    /// significant gap that the base terms read again on the samples less the jumps do not take below
+    /// significance, each remaining effect, estimated on this step's data (the fits of `candidates` reused), is
+    /// judged the same way, and the best that explains the gap ([`rank::explains`]) and leaves the plain views no
+    /// worse ([`Self::worse_than_now`]) is added. Says whether it added one.
+    fn less_jumps_step(
+        &mut self,
+        remaining: &[Effect],
+        data: &StepData,
+        candidates: &[CandidateResult],
+        location: &Location,
+    ) -> Result<bool, GapError> {
+        let scans: Vec<JumpScan> =
+            self.steps.iter().filter_map(|st| JumpScan::of(st.final_fit(), &self.filled, self.rate_hz)).collect();
+        if scans.is_empty() {
+            return Ok(false);
+        }
+        let less = |x: &mut [f64]| scans.iter().for_each(|sc| sc.take_out(x));
+        self.progress.expect("less jumps", 1);
+        let (gyro, spreads, channel) = (&self.model.gyro, &self.model.spreads, self.model.channel.as_ref());
+        let before = self.judge.less_jumps(gyro, spreads, channel, &less, "chain")?;
+        self.progress.tick("less jumps");
+        let gap_before = rank::gap_of(&before);
+        if gap_before <= rank::SIGNIFICANT_GAP {
+            return Ok(false);
+        }
+        // The base terms read again on the samples less the jumps: where they alone take the gap below
+        // significance, it is theirs (a telegraph's joint curve fit reads the flicker beneath it as none), not a
+        // hidden effect's.
+        let mut refit = data.base_fit.sim_terms(self.model.gyro.clone());
+        if self.model.channel.is_some() {
+            refit.q_deg = self.model.gyro.q_deg;
+        }
+        self.progress.expect("less jumps", 1);
+        let null = self.judge.less_jumps(&refit, &self.model.spreads, self.model.channel.as_ref(), &less, "base")?;
+        self.progress.tick("less jumps");
+        if rank::gap_of(&null) <= rank::SIGNIFICANT_GAP {
+            return Ok(false);
+        }
+        let total_before = rank::total_of(&before);
+        let training =
+            data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
+        let fits: Vec<EffectFit> = remaining
+            .par_iter()
+            .filter_map(|&e| match candidates.iter().find(|c| c.effect == e) {
+                Some(c) => c.fit.clone(),
+                None => effects::fit_effect(e, &training),
+            })
+            .collect();
+        self.progress.expect("less jumps", fits.len());
+        let mut best: Option<(f64, EffectFit, Vec<ViewGap>)> = None;
+        for fit in fits {
+            let m = self.model.with(&fit);
+            let after = self.judge.less_jumps(&m.gyro, &m.spreads, m.channel.as_ref(), &less, fit.effect.name())?;
+            self.progress.tick("less jumps");
+            let score = rank::score(rank::total_of(&after), fit.n_params);
+            if rank::explains(score, total_before) && best.as_ref().is_none_or(|(s, ..)| score < *s) {
+                best = Some((score, fit, after));
+            }
+        }
+        let Some((_, fit, less_after)) = best else { return Ok(false) };
+        let m = self.model.with(&fit);
+        let known = self.known_with(data, &fit);
+        self.progress.expect("less jumps", 1);
+        let after = self.evaluate(&m, known.as_deref(), fit.effect.name())?;
+        if self.worse_than_now(&after, location) {
+            return Ok(false);
+        }
+        let named_by = NamedBy::ViewsLessJumps { gap_before, gap_after: rank::gap_of(&less_after) };
+        let c = CandidateResult::new(fit.effect, Some(fit.clone()), Some(after.clone()), Some(location));
+        self.model = m;
+        self.add(data, fit, after, vec![c], location, named_by, None);
         Ok(true)
     }
 

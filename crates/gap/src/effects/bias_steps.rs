@@ -107,6 +107,35 @@ fn is_sharp(x: &[f64], l: usize, t: usize, size: f64) -> bool {
     (lo..=hi).step_by(step).any(|u| ((mean(u, u + q) - mean(u - q, u)) * size.signum()) >= SHARPNESS * size.abs())
 }
 
+/// The bias level the `steps` (sample index, signed size; any order) build over `n` samples, from 0 before the
+/// first.
+fn step_levels(steps: &[(usize, f64)], n: usize) -> Vec<f64> {
+    let mut order = steps.to_vec();
+    order.sort_by_key(|s| s.0);
+    let mut level = 0.0;
+    let mut next = 0;
+    (0..n)
+        .map(|i| {
+            while next < order.len() && order[next].0 <= i {
+                level += order[next].1;
+                next += 1;
+            }
+            level
+        })
+        .collect()
+}
+
+/// The steps the scan at window `l` finds in `x`, as the bias level they build ([`step_levels`]), its mean taken
+/// out: what [`bias_steps`] takes out of the samples, found again on any series by the same scan. `None` when the
+/// scan has no scale.
+pub(super) fn recovered_levels(x: &[f64], l: usize) -> Option<Vec<f64>> {
+    let scan = mosum_scan(x, l)?;
+    let mut levels = step_levels(&scan.steps, x.len());
+    let m = mean(&levels);
+    levels.iter_mut().for_each(|v| *v -= m);
+    Some(levels)
+}
+
 /// The biassteps effect: [`bias_steps`] and its parameters.
 pub(super) struct Kind;
 
@@ -161,21 +190,7 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let hours = n as f64 / rate_hz / 3600.0;
     let per_hour = steps.len() as f64 / pdet / hours;
     // The base terms re-fitted on the record without the detected steps (the base fit took them for K).
-    let mut order = steps.clone();
-    order.sort_by_key(|s| s.0);
-    let mut level = 0.0;
-    let mut next = 0;
-    let cleaned: Vec<f64> = x
-        .iter()
-        .enumerate()
-        .map(|(i, &v)| {
-            while next < order.len() && order[next].0 <= i {
-                level += order[next].1;
-                next += 1;
-            }
-            v - level
-        })
-        .collect();
+    let cleaned: Vec<f64> = x.iter().zip(step_levels(&steps, n)).map(|(v, l)| v - l).collect();
     // One or two steps barely move the Allan curve, so the base terms stay as they are: a re-fit there would
     // change the model by the re-fit, not by the steps, and the views would judge the wrong thing.
     let refit = if lone { d.base.clone() } else { refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0) };

@@ -296,14 +296,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     let p_high = time_high / (time_high + time_low);
     let on_curve = telegraph_on_curve(d, step, dwell_low, dwell_high, p_high);
     let (dwell_low, dwell_high) = on_curve.as_ref().map_or((dwell_low, dwell_high), |c| (c.0, c.1));
-    let (high, low) = (step * (1.0 - p_high), -step * p_high);
-    let mut cleaned = x.to_vec();
-    for &(a, b, is_high) in &edges {
-        let v = if is_high { high } else { low };
-        for c in &mut cleaned[a..b] {
-            *c -= v;
-        }
-    }
+    let cleaned: Vec<f64> = x.iter().zip(telegraph_levels(x, &edges, step, p_high)).map(|(v, l)| v - l).collect();
     let refit = match &on_curve {
         Some((_, _, theta)) => with_base_terms(d.base, theta),
         None => refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0),
@@ -335,6 +328,72 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
         spread: Some(ParamSpread::Dwells { low: count_low as f64, high: count_high as f64 }),
         cleaned: Some(Arc::new(cleaned)),
     })
+}
+
+/// The two zero-mean levels of a telegraph of step `step` spending a share `p_high` of the time high, over the
+/// stretches `edges` (start, end, high) of `x`.
+///
+/// A stretch whose state the jumps gave wrong (a jump put back between two of one sign at the wrong place, a false
+/// jump beside a missed one) leaves `x` less its level a whole step off its neighbours' for as long as it lasts, a
+/// level error that no noise term explains. So each stretch is put in the other state where `x` less the levels
+/// over it stands about a whole step from the mean over its two neighbours (weighted by their lengths): more than
+/// three quarters of one, and within a quarter of a step of that mean in the other state (a random walk beneath
+/// moves the neighbours' means by part of a step, not by one), where the stretch is long enough for its mean to
+/// tell (half a step beyond four standard errors of the sample noise, read from the RMS of the samples'
+/// differences).
+fn telegraph_levels(x: &[f64], edges: &[(usize, usize, bool)], step: f64, p_high: f64) -> Vec<f64> {
+    let (high, low) = (step * (1.0 - p_high), -step * p_high);
+    // The RMS of the differences, not a robust scale: on an ADC lattice coarser than the noise most differences
+    // are 0, and a median of them would call a stretch of one sample long enough.
+    let noise_sd =
+        (x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (x.len().max(2) - 1) as f64)).sqrt();
+    let long_enough = |len: usize| 0.5 * step > 4.0 * noise_sd / (len as f64).sqrt();
+    let level = |h: bool| if h { high } else { low };
+    let mut states: Vec<bool> = edges.iter().map(|e| e.2).collect();
+    let stretch_mean = |k: usize, states: &[bool]| {
+        let (a, b, _) = edges[k];
+        (b > a).then(|| x[a..b].iter().sum::<f64>() / (b - a) as f64 - level(states[k]))
+    };
+    for k in 0..edges.len() {
+        let Some(own) = stretch_mean(k, &states) else { continue };
+        // The neighbours' mean, each weighted by its length.
+        let (sum, len) = [k.checked_sub(1), (k + 1 < edges.len()).then_some(k + 1)]
+            .into_iter()
+            .flatten()
+            .filter_map(|j| stretch_mean(j, &states).map(|m| (m, (edges[j].1 - edges[j].0) as f64)))
+            .fold((0.0, 0.0), |(s, l), (m, w)| (s + m * w, l + w));
+        if len == 0.0 {
+            continue;
+        }
+        let reference = sum / len;
+        let flipped = own + level(states[k]) - level(!states[k]);
+        let long = long_enough(edges[k].1 - edges[k].0);
+        if long && (own - reference).abs() > 0.75 * step && (flipped - reference).abs() < 0.25 * step {
+            states[k] = !states[k];
+        }
+    }
+    let mut levels = vec![0.0; x.len()];
+    for (&(a, b, _), &h) in edges.iter().zip(&states) {
+        levels[a..b].iter_mut().for_each(|v| *v = level(h));
+    }
+    levels
+}
+
+/// The telegraph the scan at window `l` finds in `x`, as its two zero-mean levels: what [`bistable`] takes out of
+/// the samples, found again on any series by the same scan, jumps put back and states read the same way, with no
+/// test of its own (the effect is already named). `None` where the scan finds no completed dwell of each state.
+pub(super) fn recovered_levels(x: &[f64], l: usize) -> Option<Vec<f64>> {
+    let n = x.len();
+    let flips = flips_at(x, l)?;
+    if flips.jumps.len() < 2 {
+        return None;
+    }
+    let jumps = repaired(x, &flips);
+    let seen: Vec<f64> =
+        refined_sizes(x, &jumps, l).iter().zip(&jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect();
+    let step = mean(&seen);
+    let States { edges, time_high, time_low, .. } = States::between(&jumps, n, 1.0)?;
+    Some(telegraph_levels(x, &edges, step, time_high / (time_high + time_low)))
 }
 
 /// The two states between the jumps: each stretch of the record with its state, and each state's time and
@@ -383,6 +442,34 @@ impl States {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A stretch the jumps put in the wrong state (the low level read as high for a thousand samples, between two
+    /// true ones) is put back in its state: `x` less the levels is then the noise alone, where a stretch read
+    /// wrong would leave a whole step there; a short stretch whose mean cannot tell keeps the state it was given.
+    #[test]
+    fn a_stretch_given_the_wrong_state_is_put_back() {
+        let n = 6_000;
+        let noise = octavar_stats::test_signals::white(n, 7);
+        let truth = |i: usize| (1_000..2_000).contains(&i) || (4_000..5_000).contains(&i);
+        let (step, p_high) = (1.0, 1.0 / 3.0);
+        let level = |h: bool| if h { step * (1.0 - p_high) } else { -step * p_high };
+        let x: Vec<f64> = (0..n).map(|i| level(truth(i)) + 0.3 * noise[i]).collect();
+        // The stretch 2000..3000 is low but read as high; 3000..3002 is too short to tell either way.
+        let edges = [
+            (0, 1_000, false),
+            (1_000, 2_000, true),
+            (2_000, 3_000, true),
+            (3_000, 3_002, true),
+            (3_002, 4_000, false),
+            (4_000, 5_000, true),
+            (5_000, n, false),
+        ];
+        let levels = telegraph_levels(&x, &edges, step, p_high);
+        for (i, l) in levels.iter().enumerate() {
+            let want = if (3_000..3_002).contains(&i) { level(true) } else { level(truth(i)) };
+            assert!((l - want).abs() < 1e-12, "sample {i}: level {l}, want {want}");
+        }
+    }
 
     /// A short excursion cut by each end of the record shows only its inner jump to the scan: the outer one is put
     /// back at its place, with the opposite sign, and the jumps the scan saw are kept as they were.

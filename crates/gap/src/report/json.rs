@@ -366,7 +366,9 @@ struct StepDoc<'a> {
     /// this effect's step.
     jointly_reestimated: bool,
     /// What named the effect: `{"route": "view"}`, or `{"route": "estimator", "statistic", "value",
-    /// "threshold"}` where its estimator's own test named it and no view's gap did.
+    /// "threshold"}` where its estimator's own test named it and no view's gap did, or `{"route":
+    /// "views_less_jumps", "gap_before", "gap_after"}` where the views named it with a named jump process's jumps
+    /// taken out of the record and of every member alike.
     evidence: NamedBy,
     view: ViewKind,
     band_s: [f64; 2],

@@ -316,6 +316,10 @@ impl GapReport {
 fn named_by_text(step: &Step) -> String {
     match step.named_by {
         NamedBy::View => String::new(),
+        NamedBy::ViewsLessJumps { gap_before, gap_after } => format!(
+            ", named by the views with the jumps taken out of the record and of every member alike, where the members' \
+             fresh jumps hid it (gap {gap_before:.2} -> {gap_after:.2})"
+        ),
         NamedBy::Estimator(ev) => {
             let route = if step.training.gap_before > rank::SIGNIFICANT_GAP {
                 "beside a gap no view's candidate took"
