@@ -9,6 +9,8 @@
 //! temperature view on the member less the model's own temperature response, [`temperature_response`]). Members
 //! run in parallel (rayon) and only their measures are kept, so memory is two records per core, not one per seed.
 
+use std::borrow::Cow;
+
 use octavar_shared::sensor::Channel;
 use octavar_shared::sim::temperature::ThermalLag;
 use octavar_shared::sim::{GyroSim, SimError, VirtualGyro};
@@ -96,10 +98,7 @@ pub fn simulate(
     seeds: &[u64],
     explained: Option<&[f64]>,
 ) -> Result<Ensemble, SimError> {
-    // Fail early (and once) on a bad model.
-    let fs_sim = rec.rate_hz * rec.oversample.max(1) as f64;
-    VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
-    let table = code_table(channel);
+    let (fs_sim, table) = checked(gyro, channel, rec)?;
     let (resp_train, resp_hold) = match explained {
         Some(r) => (Some(&r[..rec.n_train]), Some(&r[rec.n_train..])),
         None => (None, None),
@@ -107,9 +106,8 @@ pub fn simulate(
     let members: Vec<(Measure, Option<Measure>)> = seeds
         .par_iter()
         .map(|&seed| {
-            let drawn = (!spreads.is_empty()).then(|| draw_all(spreads, gyro, seed));
-            let g = drawn.as_ref().filter(|g| VirtualGyro::new(g, adc_of(channel), fs_sim, 0).is_ok()).unwrap_or(gyro);
-            let x = member(g, channel, &table, rec, rec.rate_dps.len(), seed);
+            let g = drawn_model(gyro, spreads, channel, fs_sim, seed);
+            let x = member(&g, channel, &table, rec, rec.rate_dps.len(), seed);
             let train = train_plan.measure_explained(&x[..rec.n_train], rec.training_temp(), resp_train, false);
             let hold =
                 holdout_plan.map(|p| p.measure_explained(&x[rec.n_train..], rec.holdout_temp(), resp_hold, false));
@@ -141,15 +139,12 @@ pub fn simulate_less(
     seeds: &[u64],
     less: &(dyn Fn(&mut [f64]) + Sync),
 ) -> Result<Vec<Measure>, SimError> {
-    let fs_sim = rec.rate_hz * rec.oversample.max(1) as f64;
-    VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
-    let table = code_table(channel);
+    let (fs_sim, table) = checked(gyro, channel, rec)?;
     Ok(seeds
         .par_iter()
         .map(|&seed| {
-            let drawn = (!spreads.is_empty()).then(|| draw_all(spreads, gyro, seed));
-            let g = drawn.as_ref().filter(|g| VirtualGyro::new(g, adc_of(channel), fs_sim, 0).is_ok()).unwrap_or(gyro);
-            let x = member(g, channel, &table, rec, rec.n_train, seed);
+            let g = drawn_model(gyro, spreads, channel, fs_sim, seed);
+            let x = member(&g, channel, &table, rec, rec.n_train, seed);
             train_plan.measure(&less_in_gaps(&x, less), rec.training_temp(), false)
         })
         .collect())
@@ -161,6 +156,33 @@ pub fn less_in_gaps(x: &[f64], less: &(dyn Fn(&mut [f64]) + Sync)) -> Vec<f64> {
     let mut y = fill_gaps(x);
     less(&mut y);
     with_gaps(&y, &runs)
+}
+
+/// The rate the members of `gyro` on `channel` are simulated at (the record's, oversampled), once the simulator
+/// has accepted the model there (a bad model fails early, and once), with the channel's code table.
+fn checked(gyro: &GyroSim, channel: Option<&Channel>, rec: &Target) -> Result<(f64, Vec<f64>), SimError> {
+    let fs_sim = rec.rate_hz * rec.oversample.max(1) as f64;
+    VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
+    Ok((fs_sim, code_table(channel)))
+}
+
+/// The model the member of `seed` simulates: `gyro` with its effects' parameters drawn from `spreads`
+/// ([`draw_all`]), or `gyro` itself without spreads or where the simulator rejects the draw at `fs_sim`.
+fn drawn_model<'g>(
+    gyro: &'g GyroSim,
+    spreads: &[ParamSpread],
+    channel: Option<&Channel>,
+    fs_sim: f64,
+    seed: u64,
+) -> Cow<'g, GyroSim> {
+    if spreads.is_empty() {
+        return Cow::Borrowed(gyro);
+    }
+    let g = draw_all(spreads, gyro, seed);
+    match VirtualGyro::new(&g, adc_of(channel), fs_sim, 0) {
+        Ok(_) => Cow::Owned(g),
+        Err(_) => Cow::Borrowed(gyro),
+    }
 }
 
 /// `gyro` with the parameters of each spread drawn for the member of `seed` (the k-th spread with its own salt, so
@@ -245,9 +267,7 @@ pub fn predict_holdout(
     explained_hold: Option<&[f64]>,
     relearn: &Relearn,
 ) -> Result<Vec<Measure>, SimError> {
-    let fs_sim = rec.rate_hz * rec.oversample.max(1) as f64;
-    VirtualGyro::new(gyro, adc_of(channel), fs_sim, 0)?;
-    let table = code_table(channel);
+    let (fs_sim, table) = checked(gyro, channel, rec)?;
     Ok(seeds
         .par_iter()
         .map(|&seed| {
