@@ -101,11 +101,19 @@ impl<'a> Judge<'a> {
         self.real_hold.as_ref()
     }
 
+    /// The real training part with `less` applied to it (gaps filled for it, then put back), measured on the
+    /// training plan: what [`Judge::less_jumps`] compares every model's members with.
+    pub fn training_less(&self, less: &(dyn Fn(&mut [f64]) + Sync)) -> views::Measure {
+        let rec = self.record();
+        self.train_plan.measure(&ensemble::less_in_gaps(rec.training(), less), rec.training_temp(), true)
+    }
+
     /// `gyro`'s ensemble compared with the record on the training part, in the views of the samples themselves
-    /// (Allan deviation, spectrum, distribution), with `less` applied to the real training samples and to every
-    /// member's alike ([`ensemble::simulate_less`]): with a named jump process's scan as `less`
-    /// ([`effects::JumpScan`]), record and members are compared with their jumps taken out the same way, so the
-    /// members' fresh jumps no longer hide what else the record holds. `name` names the model in an error.
+    /// (Allan deviation, spectrum, distribution), with `less` applied to every member's training samples as it was
+    /// to the real ones, measured as `real` ([`Judge::training_less`], [`ensemble::simulate_less`]): with a named
+    /// jump process's scan as `less` ([`effects::JumpScan`]), record and members are compared with their jumps
+    /// taken out the same way, so the members' fresh jumps no longer hide what else the record holds. `name` names
+    /// the model in an error.
     ///
     /// # Errors
     /// [`GapError::Sim`]: the simulator rejects the model.
@@ -115,13 +123,13 @@ impl<'a> Judge<'a> {
         spreads: &[effects::ParamSpread],
         ch: Option<&Channel>,
         less: &(dyn Fn(&mut [f64]) + Sync),
+        real: &views::Measure,
         name: &str,
     ) -> Result<Vec<ViewGap>, GapError> {
         let rec = self.record();
         let members = ensemble::simulate_less(gyro, spreads, ch, &rec, &self.train_plan, &self.seeds, less)
             .map_err(|err| GapError::Sim { model: name.to_string(), err })?;
-        let real = self.train_plan.measure(&ensemble::less_in_gaps(rec.training(), less), rec.training_temp(), true);
-        let mut views = compare::compare(&self.train_plan, &real, &members);
+        let mut views = compare::compare(&self.train_plan, real, &members);
         views.retain(|v| v.view != views::ViewKind::Temperature);
         Ok(views)
     }

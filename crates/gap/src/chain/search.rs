@@ -479,9 +479,10 @@ impl Search<'_, '_> {
             return Ok(false);
         }
         let less = |x: &mut [f64]| scans.iter().for_each(|sc| sc.take_out(x));
+        let real = self.judge.training_less(&less);
         self.progress.expect("less jumps", 1);
         let (gyro, spreads, channel) = (&self.model.gyro, &self.model.spreads, self.model.channel.as_ref());
-        let before = self.judge.less_jumps(gyro, spreads, channel, &less, "chain")?;
+        let before = self.judge.less_jumps(gyro, spreads, channel, &less, &real, "chain")?;
         self.progress.tick("less jumps");
         let gap_before = rank::gap_of(&before);
         if gap_before <= rank::SIGNIFICANT_GAP {
@@ -495,7 +496,8 @@ impl Search<'_, '_> {
             refit.q_deg = self.model.gyro.q_deg;
         }
         self.progress.expect("less jumps", 1);
-        let null = self.judge.less_jumps(&refit, &self.model.spreads, self.model.channel.as_ref(), &less, "base")?;
+        let null =
+            self.judge.less_jumps(&refit, &self.model.spreads, self.model.channel.as_ref(), &less, &real, "base")?;
         self.progress.tick("less jumps");
         if rank::gap_of(&null) <= rank::SIGNIFICANT_GAP {
             return Ok(false);
@@ -514,7 +516,8 @@ impl Search<'_, '_> {
         let mut best: Option<(f64, EffectFit, Vec<ViewGap>)> = None;
         for fit in fits {
             let m = self.model.with(&fit);
-            let after = self.judge.less_jumps(&m.gyro, &m.spreads, m.channel.as_ref(), &less, fit.effect.name())?;
+            let after =
+                self.judge.less_jumps(&m.gyro, &m.spreads, m.channel.as_ref(), &less, &real, fit.effect.name())?;
             self.progress.tick("less jumps");
             let score = rank::score(rank::total_of(&after), fit.n_params);
             if rank::explains(score, total_before) && best.as_ref().is_none_or(|(s, ..)| score < *s) {

@@ -149,6 +149,11 @@ fn refined_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The sizes of the jumps the scan saw (not those put back), measured again ([`refined_sizes`]), unsigned.
+fn seen_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
+    refined_sizes(x, jumps, l).iter().zip(jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect()
+}
+
 /// The dwells read again from the Allan curve, where it tells them better than the count of jumps. A telegraph of
 /// step `s` spending a share `p` of the time high is, in its Allan variance, a Gauss-Markov process of variance
 /// `s^2 p (1 - p)` and correlation time `T = dwell_low dwell_high / (dwell_low + dwell_high)`; the counted dwells
@@ -271,8 +276,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     }
     let jumps = repaired(x, &best);
     // The step from the jumps the scan saw (one put back is measured over its short excursion).
-    let abs: Vec<f64> =
-        refined_sizes(x, &jumps, best.window).iter().zip(&jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect();
+    let abs = seen_sizes(x, &jumps, best.window);
     let step = median(&abs);
     let spread = 1.4826 * median(&abs.iter().map(|a| (a - step).abs()).collect::<Vec<_>>()) / step;
     if !(step > 0.0 && spread <= MAX_SIZE_SPREAD) {
@@ -389,9 +393,7 @@ pub(super) fn recovered_levels(x: &[f64], l: usize) -> Option<Vec<f64>> {
         return None;
     }
     let jumps = repaired(x, &flips);
-    let seen: Vec<f64> =
-        refined_sizes(x, &jumps, l).iter().zip(&jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect();
-    let step = mean(&seen);
+    let step = mean(&seen_sizes(x, &jumps, l));
     let States { edges, time_high, time_low, .. } = States::between(&jumps, n, 1.0)?;
     Some(telegraph_levels(x, &edges, step, time_high / (time_high + time_low)))
 }
