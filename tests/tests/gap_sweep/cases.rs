@@ -47,20 +47,81 @@ pub enum Control {
     Temperature,
 }
 
+/// One thing a case's record holds beside the base gyro: an effect of the vocabulary, or epsilon-contaminated
+/// noise, which the vocabulary names `outliers` but which the sweep draws apart from rare spikes (a share of the
+/// samples from 1e-5 to a fifth, 3-50 sigma, isolated or in runs of 2-3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Item {
+    Effect(Effect),
+    Contamination,
+}
+
+impl Item {
+    /// Every item in the sweep's order: the vocabulary's, then contamination.
+    pub fn all() -> Vec<Item> {
+        Effect::ALL.iter().map(|&e| Item::Effect(e)).chain([Item::Contamination]).collect()
+    }
+
+    /// The effect a correct diagnosis names for it.
+    pub fn effect(self) -> Effect {
+        match self {
+            Item::Effect(e) => e,
+            Item::Contamination => Effect::Outliers,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Item::Effect(e) => e.name(),
+            Item::Contamination => "contamination",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Item> {
+        match s {
+            "contamination" => Some(Item::Contamination),
+            _ => Effect::parse(s).map(Item::Effect),
+        }
+    }
+}
+
+/// Whether items can share a record: rare spikes and a contamination are one effect, spikes, twice over (one
+/// `outliers` law cannot hold both, nor can either generator's one spike process), so no kind holds both.
+fn compatible(items: &[Item]) -> bool {
+    !(items.contains(&Item::Effect(Effect::Outliers)) && items.contains(&Item::Contamination))
+}
+
 /// What a record holds besides the base gyro.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Kind {
-    /// One or more effects of the vocabulary.
-    Effects(Vec<Effect>),
+    /// One or more items (effects of the vocabulary, or contamination).
+    Effects(Vec<Item>),
     Control(Control),
 }
 
 impl Kind {
-    pub fn effects(&self) -> Vec<Effect> {
+    /// A kind of effects of the vocabulary alone.
+    pub fn of(effects: &[Effect]) -> Kind {
+        Kind::Effects(effects.iter().map(|&e| Item::Effect(e)).collect())
+    }
+
+    /// The items drawn into the record.
+    pub fn items(&self) -> Vec<Item> {
         match self {
             Kind::Effects(e) => e.clone(),
             Kind::Control(_) => Vec::new(),
         }
+    }
+
+    /// The effects a correct diagnosis names.
+    pub fn effects(&self) -> Vec<Effect> {
+        let mut out: Vec<Effect> = Vec::new();
+        for e in self.items().into_iter().map(Item::effect) {
+            if !out.contains(&e) {
+                out.push(e);
+            }
+        }
+        out
     }
 
     pub fn name(&self) -> String {
@@ -81,24 +142,27 @@ impl Kind {
         }
     }
 
-    /// `temperature`, `bandwidth+resonance`, `a+b+c`, `none`, `none+bump`, `none+temperature`.
+    /// `temperature`, `contamination`, `bandwidth+resonance`, `a+b+c`, `none`, `none+bump`, `none+temperature`.
     pub fn parse(s: &str) -> Option<Kind> {
         match s {
             "none" => Some(Kind::Control(Control::None)),
             "none+bump" => Some(Kind::Control(Control::Bump)),
             "none+temperature" => Some(Kind::Control(Control::Temperature)),
-            _ => s.split('+').map(Effect::parse).collect::<Option<Vec<_>>>().map(Kind::Effects),
+            _ => s.split('+').map(Item::parse).collect::<Option<Vec<_>>>().filter(|i| compatible(i)).map(Kind::Effects),
         }
     }
 }
 
-/// Every pair of the vocabulary, in its order.
+/// Every pair of the sweep's items, in their order (54: the vocabulary's 45, and contamination beside each effect
+/// but `outliers`).
 pub fn pairs() -> Vec<Kind> {
-    let all = Effect::ALL;
+    let all = Item::all();
     let mut out = Vec::new();
     for (i, &a) in all.iter().enumerate() {
         for &b in &all[i + 1..] {
-            out.push(Kind::Effects(vec![a, b]));
+            if compatible(&[a, b]) {
+                out.push(Kind::Effects(vec![a, b]));
+            }
         }
     }
     out
@@ -106,12 +170,15 @@ pub fn pairs() -> Vec<Kind> {
 
 /// [`TRIPLES`] triples of the vocabulary (every one when there are fewer), drawn once from a fixed seed.
 pub fn triples() -> Vec<Kind> {
-    let all = Effect::ALL;
+    let all = Item::all();
     let mut every = Vec::new();
     for i in 0..all.len() {
         for j in i + 1..all.len() {
             for k in j + 1..all.len() {
-                every.push(vec![all[i], all[j], all[k]]);
+                let t = vec![all[i], all[j], all[k]];
+                if compatible(&t) {
+                    every.push(t);
+                }
             }
         }
     }
@@ -138,7 +205,7 @@ pub fn kinds_from(list: &str) -> Vec<Kind> {
             Some(("triples", k)) => out.extend(spread(triples(), k)),
             _ => match item {
                 "all" => out.extend(kinds_from("singles,pairs,triples,controls")),
-                "singles" => out.extend(Effect::ALL.iter().map(|&e| Kind::Effects(vec![e]))),
+                "singles" => out.extend(Item::all().into_iter().map(|i| Kind::Effects(vec![i]))),
                 "pairs" => out.extend(pairs()),
                 "triples" => out.extend(triples()),
                 "controls" => out.extend([Control::None, Control::Bump, Control::Temperature].map(Kind::Control)),
@@ -199,13 +266,13 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
     let d = samples as f64 / rate_hz;
     let tau0 = 1.0 / rate_hz;
     let white = base.white_sd(rate_hz);
-    let effects = kind.effects();
+    let items = kind.items();
     let stream_of = |e: Effect| StdRng::seed_from_u64(0xeffe_c700 ^ (seed << 8) ^ e as u64);
     // A lattice raises K so that the walk crosses a few steps, and its rounding adds white noise of about
     // `step^2 / 12` a sample. Both are the record's noise: every other effect is sized against `noise`, the base
     // with them (at long taus the walk can be ten times the base's Allan deviation; a step of 3.8 white sds
     // doubles the white floor a resonance stands on).
-    let lattice = effects.contains(&Effect::Quantization).then(|| {
+    let lattice = items.contains(&Item::Effect(Effect::Quantization)).then(|| {
         let mut r = stream_of(Effect::Quantization);
         let step = size(&mut r) / 3.0 * white;
         Lattice { step_dps: step, offset_dps: uniform(&mut r, 0.0, step) }
@@ -226,7 +293,20 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
     let mut g = base.clone();
     let mut what = Vec::new();
     let mut bump = None;
-    for &e in &effects {
+    for &item in &items {
+        let e = match item {
+            Item::Effect(e) => e,
+            Item::Contamination => {
+                let mut r = StdRng::seed_from_u64(0xc047_a000 ^ (seed << 8));
+                let c = contamination(&mut r, samples, white_ratio);
+                what.push(format!(
+                    "contamination {:.2e} of samples {:.1}-{:.1} sigma runs <= {}",
+                    c.per_sample, c.size_sigma[0], c.size_sigma[1], c.longest_run
+                ));
+                g.contamination = Some(c);
+                continue;
+            }
+        };
         let mut r = stream_of(e);
         match e {
             Effect::Temperature => {
@@ -325,6 +405,25 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
         }
     }
     Case { truth: g, rate_hz, samples, bump, what: what.join(" & ") }
+}
+
+/// An epsilon-contamination of `samples` samples: a share log-uniform from 1e-5 (at least 20 spikes a record) to
+/// a fifth; sizes uniform over a range around a centre log-uniform up to 50 white sds, the range up to 1.5 times
+/// either way within 3-50; runs up to 1, 2 or 3 samples, one in three each. The centre stands at least one sd
+/// beyond `sqrt(2 ln(1 / share))`, the Chernoff bound of where a Gaussian's tails hold the spikes' share, and at
+/// least 3 sds: smaller, the spikes are the noise's own tail, whatever their number. `white_ratio` is the
+/// record's white sd (with a lattice's rounding) over the analog white noise's, whose sds the generator counts.
+fn contamination(r: &mut StdRng, samples: usize, white_ratio: f64) -> Contamination {
+    let share = log_uniform(r, (1e-5f64).max(20.0 / samples as f64), 0.2);
+    let lowest = (3.0f64).max((2.0 * (1.0 / share).ln()).sqrt() + 1.0);
+    let centre = log_uniform(r, lowest, 50.0);
+    let width = uniform(r, 1.0, 1.5);
+    let longest_run = r.random_range(1..=3usize);
+    Contamination {
+        per_sample: share,
+        size_sigma: [(centre / width).max(3.0) * white_ratio, (centre * width).min(50.0) * white_ratio],
+        longest_run,
+    }
 }
 
 /// A daily-like bench temperature of cycle `p` s and swing `swing` degC.

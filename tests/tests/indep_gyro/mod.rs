@@ -16,7 +16,7 @@
 //! | bistable bias | two zero-mean levels `step_dps` apart, exponential dwells | the continuous-time telegraph (stationary start, exponential dwells) read at each sample time |
 //! | warm-up | `size exp(-t / tau)` | evaluated at each sample |
 //! | bandwidth | first-order low-pass at `bandwidth_hz` of every rate term (outliers added after it) | in the frequency domain: the record less its first value, zero-padded past the filter's memory, times `(1 - a) / (1 - a e^(-i w))`, `a = exp(-2 pi f3dB / rate_hz)` (the discrete filter of a rate sample, started settled) |
-//! | outliers, contamination | a share of samples carrying spikes of either sign, sized in sigmas of the white noise | events (isolated, or runs of 2-3 samples of one sign) started at Bernoulli samples, sizes uniform over a range |
+//! | outliers, contamination | a share of samples carrying spikes of either sign, sized in sigmas of the white noise | events (isolated, or runs of 2-3 samples of one sign, each its own sign and size) started at Bernoulli samples outside an event, so that the share spiked is the one asked for; sizes uniform over a range |
 //! | quantisation | values on a lattice of step `step_dps` | rounding to `offset + step Z`, last of all |
 //!
 //! The truth maps to shared::sim's `GyroSim` for the oracle in [`oracle`], apart from the generator.
@@ -360,7 +360,10 @@ pub fn contamination(c: &Contamination, white_sd: f64, n: usize, rng: &mut StdRn
     let weights = [4.0, 2.0, 1.0];
     let total: f64 = weights[..runs].iter().sum();
     let mean_run: f64 = weights[..runs].iter().enumerate().map(|(i, w)| (i + 1) as f64 * w).sum::<f64>() / total;
-    let p_start = c.per_sample / mean_run;
+    // An event starts with probability p at each sample outside one, so a share `p L / (1 - p + p L)` of the
+    // samples is spiked (L the mean run): p is what makes that share `per_sample`.
+    let f = c.per_sample.clamp(0.0, 0.5);
+    let p_start = f / (mean_run - f * (mean_run - 1.0));
     let mut out = vec![0.0; n];
     let mut i = 0;
     while i < n {
@@ -379,7 +382,7 @@ pub fn contamination(c: &Contamination, white_sd: f64, n: usize, rng: &mut StdRn
             for v in out.iter_mut().skip(i).take(len) {
                 *v = sign * size * white_sd;
             }
-            i += len + 1;
+            i += len;
         } else {
             i += 1;
         }

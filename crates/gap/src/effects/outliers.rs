@@ -30,8 +30,12 @@
 //!   Flagged pairs k samples apart with one sign come from a run or by chance; chance gives as many of opposite
 //!   signs. The same-sign excess over `n eps D^2` (D the chance that a spike is flagged, from the fitted law) is
 //!   `rho_k`, the probability that the sample k after a spike is of its run: the mean run length is
-//!   `1 / (1 - rho_1)`, and `rho_2 / rho_1` the probability that a run of two goes on (the two parameters of
-//!   [`Outliers`]' run law, which holds runs of one or two as well as geometric ones).
+//!   `1 / (1 - rho_1)`, and the probability that a run of two goes on is `rho_k / rho_(k-1)`, pooled over lags
+//!   up to [`RUN_LAGS`] (the two parameters of [`Outliers`]' run law, which holds runs of one or two as well as
+//!   geometric ones).
+//! - **Calibration.** Where the spikes stand near the core, the law and the runs read so are biased (a run's
+//!   partner pulls a spike's residual in; run members are flagged less often than lone spikes); the law is
+//!   corrected by indirect inference against synthetic records of itself ([`calibrate`]).
 //! - **Base terms.** The spikes' own Allan variance (autocovariance `eps E s^2` at lag 0, `eps centre^2 rho_k` at
 //!   lag k: runs share a sign) is taken off the OADEV and the base terms are re-fitted on what is left, each
 //!   point's degrees of freedom scaled by the share left squared (its sampling error is the whole variance's). The flagged spikes, replaced by their neighbours' median, are the realisation
@@ -48,6 +52,7 @@ use super::quantization::lattice;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 use octavar_stats::robust::mad_scale_in_place;
 
+mod calibrate;
 mod mixture;
 #[cfg(test)]
 mod tests;
@@ -152,6 +157,9 @@ fn residuals(x: &[f64], gap: &[bool], skip: Option<&[bool]>) -> Vec<f64> {
     r
 }
 
+/// The longest lag at which same-sign pairs of flagged spikes are counted for the run law.
+const RUN_LAGS: usize = 4;
+
 /// Spikes whose fitted magnitude law starts this many core sds out stand clear of the core: every one of them is
 /// flagged.
 const CLEAR_SIGMAS: f64 = 10.0;
@@ -193,7 +201,7 @@ pub(super) struct Contamination {
     pub flagged: Vec<(usize, f64)>,
     /// Probability that the sample after a spike is of its run (`rho_1`).
     pub rho1: f64,
-    /// Probability that a run of two or more goes on (`rho_2 / rho_1`).
+    /// Probability that a run of two or more goes on (`rho_k / rho_(k-1)`, pooled over lags 2 to [`RUN_LAGS`]).
     pub cont_next: f64,
     /// Residuals beyond [`TAIL_SIGMAS`] core sds, and how many the core explains.
     pub tail: (usize, f64),
@@ -213,7 +221,8 @@ impl Contamination {
             && !clustered(&hits, n)
     }
 
-    /// The mean run length, samples.
+    /// The mean run length, samples, as read (before [`calibrate`]).
+    #[cfg(test)]
     pub fn run_mean(&self) -> f64 {
         1.0 / (1.0 - self.rho1)
     }
@@ -257,7 +266,8 @@ fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>, least: f64) -> Opti
     // Runs: flagged pairs k apart of one sign beyond those of opposite signs, against n eps D^2.
     let d = mix.spike_sf(flag);
     let pairs = n_valid as f64 * mix.eps * d * d;
-    let rho = |k: usize| {
+    // Same-sign pairs beyond opposite-sign ones k apart, and their count.
+    let excess = |k: usize| {
         let (mut same, mut opposite) = (0.0f64, 0.0f64);
         for (j, &(i, v)) in flagged.iter().enumerate() {
             for &(i2, v2) in flagged[j + 1..].iter().take_while(|f| f.0 <= i + k) {
@@ -270,15 +280,22 @@ fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>, least: f64) -> Opti
                 }
             }
         }
-        let significant = same - opposite > 3.0 * (same + opposite).sqrt() && pairs > 0.0;
-        if significant {
-            ((same - opposite) / pairs).clamp(0.0, 0.9)
-        } else {
-            0.0
-        }
+        (same - opposite, same + opposite)
     };
-    let rho1 = rho(1);
-    let cont_next = if rho1 > 0.0 { (rho(2) / rho1).clamp(0.0, 0.9) } else { 0.0 };
+    let (e1, all1) = excess(1);
+    let rho1 = if e1 > 3.0 * all1.sqrt() && pairs > 0.0 { (e1 / pairs).clamp(0.0, 0.9) } else { 0.0 };
+    // A run of two or more goes on with one probability c (`rho_k = rho_1 c^(k-1)`): c pooled over lags 2-4,
+    // `(rho_2 + rho_3 + rho_4) / (rho_1 + rho_2 + rho_3)`, so that the long runs, which carry most of a run
+    // law's fourth moment, are read from every lag that sees them, and a lag too sparse to pass a test of its own
+    // still counts.
+    let cont_next = if rho1 > 0.0 {
+        let later: Vec<f64> = (2..=RUN_LAGS).map(|k| excess(k).0.max(0.0)).collect();
+        let above: f64 = later.iter().sum();
+        let below = e1 + later[..later.len() - 1].iter().sum::<f64>();
+        (above / below).clamp(0.0, 0.9)
+    } else {
+        0.0
+    };
     let beyond = abs.iter().filter(|&&v| v > TAIL_SIGMAS * mix.sigma).count();
     let expected = n_valid as f64 * (1.0 - mix.eps) * 2.0 * normal_sf(TAIL_SIGMAS);
     Some(Contamination { mix, flagged, rho1, cont_next, tail: (beyond, expected) })
@@ -320,16 +337,11 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     if !c.is_process(n) {
         return None;
     }
-    let m = clear_law(c.mix, &c.flagged);
-    let run_mean = c.run_mean();
-    let spikes = Outliers {
-        per_sample: m.eps,
-        size_dps: m.centre,
-        spread_dps: m.spread,
-        run_mean: if c.rho1 > 0.0 { run_mean } else { 0.0 },
-        run_continue: c.cont_next,
-        ..Default::default()
-    };
+    let law = calibrate::corrected(&c, n, least);
+    let law = calibrate::Law { mix: clear_law(law.mix, &c.flagged), ..law };
+    let m = law.mix;
+    let run_mean = 1.0 / (1.0 - law.rho1);
+    let spikes = law.outliers();
     let refit = refit_without(d, &spikes);
     let mut cleaned = x.to_vec();
     for &(i, r) in &c.flagged {
@@ -346,13 +358,13 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
             size_dps: m.centre,
             spread_dps: m.spread,
             run_mean,
-            run_continue: c.cont_next,
+            run_continue: law.cont_next,
             count: c.flagged.len(),
             robust_sigma_dps: m.sigma,
             lr: c.mix.lr,
         }
         .into(),
-        n_params: 3 + usize::from(c.rho1 > 0.0) + usize::from(c.cont_next > 0.0),
+        n_params: 3 + usize::from(law.rho1 > 0.0) + usize::from(law.cont_next > 0.0),
         gyro: GyroSim { outliers: Some(spikes), ..refit },
         channel: None,
         // The rate rests on the runs counted: each is a Poisson event of the training part.
