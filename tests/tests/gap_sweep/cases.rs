@@ -298,7 +298,7 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
             Item::Effect(e) => e,
             Item::Contamination => {
                 let mut r = StdRng::seed_from_u64(0xc047_a000 ^ (seed << 8));
-                let c = contamination(&mut r, samples, white_ratio);
+                let c = contamination(&mut r, samples, white_ratio.max(local_sd(&g, rate_hz) / white));
                 what.push(format!(
                     "contamination {:.2e} of samples {:.1}-{:.1} sigma runs <= {}",
                     c.per_sample, c.size_sigma[0], c.size_sigma[1], c.longest_run
@@ -407,13 +407,34 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
     Case { truth: g, rate_hz, samples, bump, what: what.join(" & ") }
 }
 
+/// The sd of what changes from one sample to the next in `g` (white noise, and the fast part of a Gauss-Markov
+/// process, a resonance and a sinusoid: each one's variance times one less its lag-one autocorrelation), deg/s:
+/// the scale a spike must stand out of, which the outliers estimator reads as its residuals' core. Slow terms
+/// and jumps leave it, and a filter, which narrows it, is left out (spikes then stand out more).
+fn local_sd(g: &IndepGyro, rate_hz: f64) -> f64 {
+    let tau0 = 1.0 / rate_hz;
+    let mut var = g.white_sd(rate_hz).powi(2);
+    if let Some(m) = g.gauss_markov {
+        var += m.sigma_dps.powi(2) * (1.0 - (-tau0 / m.tau_s).exp());
+    }
+    if let Some(o) = g.resonance {
+        let rho1 = (2.0 * PI * o.freq_hz * tau0).cos() * (-PI * o.freq_hz * tau0 / o.q).exp();
+        var += o.sigma_dps.powi(2) * (1.0 - rho1);
+    }
+    for s in &g.sinusoids {
+        var += 0.5 * s.amplitude_dps.powi(2) * (1.0 - (2.0 * PI * tau0 / s.period_s).cos());
+    }
+    var.sqrt()
+}
+
 /// An epsilon-contamination of `samples` samples: a share log-uniform from 1e-5 (at least 20 spikes a record) to
 /// a fifth; sizes uniform over a range around a centre log-uniform up to 50 white sds, the range up to 1.5 times
 /// either way within 3-50; runs up to 1, 2 or 3 samples, one in three each. The centre stands at least one sd
 /// beyond `sqrt(2 ln(1 / share))`, the Chernoff bound of where a Gaussian's tails hold the spikes' share, and at
-/// least 3 sds: smaller, the spikes are the noise's own tail, whatever their number. `white_ratio` is the
-/// record's white sd (with a lattice's rounding) over the analog white noise's, whose sds the generator counts.
-fn contamination(r: &mut StdRng, samples: usize, white_ratio: f64) -> Contamination {
+/// least 3 sds: smaller, the spikes are the noise's own tail, whatever their number. The sds are the record's
+/// local noise (the white noise with a lattice's rounding, or [`local_sd`] where it is larger); `local_ratio` is
+/// that over the analog white noise's sd, in which the generator counts.
+fn contamination(r: &mut StdRng, samples: usize, local_ratio: f64) -> Contamination {
     let share = log_uniform(r, (1e-5f64).max(20.0 / samples as f64), 0.2);
     let lowest = (3.0f64).max((2.0 * (1.0 / share).ln()).sqrt() + 1.0);
     let centre = log_uniform(r, lowest, 50.0);
@@ -421,7 +442,7 @@ fn contamination(r: &mut StdRng, samples: usize, white_ratio: f64) -> Contaminat
     let longest_run = r.random_range(1..=3usize);
     Contamination {
         per_sample: share,
-        size_sigma: [(centre / width).max(3.0) * white_ratio, (centre * width).min(50.0) * white_ratio],
+        size_sigma: [(centre / width).max(3.0) * local_ratio, (centre * width).min(50.0) * local_ratio],
         longest_run,
     }
 }

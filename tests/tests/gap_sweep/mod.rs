@@ -33,7 +33,7 @@
 //! | quantization | `sigma_w / 3` (the step; sigma_w the white noise's per-sample sd): steps of 0.7-10 sigma_w | (K raised so the walk crosses a few steps) | the case's other effects are sized against the record's noise: the base with that walk and the rounding's white noise (`step^2 / 12` a sample) |
 //! | bias_steps | `(5/3) sqrt(2) floor` (step sd; floor the smallest base Allan deviation) | 8 to 80 steps per record | fewer than 8 is not a rate; more, each step is a random walk's |
 //! | outliers | `(8/3) sigma_w` (spike size; sizes spread 0.9-1.1 of it): 5-80 sigma_w | 10 to 300 spikes per half record | |
-//! | contamination | (its own ranges) a share log-uniform from 1e-5 (20 spikes a record at least) to 0.2 of the samples; sizes 3-50 sigma_w, uniform over up to 1.5 times either way of a centre at least one sd beyond `sqrt(2 ln(1 / share))` (where a Gaussian's tails hold the same share); runs of up to 1, 2 or 3 samples | | a centre inside the noise's own tail is no contamination, whatever the share |
+//! | contamination | (its own ranges) a share log-uniform from 1e-5 (20 spikes a record at least) to 0.2 of the samples; sizes 3-50 local sds (the white noise's, with the sample-to-sample part of a Gauss-Markov process, a resonance or a sinusoid beside it: `cases::local_sd`), uniform over up to 1.5 times either way of a centre at least one sd beyond `sqrt(2 ln(1 / share))` (where a Gaussian's tails hold the same share); runs of up to 1, 2 or 3 samples | | a centre inside the noise's own tail is no contamination, whatever the share |
 //! | resonance | the white noise's PSD (the bump's peak PSD is s times it) | f0 from 256 Q / D (a bump 4 bins wide in a Welch segment of D/64) to 0.4 of the rate, or 0.7 of a filter's corner; Q 3-30 | a bump the anti-alias filter removes is not there to be named |
 //! | bistable | `(8/3) sqrt(2) adev(dwell/10)` (step) | each dwell from max(30 samples, D/3000) to D/40 | a dwell of a few samples is white noise, and fewer than 40 flips are not a rate |
 //! | warm_up | `10 sqrt(2) adev(tau)` (size, either sign) | tau from D/400 to D/3 | shorter, the warm-up is a transient of the first samples |
@@ -41,8 +41,9 @@
 //! Running it (`SWEEP_SEEDS=a..b`, `SWEEP_KINDS` a comma list of kinds such as `temperature`,
 //! `bandwidth+resonance`, `none+bump`, or of groups `singles`, `pairs`, `pairs:K` (K pairs evenly spread),
 //! `triples`, `triples:K`, `controls`, `all`; `SWEEP_GEN=sim|indep|both`; `SWEEP_OUT=file`; `SWEEP_DUMP=folder` writes each case's record there as CSV, for
-//! `octavar gap` by hand; `SWEEP_ABLATION=1` also runs the true model without each effect present, and the
-//! summary says in how many cases every effect is visible to the views and how the diagnosis does there):
+//! `octavar gap` by hand; `SWEEP_ABLATION=1` also runs the true model without each effect present, its other
+//! terms fitted again, and the summary says in how many cases every effect is visible to the views and how the
+//! diagnosis does there):
 //!
 //! ```sh
 //! SWEEP_SEEDS=0..2 SWEEP_KINDS=singles,pairs:10 cargo test -p octavar-tests --release gap_sweep::sweep -- --ignored --nocapture
@@ -103,9 +104,10 @@ pub struct Row {
     pub samples: usize,
     pub what: String,
     pub secs: f64,
-    /// With `SWEEP_ABLATION=1`: for each effect present, the training gap of the true model without it (the worst
-    /// view over its worst decade). Below the significance threshold, no view can tell the effect from its
-    /// absence on this record, whatever the diagnosis does.
+    /// With `SWEEP_ABLATION=1`: for each effect present, the training gap (the worst view over its worst decade)
+    /// of the true model without it, its other terms fitted again on the training part ([`refitted_without`]).
+    /// Below the significance threshold, no view can tell the effect from its absence on this record, whatever
+    /// the diagnosis does.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ablation: Vec<(String, f64)>,
 }

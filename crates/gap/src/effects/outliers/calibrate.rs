@@ -67,11 +67,12 @@ const SEED: u64 = 0x5_b1a5;
 
 /// The law of `read_off` (read from a record of `n` samples, the magnitudes beyond `least`) corrected for the
 /// estimator's bias; as read where the spikes stand clear of the core, or where a synthetic record gives no
-/// reading.
+/// reading. On an ADC lattice (`least` above 0) the law is left as read too: its magnitudes are held beyond three
+/// steps, so a law near the core is read against that bound, which no synthetic record corrects.
 pub(super) fn corrected(read_off: &Contamination, n: usize, least: f64) -> Law {
     let seen = Law::of(read_off);
     let m = seen.mix;
-    if m.centre - m.spread >= CLEAR_SIGMAS * m.sigma || n < 64 {
+    if m.centre - m.spread >= CLEAR_SIGMAS * m.sigma || n < 64 || least > 0.0 {
         return seen;
     }
     let len = ((SYNTHETIC_SPIKES / m.eps.max(1e-12)) as usize).clamp(n, (MAX_LENGTHS * n as f64) as usize);
@@ -79,13 +80,13 @@ pub(super) fn corrected(read_off: &Contamination, n: usize, least: f64) -> Law {
     let mut white = m.sigma / RESIDUAL_INFLATION;
     for round in 0..ROUNDS {
         let x = synthetic(&law, white, len, SEED + round as u64);
-        let Some(got) = read(&x, &vec![false; len], least) else { return law };
+        let Some(got) = read(&x, &vec![false; len], 0.0) else { return law };
         let got = Law::of(&got);
         let scale = |now: f64, want: f64, have: f64| now * (want / have).clamp(0.5, 2.0);
         white = scale(white, seen.mix.sigma, got.mix.sigma);
         let eps = scale(law.mix.eps, seen.mix.eps, got.mix.eps).min(0.5);
-        let centre = scale(law.mix.centre, seen.mix.centre, got.mix.centre).max(least);
-        let spread = (law.mix.spread + seen.mix.spread - got.mix.spread).clamp(0.0, centre - least);
+        let centre = scale(law.mix.centre, seen.mix.centre, got.mix.centre);
+        let spread = (law.mix.spread + seen.mix.spread - got.mix.spread).clamp(0.0, centre);
         let rho1 = if seen.rho1 > 0.0 { (law.rho1 + seen.rho1 - got.rho1).clamp(0.0, 0.9) } else { 0.0 };
         let cont_next = if rho1 > 0.0 { (law.cont_next + seen.cont_next - got.cont_next).clamp(0.0, 0.9) } else { 0.0 };
         law = Law { mix: Mixture { eps, centre, spread, ..law.mix }, rho1, cont_next };
