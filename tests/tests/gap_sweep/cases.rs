@@ -293,20 +293,10 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
     let mut g = base.clone();
     let mut what = Vec::new();
     let mut bump = None;
-    for &item in &items {
-        let e = match item {
-            Item::Effect(e) => e,
-            Item::Contamination => {
-                let mut r = StdRng::seed_from_u64(0xc047_a000 ^ (seed << 8));
-                let c = contamination(&mut r, samples, white_ratio.max(local_sd(&g, rate_hz) / white));
-                what.push(format!(
-                    "contamination {:.2e} of samples {:.1}-{:.1} sigma runs <= {}",
-                    c.per_sample, c.size_sigma[0], c.size_sigma[1], c.longest_run
-                ));
-                g.contamination = Some(c);
-                continue;
-            }
-        };
+    for e in items.iter().filter_map(|i| match i {
+        Item::Effect(e) => Some(*e),
+        Item::Contamination => None,
+    }) {
         let mut r = stream_of(e);
         match e {
             Effect::Temperature => {
@@ -383,6 +373,16 @@ pub fn draw(kind: &Kind, seed: u64) -> Case {
                 what.push(format!("warm_up {s:.2e} tau {tau:.3e}"));
             }
         }
+    }
+    // A contamination is drawn last, against the local noise of every other effect the record holds.
+    if items.contains(&Item::Contamination) {
+        let mut r = StdRng::seed_from_u64(0xc047_a000 ^ (seed << 8));
+        let c = contamination(&mut r, samples, white_ratio.max(local_sd(&g, rate_hz) / white));
+        what.push(format!(
+            "contamination {:.2e} of samples {:.1}-{:.1} sigma runs <= {}",
+            c.per_sample, c.size_sigma[0], c.size_sigma[1], c.longest_run
+        ));
+        g.contamination = Some(c);
     }
     if let Kind::Control(c) = kind {
         let mut r = StdRng::seed_from_u64(0xc0de_0000 ^ seed);

@@ -129,15 +129,36 @@ fn without(gyro: &GyroSim, channel: Option<&Channel>, effect: Effect) -> (GyroSi
     }
 }
 
+/// The training part as the refit of [`refitted_without`] reads it: the samples with their missing or masked runs
+/// filled, those runs, and the temperature.
+struct Training<'a> {
+    filled: Vec<f64>,
+    gaps: Vec<std::ops::Range<usize>>,
+    temp_c: Option<&'a [f64]>,
+    rate_hz: f64,
+}
+
+impl<'a> Training<'a> {
+    fn of(masked: &'a GapInput) -> Training<'a> {
+        let train = &masked.rate_dps[..masked.n_train];
+        Training {
+            filled: octavar::gap::fill_gaps(train),
+            gaps: octavar::gap::gap_runs(train),
+            temp_c: masked.temp_c.as_ref().map(|t| &t[..masked.n_train]),
+            rate_hz: masked.rate_hz,
+        }
+    }
+}
+
 /// The true model without `effect`, its other terms fitted again on the training part as the diagnosis would fit
-/// them once the effect was left out: the base terms from the diagnosis's own IEEE fit, then the base, the other
-/// stochastic effects and the deterministic ones re-estimated jointly on the training samples
+/// them once the effect was left out: the base terms from the diagnosis's own IEEE fit `base`, then the base, the
+/// other stochastic effects and the deterministic ones re-estimated jointly on the training samples
 /// ([`octavar::gap::chain::joint::reestimate`]). A slow effect the base terms can take up (a Gauss-Markov process
 /// of a long correlation time read as a random walk) then leaves no gap, as on the record it leaves none. The other
 /// effects keep their true form; where one is a jump process, its jumps stay in the samples the refit sees.
 fn refitted_without(
     base: &GyroSim,
-    masked: &GapInput,
+    training: &Training,
     gyro: &GyroSim,
     channel: Option<&Channel>,
     effect: Effect,
@@ -151,12 +172,9 @@ fn refitted_without(
         r_dps_per_s: base.r_dps_per_s,
         ..g
     };
-    let train = &masked.rate_dps[..masked.n_train];
-    let gaps = octavar::gap::gap_runs(train);
-    let filled = octavar::gap::fill_gaps(train);
-    let temp = masked.temp_c.as_ref().map(|t| &t[..masked.n_train]);
+    let t = training;
     let model = octavar::gap::chain::Model { gyro: g, spreads: Vec::new(), channel: ch };
-    let refit = octavar::gap::chain::joint::reestimate(&model, &filled, None, &gaps, temp, masked.rate_hz);
+    let refit = octavar::gap::chain::joint::reestimate(&model, &t.filled, None, &t.gaps, t.temp_c, t.rate_hz);
     (refit.map_or(model.gyro, |m| m.gyro), ch)
 }
 
@@ -188,10 +206,11 @@ pub fn run_case(gen: Gen, kind: &Kind, seed: u64) -> Row {
     let worst = e.holdout.iter().map(|v| v.gap).fold(f64::NAN, f64::max);
     let oracle_gap = octavar::gap::rank::chain_gap(&e.holdout, r.judged_locations()).unwrap_or(worst);
     let ablation = if std::env::var_os("SWEEP_ABLATION").is_some() {
+        let training = Training::of(&masked);
         present
             .iter()
             .map(|&eff| {
-                let (g, ch) = refitted_without(&r.base.gyro, &masked, &model, channel.as_ref(), eff);
+                let (g, ch) = refitted_without(&r.base.gyro, &training, &model, channel.as_ref(), eff);
                 let gap = judge
                     .evaluate(&g, &[], ch.as_ref(), None, "truth without one effect")
                     .map_or(f64::NAN, |e| octavar::gap::rank::gap_of(&e.training));

@@ -220,12 +220,6 @@ impl Contamination {
             && hits.len() >= MIN_SPIKES
             && !clustered(&hits, n)
     }
-
-    /// The mean run length, samples, as read (before [`calibrate`]).
-    #[cfg(test)]
-    pub fn run_mean(&self) -> f64 {
-        1.0 / (1.0 - self.rho1)
-    }
 }
 
 /// Read the contamination of `x` (deg/s; `gap` marks missing or masked samples), the spikes' magnitudes beyond
@@ -340,7 +334,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let law = calibrate::corrected(&c, n, least);
     let law = calibrate::Law { mix: clear_law(law.mix, &c.flagged), ..law };
     let m = law.mix;
-    let run_mean = 1.0 / (1.0 - law.rho1);
+    let run_mean = law.run_mean();
     let spikes = law.outliers();
     let refit = refit_without(d, &spikes);
     let mut cleaned = x.to_vec();

@@ -30,8 +30,14 @@ pub(super) struct Law {
 }
 
 impl Law {
-    fn of(c: &Contamination) -> Law {
+    /// The law as `c` read it.
+    pub fn of(c: &Contamination) -> Law {
         Law { mix: c.mix, rho1: c.rho1, cont_next: c.cont_next }
+    }
+
+    /// The mean run length, samples (`1 / (1 - rho_1)`).
+    pub fn run_mean(&self) -> f64 {
+        1.0 / (1.0 - self.rho1)
     }
 
     /// The spikes of this law as shared::sim draws them.
@@ -40,7 +46,7 @@ impl Law {
             per_sample: self.mix.eps,
             size_dps: self.mix.centre,
             spread_dps: self.mix.spread,
-            run_mean: if self.rho1 > 0.0 { 1.0 / (1.0 - self.rho1) } else { 0.0 },
+            run_mean: if self.rho1 > 0.0 { self.run_mean() } else { 0.0 },
             run_continue: self.cont_next,
             ..Default::default()
         }
@@ -78,9 +84,10 @@ pub(super) fn corrected(read_off: &Contamination, n: usize, least: f64) -> Law {
     let len = ((SYNTHETIC_SPIKES / m.eps.max(1e-12)) as usize).clamp(n, (MAX_LENGTHS * n as f64) as usize);
     let mut law = seen;
     let mut white = m.sigma / RESIDUAL_INFLATION;
+    let no_gaps = vec![false; len];
     for round in 0..ROUNDS {
         let x = synthetic(&law, white, len, SEED + round as u64);
-        let Some(got) = read(&x, &vec![false; len], 0.0) else { return law };
+        let Some(got) = read(&x, &no_gaps, 0.0) else { return law };
         let got = Law::of(&got);
         let scale = |now: f64, want: f64, have: f64| now * (want / have).clamp(0.5, 2.0);
         white = scale(white, seen.mix.sigma, got.mix.sigma);

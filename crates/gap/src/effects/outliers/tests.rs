@@ -73,7 +73,7 @@ fn recovered(spec: Spec, seed: u64, share_tol: f64, size_tol: f64, spread_tol: f
     assert!(c.is_process(N), "{spec:?}: {c:?}");
     let m = c.mix;
     let (centre, half) = (0.5 * (spec.lo + spec.hi), 0.5 * (spec.hi - spec.lo));
-    let got = (m.eps, m.centre / SIGMA, m.spread / SIGMA, c.run_mean());
+    let got = (m.eps, m.centre / SIGMA, m.spread / SIGMA, calibrate::Law::of(&c).run_mean());
     eprintln!("{spec:?} seed {seed}: share {share:.5} -> {:.5}, centre {centre} -> {:.2}, half-width {half} -> {:.2}, run mean -> {:.2}, sigma {:.4}, lr {:.0}", got.0, got.1, got.2, got.3, m.sigma / SIGMA, m.lr);
     assert!((m.eps / share - 1.0).abs() < share_tol, "share {share} read {}", m.eps);
     assert!((got.1 - centre).abs() < size_tol, "centre {centre} read {}", got.1);
@@ -364,7 +364,7 @@ fn spikes_near_the_core_are_read_without_the_estimators_bias() {
         let x: Vec<f64> = (0..N).map(|_| SIGMA * rng.normal() + spikes.next(&mut rng)).collect();
         let c = read_all(&x).expect("a mixture");
         let law = calibrate::corrected(&c, N, 0.0);
-        let raw = calibrate::Law { mix: c.mix, rho1: c.rho1, cont_next: c.cont_next };
+        let raw = calibrate::Law::of(&c);
         let mut worst_raw = 0.0f64;
         for m in [1, 2, 4, 8] {
             let real = difference_kurtosis(&x, m);
