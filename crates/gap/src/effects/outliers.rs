@@ -167,25 +167,52 @@ const CLEAR_SIGMAS: f64 = 10.0;
 /// Fewest flagged spikes whose quartiles give the magnitude law ([`clear_law`]).
 const QUARTILE_SPIKES: usize = 8;
 
-/// The magnitude law of spikes that stand clear of the core, from the quartiles of the flagged magnitudes: where
-/// the fitted law's lower edge is [`CLEAR_SIGMAS`] core sds out, the flagged spikes are the whole sample of it,
-/// and a uniform law on `centre +- spread` has its quartiles at `centre +- spread / 2`. The likelihood's uniform
-/// support must cover every flagged magnitude, so one stray spike at half the others' size (a spike on a bias
-/// flip) stretches it to twice the width, and the simulated spikes lose a third of their fourth moment; the
-/// quartiles do not move. Elsewhere (spikes buried in the core, or too few) the likelihood's law stands.
-fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)]) -> mixture::Mixture {
-    if flagged.len() < QUARTILE_SPIKES || m.centre - m.spread < CLEAR_SIGMAS * m.sigma {
-        return m;
+/// The magnitude law of spikes that stand clear of the core, from the quartiles of the flagged magnitudes, or
+/// `None` where they do not. A uniform law on `centre +- spread` has its quartiles at `centre +- spread / 2`.
+/// - Where the fitted law's lower edge is [`CLEAR_SIGMAS`] core sds out, the flagged spikes are the whole sample
+///   of it. The likelihood's uniform support must cover every flagged magnitude, so one stray spike at half the
+///   others' size (a spike on a bias flip) stretches it to twice the width, and the simulated spikes lose a third
+///   of their fourth moment; the quartiles do not move. The share stays the likelihood's.
+/// - Where only the quartiles' law is that far out, most flagged residuals are a cluster clear of the core and a
+///   few stand between (a bistable bias's flips, the edges of a burst): the likelihood's law, stretched down to
+///   cover them, reads the spikes a third small and far too spread. The law is the cluster's (the quartiles again
+///   of the magnitudes beyond the first law's lower edge), and its share is the flagged residuals within its
+///   support (less three core sds) over the `valid` residuals; the few between are left to the core and to the
+///   effects that made them.
+///
+/// Elsewhere (spikes buried in the core, or too few) the likelihood's law stands.
+fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)], valid: usize) -> Option<mixture::Mixture> {
+    if flagged.len() < QUARTILE_SPIKES {
+        return None;
     }
     let mut mags: Vec<f64> = flagged.iter().map(|f| f.1.abs()).collect();
     mags.sort_by(f64::total_cmp);
-    let quantile = |p: f64| {
-        let at = p * (mags.len() - 1) as f64;
-        let (i, frac) = (at.floor() as usize, at.fract());
-        mags[i] + frac * (mags[(i + 1).min(mags.len() - 1)] - mags[i])
+    let quartile_law = |mags: &[f64]| {
+        let quantile = |p: f64| {
+            let at = p * (mags.len() - 1) as f64;
+            let (i, frac) = (at.floor() as usize, at.fract());
+            mags[i] + frac * (mags[(i + 1).min(mags.len() - 1)] - mags[i])
+        };
+        let (q1, q3) = (quantile(0.25), quantile(0.75));
+        mixture::Mixture { centre: 0.5 * (q1 + q3), spread: q3 - q1, ..m }
     };
-    let (q1, q3) = (quantile(0.25), quantile(0.75));
-    mixture::Mixture { centre: 0.5 * (q1 + q3), spread: q3 - q1, ..m }
+    let quartiles = quartile_law(&mags);
+    let clear = CLEAR_SIGMAS * m.sigma;
+    if m.centre - m.spread >= clear {
+        return Some(quartiles);
+    }
+    if quartiles.centre - quartiles.spread < clear || valid == 0 {
+        return None;
+    }
+    // The few between pull the first quartile down: the law again from the cluster alone.
+    let cluster = &mags[mags.partition_point(|&v| v < quartiles.centre - quartiles.spread)..];
+    if cluster.len() < QUARTILE_SPIKES {
+        return None;
+    }
+    let law = quartile_law(cluster);
+    // Within the law's support, widened by the core's noise on each spike's residual.
+    let within = mags.iter().filter(|&&v| v >= law.centre - law.spread - 3.0 * m.sigma).count();
+    Some(mixture::Mixture { eps: within as f64 / valid as f64, ..law })
 }
 
 /// How far apart, in residual sds, the medians of a sample's left and right neighbours must be for the level to
@@ -205,6 +232,8 @@ pub(super) struct Contamination {
     pub cont_next: f64,
     /// Residuals beyond [`TAIL_SIGMAS`] core sds, and how many the core explains.
     pub tail: (usize, f64),
+    /// Residuals read (outside gaps and the record's ends).
+    pub valid: usize,
 }
 
 impl Contamination {
@@ -292,7 +321,7 @@ fn read_with(x: &[f64], gap: &[bool], skip: Option<&[bool]>, least: f64) -> Opti
     };
     let beyond = abs.iter().filter(|&&v| v > TAIL_SIGMAS * mix.sigma).count();
     let expected = n_valid as f64 * (1.0 - mix.eps) * 2.0 * normal_sf(TAIL_SIGMAS);
-    Some(Contamination { mix, flagged, rho1, cont_next, tail: (beyond, expected) })
+    Some(Contamination { mix, flagged, rho1, cont_next, tail: (beyond, expected), valid: n_valid })
 }
 
 /// The outliers effect: [`outliers`] and its parameters.
@@ -331,8 +360,11 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     if !c.is_process(n) {
         return None;
     }
-    let law = calibrate::corrected(&c, n, least);
-    let law = calibrate::Law { mix: clear_law(law.mix, &c.flagged), ..law };
+    // Spikes clear of the core are read off their cluster; the calibration is for laws near it.
+    let law = match clear_law(c.mix, &c.flagged, c.valid) {
+        Some(mix) => calibrate::Law { mix, ..calibrate::Law::of(&c) },
+        None => calibrate::corrected(&c, n, least),
+    };
     let m = law.mix;
     let run_mean = law.run_mean();
     let spikes = law.outliers();
@@ -382,10 +414,10 @@ const DITHER_STEPS: f64 = 0.5;
 /// The dither's stream.
 const DITHER_SEED: u64 = 0xd1_7e4;
 
-/// On a lattice, the spikes' magnitude law is held beyond this many steps: below it, a sample one step off its
-/// neighbours (the noise crossing a decision level) is the lattice's own, and on a coarse lattice those are
-/// common enough to fit as a spike law of their own.
-const LATTICE_LEAST_STEPS: f64 = 3.0;
+/// On a lattice, the spikes' magnitude law is held beyond this many steps (the distribution view's tail threshold
+/// there): below it, a sample one step off its neighbours (the noise crossing a decision level) is the lattice's
+/// own, and on a coarse lattice those are common enough to fit as a spike law of their own.
+const LATTICE_LEAST_STEPS: f64 = crate::views::LATTICE_TAIL_STEPS;
 
 /// The Allan variance of the spike process of `o` at `m` samples, from its autocovariance: `R0 = eps E s^2` and
 /// `R_k = R1 c2^(k-1)`, `R1 = eps centre^2 (1 - 1 / run_mean)` (a run's spikes share a sign). With `c2 > 0` that is

@@ -863,3 +863,43 @@ fn a_named_jump_process_is_found_again_on_another_record() {
         assert!(JumpScan::of(&nothing_out, &x, rate_hz).is_none());
     }
 }
+
+/// The scan puts a step at its sample even beside spikes: a telegraph of 8-sd steps with a 30-sd spike every 300
+/// samples on average. The moving-sum statistic's peak, whose slope is a step's size over the window a sample,
+/// moves by a few samples when a spike enters a window, and a step put a sample off leaves a spike of its whole
+/// size in the record less its levels.
+#[test]
+fn steps_are_placed_at_their_sample_beside_spikes() {
+    let l = 64usize;
+    let mut rng = SimRng::new(41);
+    let mut x = Vec::new();
+    let mut truth = Vec::new();
+    let mut level = 0.0;
+    while x.len() < 200_000 {
+        let dwell = 3 * l + (rng.uniform() * (7 * l) as f64) as usize;
+        for _ in 0..dwell {
+            let spike =
+                if rng.uniform() < 1.0 / 300.0 { 30.0 * if rng.uniform() < 0.5 { -1.0 } else { 1.0 } } else { 0.0 };
+            x.push(level + rng.normal() + spike);
+        }
+        truth.push(x.len());
+        level = if level == 0.0 { 8.0 } else { 0.0 };
+    }
+    truth.pop();
+    let found: Vec<usize> = bias_steps::mosum_scan(&x, l).unwrap().steps.iter().map(|s| s.0).collect();
+    let nearest = |t: usize| found.iter().map(|&f| f.abs_diff(t)).min().unwrap();
+    let off: Vec<usize> = truth.iter().map(|&t| nearest(t)).collect();
+    let exact = off.iter().filter(|&&d| d == 0).count();
+    let peak_off: Vec<usize> = truth
+        .iter()
+        .map(|&t| {
+            let d = |u: usize| (x[u..u + l].iter().sum::<f64>() - x[u - l..u].iter().sum::<f64>()).abs();
+            let peak = (t - l / 8..=t + l / 8).max_by(|&a, &b| d(a).total_cmp(&d(b))).unwrap();
+            peak.abs_diff(t)
+        })
+        .collect();
+    let peak_exact = peak_off.iter().filter(|&&d| d == 0).count();
+    assert!(found.len() == truth.len(), "{} found, {} true", found.len(), truth.len());
+    assert!(exact as f64 >= 0.99 * truth.len() as f64 && off.iter().all(|&d| d <= 1), "{off:?}");
+    assert!((peak_exact as f64) < 0.98 * truth.len() as f64, "premise: the peak alone is off: {peak_off:?}");
+}

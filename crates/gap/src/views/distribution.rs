@@ -18,6 +18,9 @@ use octavar_stats::robust::{median_in_place as median, quartiles_in_place};
 
 /// Tail threshold of the distribution view, robust sigmas.
 pub const TAIL_SIGMA: f64 = 5.0;
+/// On a visible lattice, the tail threshold is at least this many steps: nearer, a residual is the noise crossing
+/// a decision level, and how often it does so follows where the bias sits between levels, not the noise's tails.
+pub const LATTICE_TAIL_STEPS: f64 = 3.0;
 /// Fewest Allan differences a kurtosis point needs.
 const MIN_DIFFERENCES: usize = 64;
 /// Clip of the winsorised scale, in sigmas from the interquartile range.
@@ -99,13 +102,18 @@ impl DistributionPlan {
             *v = (*v - med).abs();
         }
         // Winsorised at 4 IQR sigmas: outliers count at most 4 sigma each, and a lattice finer than the noise,
-        // which biases the MAD and the IQR by a share of its step, moves only the clip point.
-        let clip = WINSOR_SIGMA * iqr_sigma;
+        // which biases the MAD and the IQR by a share of its step, moves only the clip point. On a lattice coarser
+        // than the noise, the IQR may be zero (most residuals are), so the clip and the threshold are held to
+        // whole steps; the share then varies smoothly with where the bias sits between levels instead of
+        // jumping from a 5-sigma share to the share of every residual off zero.
+        let q = self.lattice_step.unwrap_or(0.0);
+        let clip = WINSOR_SIGMA * iqr_sigma.max(q);
         let scale = (r.iter().map(|&v| v.min(clip) * v.min(clip)).sum::<f64>() / n).sqrt();
-        let tail = if scale > 0.0 {
-            r.iter().filter(|&&v| v > TAIL_SIGMA * scale).count() as f64 / n
+        let threshold = (TAIL_SIGMA * scale).max(LATTICE_TAIL_STEPS * q);
+        let tail = if threshold > 0.0 {
+            r.iter().filter(|&&v| v > threshold).count() as f64 / n
         } else {
-            // A lattice so coarse that most residuals are zero: the share of non-zero residuals.
+            // A constant record: the share of non-zero residuals.
             r.iter().filter(|&&v| v > 0.0).count() as f64 / n
         };
         let mut out = vec![skew, kurt, tail];
@@ -189,5 +197,42 @@ pub fn lattice_share(x: &[f64], q: f64) -> f64 {
         f64::NAN
     } else {
         on as f64 / n as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use octavar_stats::test_signals::white;
+
+    /// On a lattice three times coarser than the noise, the tail share does not depend on where the bias sits
+    /// between two levels: at a level, most residuals are 0 and the interquartile range too, and a 5-sigma share
+    /// of a zero scale would count every residual off zero (about a third of them), where between two levels
+    /// the scale is a step and the share is 0. Held to three steps, both are 0; spikes of five steps on 1% of the
+    /// samples count in either place.
+    #[test]
+    fn tail_share_on_a_coarse_lattice_follows_spikes_not_the_bias() {
+        let q = 3.0;
+        let on_lattice = |offset: f64, spikes: bool| -> Vec<f64> {
+            white(50_000, 9)
+                .iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    let spike = if spikes && i % 100 == 50 { 5.0 * q } else { 0.0 };
+                    ((v + offset + spike) / q).round() * q
+                })
+                .collect()
+        };
+        let at_level = on_lattice(0.0, false);
+        let (plan, _) = DistributionPlan::new(&at_level, 1.0);
+        assert_eq!(plan.lattice_step, Some(q), "premise: the lattice is seen");
+        let share = |x: &[f64]| plan.values(x)[2];
+        let zeros = at_level.windows(3).filter(|w| w[1] - 0.5 * (w[0] + w[2]) == 0.0).count();
+        assert!(zeros * 2 > at_level.len(), "premise: most residuals at a level are 0 ({zeros})");
+        for offset in [0.0, 0.5 * q, 0.25 * q] {
+            assert!(share(&on_lattice(offset, false)) < 1e-3, "offset {offset}: {}", share(&on_lattice(offset, false)));
+            let spiky = share(&on_lattice(offset, true));
+            assert!((spiky - 0.01).abs() < 0.002, "offset {offset}: {spiky}");
+        }
     }
 }

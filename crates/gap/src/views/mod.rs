@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use rustfft::FftPlanner;
 use serde::Serialize;
 
-pub use distribution::{lattice_of, lattice_share, TAIL_SIGMA};
+pub use distribution::{lattice_of, lattice_share, LATTICE_TAIL_STEPS, TAIL_SIGMA};
 
 use adev::AdevPlan;
 use distribution::DistributionPlan;
