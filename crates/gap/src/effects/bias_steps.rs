@@ -82,58 +82,7 @@ pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
             steps.push((tb, db));
         }
     }
-    placed(x, l, h, &mut steps);
     Some(Scan { threshold, steps })
-}
-
-/// Clip of [`placed`]'s per-sample cost, in robust sds of the levels' neighbourhoods.
-const PLACE_CLIP_SIGMAS: f64 = 2.5;
-
-/// Each step put at the sample where its neighbourhood splits best into the levels either side. The moving-sum
-/// statistic peaks where the step is only as sharply as its triangle's slope, `size / l` a sample, stands above
-/// what else the windows hold: a spike entering a window, a neighbour's step, moves the peak by a few samples,
-/// and a step placed a sample off leaves, in the record less its levels, a spike of the step's whole size. Within
-/// `h` of where the scan put it, each sample is charged its squared distance from the level of its side (the
-/// medians of up to a window each side, short of the neighbouring steps), clipped at [`PLACE_CLIP_SIGMAS`] so
-/// that a spike weighs no more than any sample on the wrong side; the split of least charge wins, the nearest to
-/// the scan's on a tie.
-fn placed(x: &[f64], l: usize, h: usize, steps: &mut [(usize, f64)]) {
-    let n = x.len();
-    let mut order: Vec<usize> = (0..steps.len()).collect();
-    order.sort_by_key(|&i| steps[i].0);
-    let at: Vec<usize> = order.iter().map(|&i| steps[i].0).collect();
-    for (k, &i) in order.iter().enumerate() {
-        let t = at[k];
-        let lo = if k > 0 { at[k - 1].midpoint(t) } else { 0 };
-        let hi = at.get(k + 1).map_or(n, |&u| u.midpoint(t));
-        let (a0, a1) = (t.saturating_sub(l).max(lo), t.saturating_sub(h));
-        let (b0, b1) = ((t + h + 1).min(n), (t + l).min(hi));
-        if a1 < a0 + 4 || b1 < b0 + 4 {
-            continue;
-        }
-        let (lm, rm) = (median(&x[a0..a1]), median(&x[b0..b1]));
-        let dev: Vec<f64> =
-            x[a0..a1].iter().map(|v| (v - lm).abs()).chain(x[b0..b1].iter().map(|v| (v - rm).abs())).collect();
-        let sigma = 1.4826 * median(&dev);
-        if !(sigma > 0.0) {
-            continue;
-        }
-        let clip = (PLACE_CLIP_SIGMAS * sigma).powi(2);
-        let charge = |v: f64, level: f64| ((v - level) * (v - level)).min(clip);
-        // Split at u: samples a1..u on the left level, u..b0 on the right.
-        let mut cost: f64 = x[a1..b0].iter().map(|&v| charge(v, rm)).sum();
-        let (mut best, mut best_cost) = (a1, cost);
-        for u in a1..b0 {
-            cost += charge(x[u], lm) - charge(x[u], rm);
-            let better = cost < best_cost - 1e-12 * clip
-                || (cost <= best_cost + 1e-12 * clip && (u + 1).abs_diff(t) < best.abs_diff(t));
-            if better {
-                best = u + 1;
-                best_cost = cost;
-            }
-        }
-        steps[i].0 = best;
-    }
 }
 
 /// The share of a step's size that the mean difference across windows a quarter as long must keep for a lone
