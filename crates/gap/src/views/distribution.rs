@@ -3,7 +3,7 @@
 //!
 //! On the local residual `x[i] - (x[i-1] + x[i+1]) / 2` (which removes drifts and keeps the sign of a one-sided
 //! spike): skewness, kurtosis, and the share beyond [`TAIL_SIGMA`] robust sigmas (the rms winsorised at 4 sigmas
-//! of the interquartile range). On the first differences, which keep an ADC step and drop its offset: the share on
+//! of the interquartile range; on a visible lattice, beyond [`LATTICE_TAIL_STEPS`] steps at least). On the first differences, which keep an ADC step and drop its offset: the share on
 //! the lattice step, when the real part has a visible one ([`lattice_of`]). And the excess kurtosis of the Allan
 //! differences (adjacent block means) at every octave tau from 2 tau0, where bias steps, outliers and temperature
 //! jumps show as heavy tails and sinusoids as light ones, even when the base fit has taken their Allan variance for
