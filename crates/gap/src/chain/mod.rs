@@ -25,6 +25,13 @@
 //!   ([`crate::judge::Judge::less_jumps`]); a remaining effect that removes a quarter of that comparison's
 //!   significant gap, and leaves the plain views no worse, is added.
 //!
+//! The search is greedy, and a first step can take part of two effects' gap at once (bias steps drawn over a
+//! telegraph's flips and its spikes score better than the telegraph, which leaves the spikes' tails): where the
+//! greedy chain ends with a significant gap, the chain is searched again from the first ranking's best-scored other
+//! candidate that explains the base's gap, and that chain is kept where it removes a quarter of the excess the
+//! greedy one left (its score, parameters paid for, against the greedy one's total: [`crate::rank::explains`]).
+//! The report says so ([`Retried`]).
+//!
 //! Each step reports where the gap lay on the model before it, the gap there before and after on both parts, its
 //! ranking and what named it; the held-out check of the whole chain compares the base model with the last one,
 //! every parameter frozen from training.
@@ -62,4 +69,5 @@ pub use model::{Model, NamedBy, Rounds, Step, MAX_STEPS};
 pub(crate) use prune::prune;
 pub use prune::Pruned;
 pub use search::ProgressFn;
+pub use search::Retried;
 pub(crate) use search::{search, Found, Progress};

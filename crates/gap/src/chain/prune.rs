@@ -153,7 +153,7 @@ mod tests {
     fn found(steps: Vec<Step>, total: f64) -> Found {
         let model = Model { gyro: GyroSim::default(), spreads: Vec::new(), channel: None };
         let (first_candidates, last_tried, pruned) = (Vec::new(), Vec::new(), Vec::new());
-        Found { steps, first_candidates, last_tried, model, eval: eval(total), pruned }
+        Found { steps, first_candidates, last_tried, model, eval: eval(total), pruned, retried: None }
     }
 
     /// The chain learnt again: the filter corner alone agrees with the total `without_markov`; the process alone

@@ -71,6 +71,22 @@ pub(crate) struct Found {
     pub eval: Evaluated,
     /// The effects the backward step took out of the chain, in the order taken ([`super::prune`]).
     pub pruned: Vec<super::Pruned>,
+    /// Where the greedy chain left a significant gap and the chain searched again from the first ranking's
+    /// runner-up explained it better: what the greedy chain had found.
+    pub retried: Option<Retried>,
+}
+
+/// The greedy chain given up for one searched from another first step ([`search`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Retried {
+    /// The greedy chain's effects, in the order found.
+    pub greedy: Vec<Effect>,
+    /// Its views' training total and worst view's gap.
+    pub greedy_total: f64,
+    /// Its worst view's gap, training.
+    pub greedy_worst: f64,
+    /// The first step the kept chain was searched from: the runner-up of the first ranking.
+    pub first: Effect,
 }
 
 /// The search's fixed inputs and its state between steps.
@@ -96,7 +112,9 @@ struct Search<'a, 'p> {
 }
 
 /// The chain of `effects` on the training samples `training` (gaps as NaN) and their temperature, from the base
-/// model `base` (fitted as `base_fit`) whose comparison is `base_eval`.
+/// model `base` (fitted as `base_fit`) whose comparison is `base_eval`: the greedy chain, or where it leaves a
+/// significant gap, the chain from the first ranking's runner-up where that explains the gap better (the module
+/// doc of [`super`]).
 ///
 /// # Errors
 /// [`GapError::Sim`]: the simulator rejects a candidate's model.
@@ -111,6 +129,56 @@ pub(crate) fn search<'p>(
     temp: Option<&[f64]>,
     rate_hz: f64,
     progress: &mut Progress<'p>,
+) -> Result<Found, GapError> {
+    let run = |first: Option<Effect>, progress: &mut Progress<'p>| {
+        let (base, base_eval) = (base.clone(), base_eval.clone());
+        greedy(judge, effects, base, base_eval, base_fit, training, temp, rate_hz, progress, first)
+    };
+    let found = run(None, progress)?;
+    // The greedy chain leaves a significant gap: its first step may have taken part of two effects' gap (bias steps
+    // drawn over a telegraph and its spikes), so the chain is searched again from the runner-up of the first
+    // ranking, and kept where it explains what the greedy one left.
+    let Some(first) = found.steps.first().filter(|s| matches!(s.named_by, NamedBy::View)) else { return Ok(found) };
+    if rank::gap_of(&found.eval.training) <= rank::SIGNIFICANT_GAP {
+        return Ok(found);
+    }
+    let base_total = rank::total_of(&base_eval.training);
+    let Some(alt) = by_score(&found.first_candidates)
+        .into_iter()
+        .map(|i| &found.first_candidates[i])
+        .find(|c| c.effect != first.effect && c.score.is_some_and(|sc| rank::explains(sc, base_total)))
+        .map(|c| c.effect)
+    else {
+        return Ok(found);
+    };
+    let mut other = run(Some(alt), progress)?;
+    let score = |f: &Found| rank::score(rank::total_of(&f.eval.training), f.steps.iter().map(|s| s.fit.n_params).sum());
+    if !rank::explains(score(&other), score(&found)) {
+        return Ok(found);
+    }
+    other.retried = Some(Retried {
+        greedy: found.steps.iter().map(|s| s.effect).collect(),
+        greedy_total: rank::total_of(&found.eval.training),
+        greedy_worst: rank::gap_of(&found.eval.training),
+        first: alt,
+    });
+    Ok(other)
+}
+
+/// The greedy search: each step adds the effect that explains most of the gap on the model so far; `first`, where
+/// given, is the first step's effect (from the first ranking) in place of the best-scored.
+#[allow(clippy::too_many_arguments)]
+fn greedy<'p>(
+    judge: &Judge,
+    effects: &[Effect],
+    base: Model,
+    base_eval: Evaluated,
+    base_fit: &NoiseFit,
+    training: &[f64],
+    temp: Option<&[f64]>,
+    rate_hz: f64,
+    progress: &mut Progress<'p>,
+    forced_first: Option<Effect>,
 ) -> Result<Found, GapError> {
     let filled = fill_gaps(training);
     let mut s = Search {
@@ -146,6 +214,13 @@ pub(crate) fn search<'p>(
             candidates = s.rank(&remaining, &data, &location)?;
             if first {
                 first_candidates = candidates.clone();
+                if let Some(i) = forced_first.and_then(|e| candidates.iter().position(|c| c.effect == e)) {
+                    if let (Some(fit), Some(after)) = (candidates[i].fit.clone(), candidates[i].eval.clone()) {
+                        s.model = s.model.with(&fit);
+                        s.add(&data, fit, after, candidates.clone(), &location, NamedBy::View, None);
+                        continue;
+                    }
+                }
             }
             if significant && s.view_step(&data, &mut candidates, &location, first)? {
                 last_tried.clear();
@@ -172,7 +247,8 @@ pub(crate) fn search<'p>(
     if !s.steps.is_empty() {
         s.joint_round()?;
     }
-    Ok(Found { steps: s.steps, first_candidates, last_tried, model: s.model, eval: s.eval, pruned: Vec::new() })
+    let (steps, model, eval) = (s.steps, s.model, s.eval);
+    Ok(Found { steps, first_candidates, last_tried, model, eval, pruned: Vec::new(), retried: None })
 }
 
 impl Search<'_, '_> {

@@ -136,6 +136,20 @@ pub(super) fn recovered_levels(x: &[f64], l: usize) -> Option<Vec<f64>> {
     Some(levels)
 }
 
+/// `base` with the random walk of a bias-step process of power `walk` (`lambda sigma^2`, (deg/s)^2/s) taken out
+/// of its rate random walk: `K^2 - lambda sigma^2`, at least 0. A compound Poisson walk of Gaussian steps has the
+/// Allan variance `lambda sigma^2 tau / 3` at every tau, a rate random walk's exactly, so the base fit read it as
+/// K and nothing else.
+///
+/// This is the base beside steps found after an earlier step took jumps out of the samples (a bistable bias's
+/// levels). An IEEE re-fit there reads the curve of the samples less both, whose short taus carry the recovery's
+/// residue (a flip or a step placed a sample off is a one-sample pulse of its size), as quantisation noise, and
+/// its model then parts from the record where the steps change nothing.
+fn less_step_walk(base: &GyroSim, walk: f64) -> GyroSim {
+    let k2 = base.k_dps_per_rt_s * base.k_dps_per_rt_s;
+    GyroSim { k_dps_per_rt_s: (k2 - walk).max(0.0).sqrt(), ..base.clone() }
+}
+
 /// The biassteps effect: [`bias_steps`] and its parameters.
 pub(super) struct Kind;
 
@@ -193,7 +207,13 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     let cleaned: Vec<f64> = x.iter().zip(step_levels(&steps, n)).map(|(v, l)| v - l).collect();
     // One or two steps barely move the Allan curve, so the base terms stay as they are: a re-fit there would
     // change the model by the re-fit, not by the steps, and the views would judge the wrong thing.
-    let refit = if lone { d.base.clone() } else { refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0) };
+    let refit = if lone {
+        d.base.clone()
+    } else if d.shaped_dps.is_some() {
+        less_step_walk(d.base, per_hour / 3600.0 * sigma * sigma)
+    } else {
+        refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0)
+    };
     let gyro = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }), ..refit };
     let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / rate_hz).collect();
     Some(EffectFit {

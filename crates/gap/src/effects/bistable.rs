@@ -149,6 +149,59 @@ fn refined_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Short excursions the scan saw by one edge, put back whole. An excursion narrower than the window `l` shows as
+/// a plateau of the mean difference at `step w / l`, once up and once down within a window, and the scan keeps
+/// one of the two; where the signs still alternate (the neighbouring excursion lost its other edge too), nothing
+/// marks the edge as missing, and the stretch to the next jump takes the excursion's state. A flip keeps the level
+/// it reaches, so its size measured again over the stretches either side is a step; an excursion's is about
+/// none. So each seen jump with neighbours two windows or more away whose measured size is under half of `step`
+/// is replaced by the excursion's two edges: the longest run, within a window of it, of samples more than half a
+/// step from the level around it (the median of the window beyond each side), both marked as put back.
+fn split_short_excursions(x: &[f64], jumps: Vec<Jump>, step: f64, l: usize) -> Vec<Jump> {
+    let sizes = refined_sizes(x, &jumps, l);
+    let mut out = Vec::with_capacity(jumps.len() + 8);
+    for (i, (&j, &size)) in jumps.iter().zip(&sizes).enumerate() {
+        let prev = if i > 0 { jumps[i - 1].0 } else { 0 };
+        let next = jumps.get(i + 1).map_or(x.len(), |k| k.0);
+        let t = j.0;
+        let room = t >= prev + 2 * l && t + 2 * l <= next;
+        if !j.2 || !room || size.abs() >= 0.5 * step {
+            out.push(j);
+            continue;
+        }
+        let around: Vec<f64> = x[t - 2 * l..t - l].iter().chain(&x[t + l..t + 2 * l]).copied().collect();
+        let level = median(&around);
+        let (a, b) = (t - l, t + l);
+        // The longest run of samples half a step or more from the level, either way.
+        let run_of = |sign: f64| {
+            let (mut best, mut start) = ((0, 0), None);
+            for k in a..=b {
+                let inside = k < b && (x[k] - level) * sign > 0.5 * step;
+                match (inside, start) {
+                    (true, None) => start = Some(k),
+                    (false, Some(s0)) => {
+                        if k - s0 > best.1 - best.0 {
+                            best = (s0, k);
+                        }
+                        start = None;
+                    }
+                    _ => {}
+                }
+            }
+            best
+        };
+        let (up, down) = (run_of(1.0), run_of(-1.0));
+        let (sign, (s0, s1)) = if up.1 - up.0 >= down.1 - down.0 { (1.0, up) } else { (-1.0, down) };
+        if s1 > s0 {
+            out.push((s0, sign * step, false));
+            out.push((s1, -sign * step, false));
+        } else {
+            out.push(j);
+        }
+    }
+    out
+}
+
 /// The sizes of the jumps the scan saw (not those put back), measured again ([`refined_sizes`]), unsigned.
 fn seen_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
     refined_sizes(x, jumps, l).iter().zip(jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect()
@@ -282,6 +335,8 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     if !(step > 0.0 && spread <= MAX_SIZE_SPREAD) {
         return None;
     }
+    let jumps = split_short_excursions(x, jumps, step, best.window);
+    let abs = seen_sizes(x, &jumps, best.window);
     let step = mean(&abs);
     let step_se =
         (abs.iter().map(|a| (a - step).powi(2)).sum::<f64>() / (abs.len() - 1) as f64 / abs.len() as f64).sqrt();
@@ -393,6 +448,8 @@ pub(super) fn recovered_levels(x: &[f64], l: usize) -> Option<Vec<f64>> {
         return None;
     }
     let jumps = repaired(x, &flips);
+    let step = median(&seen_sizes(x, &jumps, l));
+    let jumps = split_short_excursions(x, jumps, step, l);
     let step = mean(&seen_sizes(x, &jumps, l));
     let States { edges, time_high, time_low, .. } = States::between(&jumps, n, 1.0)?;
     Some(telegraph_levels(x, &edges, step, time_high / (time_high + time_low)))
@@ -471,6 +528,46 @@ mod tests {
             let want = if (3_000..3_002).contains(&i) { level(true) } else { level(truth(i)) };
             assert!((l - want).abs() < 1e-12, "sample {i}: level {l}, want {want}");
         }
+    }
+
+    /// Two short excursions, each seen by one edge (the scan keeps one of two edges within a window), whose seen
+    /// edges still alternate in sign with their neighbours: nothing marks an edge missing, the stretch between
+    /// them takes the excursions' state until its level puts it back, and the excursions themselves are left in
+    /// the record less the levels, pulses of a whole step that a bias-step scan then finds. Each seen edge
+    /// measures about no step over the stretches either side, and is replaced by the excursion's two edges: every
+    /// sample's state is then the truth.
+    #[test]
+    fn short_excursions_seen_by_one_edge_are_put_back_whole() {
+        let (n, l, step) = (20_000, 16, 1.0);
+        let noise = octavar_stats::test_signals::white(n, 5);
+        let high = |i: usize| {
+            (2_000..4_000).contains(&i)
+                || (8_000..8_008).contains(&i)
+                || (12_000..12_015).contains(&i)
+                || (16_000..18_000).contains(&i)
+        };
+        let x: Vec<f64> = (0..n).map(|i| if high(i) { step } else { 0.0 } + 0.05 * noise[i]).collect();
+        // What the scan at window 16 shows: the first excursion's up-edge at 8/16 of a step, the second's
+        // down-edge at 15/16.
+        let seen: Vec<Jump> =
+            [(2_000, 1.0), (4_000, -1.0), (8_000, 0.5), (12_015, -0.94), (16_000, 1.0), (18_000, -1.0)]
+                .iter()
+                .map(|&(t, s)| (t, s, true))
+                .collect();
+        let wrong = |jumps: &[Jump]| {
+            let States { edges, time_high, time_low, .. } = States::between(jumps, n, 1.0).unwrap();
+            let levels = telegraph_levels(&x, &edges, step, time_high / (time_high + time_low));
+            let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
+            (0..n).filter(|&i| (levels[i] - lo > 0.5 * step) != high(i)).count()
+        };
+        // The stretch between is put back in its state by its level, but the excursions stay where they were.
+        assert!(wrong(&seen) >= 23, "the premise: {} samples in the wrong state", wrong(&seen));
+        let split = split_short_excursions(&x, seen, step, l);
+        assert_eq!(split.len(), 8, "{split:?}");
+        for (t, s) in [(8_000, 1.0), (8_008, -1.0), (12_000, 1.0), (12_015, -1.0)] {
+            assert!(split.contains(&(t, s, false)), "edge {t} {s}: {split:?}");
+        }
+        assert_eq!(wrong(&split), 0);
     }
 
     /// A short excursion cut by each end of the record shows only its inner jump to the scan: the outer one is put

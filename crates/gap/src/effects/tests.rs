@@ -505,6 +505,49 @@ fn bias_steps_recovered() {
     assert!((b.per_hour / 2.0).ln().abs() < 2f64.ln() && (b.sigma_dps / 0.05).ln().abs() < 2f64.ln(), "{b:?}");
 }
 
+/// Bias steps found beside a bistable bias that an earlier step took out a sample late at each flip (the recovery's
+/// residue: a one-sample pulse of the telegraph's step at every flip). The model the chain carries there was fitted
+/// beside the telegraph on the curve as recorded, so its rate random walk is the steps' walk (`K^2 = lambda
+/// sigma^2`). The steps' base keeps the white noise and quantisation it was given and takes the walk out of K: an
+/// IEEE re-fit of the samples less both reads the residue's pulses as quantisation noise, and the model then
+/// parts from the record at the shortest taus, where steps change nothing.
+#[test]
+fn bias_steps_beside_a_telegraph_taken_out_keep_the_white_noise() {
+    let (rate_hz, n) = (100.0, 1 << 20);
+    let (white_sd, per_hour, sigma) = (0.1, 60.0, 1.0);
+    let mut rng = SimRng::new(17);
+    let (mut level, mut bias) = (0.0, 0.0);
+    let mut telegraph = Vec::with_capacity(n);
+    let mut x = Vec::with_capacity(n);
+    for _ in 0..n {
+        // Telegraph steps of 20 sample sds, dwells 2 s low and 6 s high; bias steps of 10 sds, 60 an hour.
+        let dwell_s = if level == 0.0 { 2.0 } else { 6.0 };
+        if rng.uniform() < 1.0 / (dwell_s * rate_hz) {
+            level = 2.0 - level;
+        }
+        if rng.uniform() < per_hour / 3600.0 / rate_hz {
+            bias += sigma * rng.normal();
+        }
+        telegraph.push(level);
+        x.push(level + bias + white_sd * rng.normal());
+    }
+    // Taken out a sample late: the level before each flip held one sample too long.
+    let late: Vec<f64> = (0..n).map(|i| telegraph[i.saturating_sub(1)]).collect();
+    let less: Vec<f64> = x.iter().zip(&late).map(|(x, t)| x - t).collect();
+    let n_white = white_sd / rate_hz.sqrt();
+    let walk = per_hour / 3600.0 * sigma * sigma;
+    let base = GyroSim { n_deg_per_rt_s: n_white, k_dps_per_rt_s: walk.sqrt(), ..Default::default() };
+    let f = fit(&oadev_points(&less, rate_hz), &FitOptions::default()).unwrap();
+    let d = TrainingData { recorded_dps: &x, shaped_dps: Some(&late), ..data_of(&less, rate_hz, &base, &f) };
+    let e = fit_effect(Effect::BiasSteps, &d).expect("the steps are found");
+    let g = &e.gyro;
+    let b = g.bias_steps.as_ref().unwrap();
+    eprintln!("{b:?}: N {:.4e} Q {:.3e} K {:.3e}", g.n_deg_per_rt_s, g.q_deg, g.k_dps_per_rt_s);
+    assert!(rel(b.per_hour * b.sigma_dps * b.sigma_dps / 3600.0, walk) < 0.5, "{b:?}");
+    assert!(rel(g.n_deg_per_rt_s, n_white) < 0.05 && g.q_deg == 0.0, "N {} Q {}", g.n_deg_per_rt_s, g.q_deg);
+    assert!(g.k_dps_per_rt_s < 0.5 * walk.sqrt(), "K {} against the walk's {}", g.k_dps_per_rt_s, walk.sqrt());
+}
+
 /// One bias step of 0.1 deg/s in a record of the base gyro (ten times the scan's threshold) is fitted as a
 /// process: found at its sample within a window, its size within 10%, and a rate of one step over the record's
 /// length divided by its detection probability. A Poisson process seen through half a record often leaves one

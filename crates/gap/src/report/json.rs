@@ -46,6 +46,12 @@ impl GapReport {
                 total: self.total[1],
                 worst: self.worst[1],
                 pruned: self.pruned_docs(),
+                retried: self.chain.retried.as_ref().map(|r| RetriedDoc {
+                    greedy: r.greedy.iter().map(|e| e.name()).collect(),
+                    greedy_total: r.greedy_total,
+                    greedy_worst: r.greedy_worst,
+                    first: r.first.name(),
+                }),
             },
             effect: self.effect_name(),
             view: loc.map(|l| l.view),
@@ -473,6 +479,17 @@ struct ChainDoc<'a> {
     worst: f64,
     /// The effects taken out of the chain as redundant.
     pruned: Vec<PrunedDoc>,
+    /// The greedy chain given up for one searched from another first step.
+    retried: Option<RetriedDoc>,
+}
+
+/// The greedy chain given up: its effects, its training total and worst gap, and the first step searched from.
+#[derive(Debug, Serialize)]
+struct RetriedDoc {
+    greedy: Vec<&'static str>,
+    greedy_total: f64,
+    greedy_worst: f64,
+    first: &'static str,
 }
 
 /// An effect taken out of the chain as redundant, with the views' training totals of the chain with and without it.

@@ -167,6 +167,17 @@ impl GapReport {
             )?;
             candidate_lines(s, &self.chain.last_tried, None)?;
         }
+        if let Some(r) = &self.chain.retried {
+            let greedy: Vec<&str> = r.greedy.iter().map(|e| e.name()).collect();
+            writeln!(
+                s,
+                "searched again from {}, the first ranking's runner-up: the greedy chain ({}) left a significant gap ({:.2}; total over views {:.2}) that this chain explains",
+                r.first.name(),
+                greedy.join(" + "),
+                r.greedy_worst,
+                r.greedy_total
+            )?;
+        }
         for p in &self.chain.pruned {
             writeln!(
                 s,
