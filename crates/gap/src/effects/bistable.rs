@@ -28,6 +28,11 @@ const ALTERNATION_ALPHA: f64 = 1e-4;
 /// random steps big enough to be seen spread by at least this much.
 const MAX_SIZE_SPREAD: f64 = 0.35;
 
+/// Largest reduced chi-square of the telegraph's fit on the Allan curve for its correlation time to replace the
+/// counted one ([`telegraph_on_curve`]). The telegraphs of the withheld sweep alone (seeds 0-9 of both generators)
+/// reach 0.2 to 4.4; beside a Gauss-Markov process of a fifteenth of its correlation time, about 30.
+const MAX_CURVE_STRAIN: f64 = 10.0;
+
 /// What the scan at one window found.
 #[derive(Clone, Debug)]
 struct Flips {
@@ -214,7 +219,8 @@ fn seen_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
 /// shorter dwell is a few windows. So with the step held (the jumps measure it well), that variance and `T` are
 /// fitted with the base terms on the OADEV of the record (T within a factor of 4 of the counted one), and the
 /// dwells `T / p` and `T / (1 - p)` replace the counted ones where they lower the curve's chi-square by
-/// [`CURVE_DELTA_CHI2`]; `p` takes the root on the counted dwells' side of one half, or where that root is within
+/// [`CURVE_DELTA_CHI2`] and the telegraph and base terms follow the curve there (reduced chi-square at most
+/// [`MAX_CURVE_STRAIN`]); `p` takes the root on the counted dwells' side of one half, or where that root is within
 /// a quarter of one half, the share of time the record spends high (`occupancy`).
 ///
 /// Returns the dwells (low, high) and the base terms' squares fitted beside that telegraph on the same curve: a
@@ -256,7 +262,10 @@ fn telegraph_on_curve(
     };
     let (t, chi) = log_search(t0 / 4.0, t0 * 4.0, 24, |t| fit_at(t).map_or(f64::INFINITY, |j| j.chi2));
     let counted_result = (dwell_low, dwell_high, at_counted.theta.clone());
-    if !(chi + CURVE_DELTA_CHI2 < at_counted.chi2) {
+    // A curve the telegraph and the base terms cannot follow at any correlation time has a shape they lack (a
+    // Gauss-Markov hump beside the telegraph's), which pulls the fitted time towards it: the counted dwells stand.
+    let dof = pts.len().saturating_sub(base_cols.len() + 2).max(1) as f64;
+    if !(chi + CURVE_DELTA_CHI2 < at_counted.chi2) || chi > MAX_CURVE_STRAIN * dof {
         return Some(counted_result);
     }
     let Some(j) = fit_at(t) else { return Some(counted_result) };
