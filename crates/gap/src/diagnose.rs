@@ -53,17 +53,17 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, report_progress: &ProgressF
 
     // The chain, on the training samples and their temperature.
     let temp_train = rec.training_temp();
-    let found = chain::search(
-        &judge,
-        &opts.effects,
-        base_model.clone(),
-        base_eval.clone(),
-        &base_fit,
+    let start = chain::Start {
+        judge: &judge,
+        effects: &opts.effects,
+        base: base_model.clone(),
+        base_eval: base_eval.clone(),
+        base_fit: &base_fit,
         training,
-        temp_train,
+        temp: temp_train,
         rate_hz,
-        &mut progress,
-    )?;
+    };
+    let found = chain::search(&start, &mut progress)?;
     // The backward step: each effect the views named, tried out of the chain learnt again without it.
     let found = chain::prune(found, |effects, rounds| {
         let (m, realised) = chain::learn(effects, rounds, &base_model, &base_fit, training, temp_train, rate_hz);

@@ -70,4 +70,4 @@ pub(crate) use prune::prune;
 pub use prune::Pruned;
 pub use search::ProgressFn;
 pub use search::Retried;
-pub(crate) use search::{search, Found, Progress};
+pub(crate) use search::{search, Found, Progress, Start};

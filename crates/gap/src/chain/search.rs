@@ -111,30 +111,31 @@ struct Search<'a, 'p> {
     eval: Evaluated,
 }
 
-/// The chain of `effects` on the training samples `training` (gaps as NaN) and their temperature, from the base
-/// model `base` (fitted as `base_fit`) whose comparison is `base_eval`: the greedy chain, or where it leaves a
-/// significant gap, the chain from the first ranking's runner-up where that explains the gap better (the module
-/// doc of [`super`]).
+/// What a search starts from: the effects it may name, the base model and its comparison, and the training
+/// samples it learns from.
+pub(crate) struct Start<'a> {
+    /// The comparison every model is judged by.
+    pub judge: &'a Judge<'a>,
+    /// The vocabulary the chain names from.
+    pub effects: &'a [Effect],
+    /// The base model and its comparison with the record.
+    pub base: Model,
+    pub base_eval: Evaluated,
+    /// The IEEE fit the base model was made from.
+    pub base_fit: &'a NoiseFit,
+    /// The training samples (gaps as NaN) and their temperature.
+    pub training: &'a [f64],
+    pub temp: Option<&'a [f64]>,
+    pub rate_hz: f64,
+}
+
+/// The chain found from `start`: the greedy chain, or where it leaves a significant gap, the chain from the first
+/// ranking's runner-up where that explains the gap better (the module doc of [`super`]).
 ///
 /// # Errors
 /// [`GapError::Sim`]: the simulator rejects a candidate's model.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn search<'p>(
-    judge: &Judge,
-    effects: &[Effect],
-    base: Model,
-    base_eval: Evaluated,
-    base_fit: &NoiseFit,
-    training: &[f64],
-    temp: Option<&[f64]>,
-    rate_hz: f64,
-    progress: &mut Progress<'p>,
-) -> Result<Found, GapError> {
-    let run = |first: Option<Effect>, progress: &mut Progress<'p>| {
-        let (base, base_eval) = (base.clone(), base_eval.clone());
-        greedy(judge, effects, base, base_eval, base_fit, training, temp, rate_hz, progress, first)
-    };
-    let found = run(None, progress)?;
+pub(crate) fn search(start: &Start, progress: &mut Progress) -> Result<Found, GapError> {
+    let found = greedy(start, progress, None)?;
     // The greedy chain leaves a significant gap: its first step may have taken part of two effects' gap (bias steps
     // drawn over a telegraph and its spikes), so the chain is searched again from the runner-up of the first
     // ranking, and kept where it explains what the greedy one left.
@@ -142,7 +143,7 @@ pub(crate) fn search<'p>(
     if rank::gap_of(&found.eval.training) <= rank::SIGNIFICANT_GAP {
         return Ok(found);
     }
-    let base_total = rank::total_of(&base_eval.training);
+    let base_total = rank::total_of(&start.base_eval.training);
     let Some(alt) = by_score(&found.first_candidates)
         .into_iter()
         .map(|i| &found.first_candidates[i])
@@ -151,7 +152,7 @@ pub(crate) fn search<'p>(
     else {
         return Ok(found);
     };
-    let mut other = run(Some(alt), progress)?;
+    let mut other = greedy(start, progress, Some(alt))?;
     let score = |f: &Found| rank::score(rank::total_of(&f.eval.training), f.steps.iter().map(|s| s.fit.n_params).sum());
     if !rank::explains(score(&other), score(&found)) {
         return Ok(found);
@@ -165,21 +166,10 @@ pub(crate) fn search<'p>(
     Ok(other)
 }
 
-/// The greedy search: each step adds the effect that explains most of the gap on the model so far; `first`, where
-/// given, is the first step's effect (from the first ranking) in place of the best-scored.
-#[allow(clippy::too_many_arguments)]
-fn greedy<'p>(
-    judge: &Judge,
-    effects: &[Effect],
-    base: Model,
-    base_eval: Evaluated,
-    base_fit: &NoiseFit,
-    training: &[f64],
-    temp: Option<&[f64]>,
-    rate_hz: f64,
-    progress: &mut Progress<'p>,
-    forced_first: Option<Effect>,
-) -> Result<Found, GapError> {
+/// The greedy search from `start`: each step adds the effect that explains most of the gap on the model so far;
+/// `forced_first`, where given, is the first step's effect (from the first ranking) in place of the best-scored.
+fn greedy(start: &Start, progress: &mut Progress, forced_first: Option<Effect>) -> Result<Found, GapError> {
+    let Start { judge, effects, ref base, ref base_eval, base_fit, training, temp, rate_hz } = *start;
     let filled = fill_gaps(training);
     let mut s = Search {
         judge,
@@ -193,8 +183,8 @@ fn greedy<'p>(
         realised: None,
         shaped: None,
         steps: Vec::new(),
-        model: base,
-        eval: base_eval,
+        model: base.clone(),
+        eval: base_eval.clone(),
     };
     let mut first_candidates = Vec::new();
     let mut last_tried = Vec::new();

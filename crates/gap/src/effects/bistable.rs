@@ -162,10 +162,10 @@ fn refined_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
 /// none. So each seen jump with neighbours two windows or more away whose measured size is under half of `step`
 /// is replaced by the excursion's two edges: the longest run, within a window of it, of samples more than half a
 /// step from the level around it (the median of the window beyond each side), both marked as put back.
-fn split_short_excursions(x: &[f64], jumps: Vec<Jump>, step: f64, l: usize) -> Vec<Jump> {
-    let sizes = refined_sizes(x, &jumps, l);
+/// `sizes` are the jumps' [`refined_sizes`].
+fn split_short_excursions(x: &[f64], jumps: Vec<Jump>, sizes: &[f64], step: f64, l: usize) -> Vec<Jump> {
     let mut out = Vec::with_capacity(jumps.len() + 8);
-    for (i, (&j, &size)) in jumps.iter().zip(&sizes).enumerate() {
+    for (i, (&j, &size)) in jumps.iter().zip(sizes).enumerate() {
         let prev = if i > 0 { jumps[i - 1].0 } else { 0 };
         let next = jumps.get(i + 1).map_or(x.len(), |k| k.0);
         let t = j.0;
@@ -207,9 +207,28 @@ fn split_short_excursions(x: &[f64], jumps: Vec<Jump>, step: f64, l: usize) -> V
     out
 }
 
-/// The sizes of the jumps the scan saw (not those put back), measured again ([`refined_sizes`]), unsigned.
-fn seen_sizes(x: &[f64], jumps: &[Jump], l: usize) -> Vec<f64> {
-    refined_sizes(x, jumps, l).iter().zip(jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect()
+/// The sizes of the jumps the scan saw (not those put back), of their [`refined_sizes`] `sizes`, unsigned.
+fn seen_of(sizes: &[f64], jumps: &[Jump]) -> Vec<f64> {
+    sizes.iter().zip(jumps).filter(|(_, j)| j.2).map(|(s, _)| s.abs()).collect()
+}
+
+/// The telegraph's jumps as the scan at window `l` saw them in `x` ([`Flips`]): missed edges put back
+/// ([`repaired`]), short excursions seen by one edge put back whole ([`split_short_excursions`], at the median
+/// seen size), with the unsigned sizes of the seen jumps before that split (for the test of one size) and after
+/// it (for the step: the excursions' edges split off are not flips).
+struct ReadJumps {
+    jumps: Vec<Jump>,
+    seen_before: Vec<f64>,
+    seen: Vec<f64>,
+}
+
+fn read_jumps(x: &[f64], flips: &Flips, l: usize) -> ReadJumps {
+    let jumps = repaired(x, flips);
+    let sizes = refined_sizes(x, &jumps, l);
+    let seen_before = seen_of(&sizes, &jumps);
+    let jumps = split_short_excursions(x, jumps, &sizes, median(&seen_before), l);
+    let seen = seen_of(&refined_sizes(x, &jumps, l), &jumps);
+    ReadJumps { jumps, seen_before, seen }
 }
 
 /// The dwells read again from the Allan curve, where it tells them better than the count of jumps. A telegraph of
@@ -336,16 +355,13 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     if !(best.p_value * tried < ALTERNATION_ALPHA) {
         return None;
     }
-    let jumps = repaired(x, &best);
-    // The step from the jumps the scan saw (one put back is measured over its short excursion).
-    let abs = seen_sizes(x, &jumps, best.window);
-    let step = median(&abs);
-    let spread = 1.4826 * median(&abs.iter().map(|a| (a - step).abs()).collect::<Vec<_>>()) / step;
+    // One size: the jumps the scan saw (one put back is measured over its short excursion).
+    let ReadJumps { jumps, seen_before, seen: abs } = read_jumps(x, &best, best.window);
+    let step = median(&seen_before);
+    let spread = 1.4826 * median(&seen_before.iter().map(|a| (a - step).abs()).collect::<Vec<_>>()) / step;
     if !(step > 0.0 && spread <= MAX_SIZE_SPREAD) {
         return None;
     }
-    let jumps = split_short_excursions(x, jumps, step, best.window);
-    let abs = seen_sizes(x, &jumps, best.window);
     let step = mean(&abs);
     let step_se =
         (abs.iter().map(|a| (a - step).powi(2)).sum::<f64>() / (abs.len() - 1) as f64 / abs.len() as f64).sqrt();
@@ -456,10 +472,8 @@ pub(super) fn recovered_levels(x: &[f64], l: usize) -> Option<Vec<f64>> {
     if flips.jumps.len() < 2 {
         return None;
     }
-    let jumps = repaired(x, &flips);
-    let step = median(&seen_sizes(x, &jumps, l));
-    let jumps = split_short_excursions(x, jumps, step, l);
-    let step = mean(&seen_sizes(x, &jumps, l));
+    let ReadJumps { jumps, seen, .. } = read_jumps(x, &flips, l);
+    let step = mean(&seen);
     let States { edges, time_high, time_low, .. } = States::between(&jumps, n, 1.0)?;
     Some(telegraph_levels(x, &edges, step, time_high / (time_high + time_low)))
 }
@@ -571,7 +585,8 @@ mod tests {
         };
         // The stretch between is put back in its state by its level, but the excursions stay where they were.
         assert!(wrong(&seen) >= 23, "the premise: {} samples in the wrong state", wrong(&seen));
-        let split = split_short_excursions(&x, seen, step, l);
+        let sizes = refined_sizes(&x, &seen, l);
+        let split = split_short_excursions(&x, seen, &sizes, step, l);
         assert_eq!(split.len(), 8, "{split:?}");
         for (t, s) in [(8_000, 1.0), (8_008, -1.0), (12_000, 1.0), (12_015, -1.0)] {
             assert!(split.contains(&(t, s, false)), "edge {t} {s}: {split:?}");

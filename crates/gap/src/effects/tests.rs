@@ -396,6 +396,24 @@ fn bandwidth_and_resonance_each_read_under_the_other() {
     }
 }
 
+/// `n` samples at `rate_hz` of a telegraph between 0 and `step`, written out apart from the simulator: it starts low
+/// and flips with probability `dt / dwell` per sample, `dwells_s` the mean dwells `[low, high]`.
+fn telegraph(rng: &mut SimRng, n: usize, rate_hz: f64, step: f64, dwells_s: [f64; 2]) -> Vec<f64> {
+    let mut high = false;
+    (0..n)
+        .map(|_| {
+            if rng.uniform() < 1.0 / (dwells_s[usize::from(high)] * rate_hz) {
+                high = !high;
+            }
+            if high {
+                step
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// A bistable bias that reached the output through the sensor's filter, taken out sharp by an earlier step: the
 /// record (written out here: white noise and a telegraph of exponential dwells, through `y = a y + (1 - a) x`) less
 /// the sharp telegraph keeps the filtered edges' residue, a high-passed telegraph that fills the roll-off in. With
@@ -407,16 +425,11 @@ fn bandwidth_read_under_bias_jumps_taken_out_sharp() {
     let a = (-2.0 * std::f64::consts::PI * f3 / rate_hz).exp();
     for seed in [3, 4] {
         let mut rng = SimRng::new(seed);
-        let (mut level, mut y) = (0.0, 0.0);
-        let mut telegraph = Vec::with_capacity(n);
+        // Jumps of 20 sigma, dwells of 0.5 s low and 1.5 s high.
+        let telegraph = telegraph(&mut rng, n, rate_hz, 2.0, [0.5, 1.5]);
+        let mut y = 0.0;
         let mut x = Vec::with_capacity(n);
-        for i in 0..n {
-            // Jumps of 20 sigma, dwells of 0.5 s low and 1.5 s high: a flip with probability dt / dwell per sample.
-            let dwell_s = if level == 0.0 { 0.5 } else { 1.5 };
-            if rng.uniform() < 1.0 / (dwell_s * rate_hz) {
-                level = 2.0 - level;
-            }
-            telegraph.push(level);
+        for (i, level) in telegraph.iter().enumerate() {
             let v = 0.1 * rng.normal() + level;
             y = if i == 0 { v } else { a * y + (1.0 - a) * v };
             x.push(y);
@@ -516,19 +529,14 @@ fn bias_steps_beside_a_telegraph_taken_out_keep_the_white_noise() {
     let (rate_hz, n) = (100.0, 1 << 20);
     let (white_sd, per_hour, sigma) = (0.1, 60.0, 1.0);
     let mut rng = SimRng::new(17);
-    let (mut level, mut bias) = (0.0, 0.0);
-    let mut telegraph = Vec::with_capacity(n);
+    // Telegraph steps of 20 sample sds, dwells 2 s low and 6 s high; bias steps of 10 sds, 60 an hour.
+    let telegraph = telegraph(&mut rng, n, rate_hz, 2.0, [2.0, 6.0]);
+    let mut bias = 0.0;
     let mut x = Vec::with_capacity(n);
-    for _ in 0..n {
-        // Telegraph steps of 20 sample sds, dwells 2 s low and 6 s high; bias steps of 10 sds, 60 an hour.
-        let dwell_s = if level == 0.0 { 2.0 } else { 6.0 };
-        if rng.uniform() < 1.0 / (dwell_s * rate_hz) {
-            level = 2.0 - level;
-        }
+    for level in &telegraph {
         if rng.uniform() < per_hour / 3600.0 / rate_hz {
             bias += sigma * rng.normal();
         }
-        telegraph.push(level);
         x.push(level + bias + white_sd * rng.normal());
     }
     // Taken out a sample late: the level before each flip held one sample too long.
