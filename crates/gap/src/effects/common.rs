@@ -84,14 +84,19 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
 /// flicker beneath. The model is simulated whole and compared with the record as recorded, so there its terms
 /// are re-fitted on its own base curve less what this effect's component takes out of the samples' curve
 /// ([`less_taken_out`]); what the samples carry, for a generalised least-squares test, is [`refit_noise`]'s.
+///
+/// Where the model carries spikes an earlier step found, its white noise and quantisation stay as they are: that
+/// step read them off the record's curve less the spikes' law, while the samples here lack only the spikes it
+/// flagged, and the ones too small to flag (a mixture of 5-sigma spikes on 5% of the samples) are white noise on
+/// their curve; a re-fit there puts them in N, and the model, which draws the whole law beside N, carries them
+/// twice.
 pub(super) fn refit_base(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, [f64; 5])> {
-    match d.shaped_dps {
-        Some(_) => {
-            let pts = less_taken_out(d, &gapped_oadev_points(cleaned, d.gaps, d.rate_hz));
-            ieee_refit(d.base, &pts)
-        }
-        None => refit_noise(d, cleaned),
-    }
+    let pts = gapped_oadev_points(cleaned, d.gaps, d.rate_hz);
+    let pts = match d.shaped_dps {
+        Some(_) => less_taken_out(d, &pts),
+        None => less_known(&pts, d.base, d.base.bandwidth_hz, d.rate_hz, d.lattice_dps),
+    };
+    ieee_refit(d.base, &pts, d.base.outliers.is_some())
 }
 
 /// The IEEE fit on the curve of `cleaned` (the step's samples less an effect's component), less the effects the
@@ -100,7 +105,7 @@ pub(super) fn refit_base(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, 
 pub(super) fn refit_noise(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, [f64; 5])> {
     let (base, rate_hz) = (d.base, d.rate_hz);
     let pts = gapped_oadev_points(cleaned, d.gaps, rate_hz);
-    ieee_refit(base, &less_known(&pts, base, base.bandwidth_hz, rate_hz, d.lattice_dps))
+    ieee_refit(base, &less_known(&pts, base, base.bandwidth_hz, rate_hz, d.lattice_dps), false)
 }
 
 /// The noise of the step's samples as they are: the model's base where they are the record less deterministic
@@ -112,12 +117,20 @@ pub(super) fn samples_noise(d: &TrainingData) -> GyroSim {
     }
 }
 
-/// `base` with its IEEE terms fitted on `pts` (default options, its bandwidth; the ramp only where it has one).
-fn ieee_refit(base: &GyroSim, pts: &[FitPoint]) -> Option<(GyroSim, [f64; 5])> {
+/// `base` with its IEEE terms fitted on `pts` (default options, its bandwidth; the ramp only where it has one);
+/// `keep_white` keeps `base`'s N and Q in place of the fitted ones (the fit still has them, so that white noise on
+/// the curve is not read as flicker).
+fn ieee_refit(base: &GyroSim, pts: &[FitPoint], keep_white: bool) -> Option<(GyroSim, [f64; 5])> {
     let terms = Term::ALL.into_iter().filter(|t| *t != Term::R || base.r_dps_per_s != 0.0).collect();
     let opts = FitOptions { bandwidth_hz: base.bandwidth_hz, terms, ..Default::default() };
     let f = fit(pts, &opts).ok()?;
-    Some((f.sim_terms(base.clone()), f.squares))
+    let (mut gyro, mut squares) = (f.sim_terms(base.clone()), f.squares);
+    if keep_white {
+        (gyro.n_deg_per_rt_s, gyro.q_deg) = (base.n_deg_per_rt_s, base.q_deg);
+        squares[Term::N as usize] = base.n_deg_per_rt_s.powi(2);
+        squares[Term::Q as usize] = base.q_deg.powi(2);
+    }
+    Some((gyro, squares))
 }
 
 /// The base terms' Allan variance under `d.base` at the points `cleaned` (the samples less an effect's component),

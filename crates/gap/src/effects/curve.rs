@@ -357,6 +357,18 @@ pub(super) fn base_columns(pts: &[FitPoint], rate_hz: f64, bw: Option<f64>, with
     ]
 }
 
+/// The Allan variance of `base`'s IEEE terms (N, B, K, R, Q, through its bandwidth) at the taus of `pts`, each
+/// point's EDF kept.
+pub(super) fn base_curve(base: &GyroSim, pts: &[FitPoint], rate_hz: f64) -> Vec<FitPoint> {
+    let cols = base_columns(pts, rate_hz, base.bandwidth_hz, true);
+    let b = base;
+    let squares = [b.n_deg_per_rt_s, b.b_dps, b.k_dps_per_rt_s, b.r_dps_per_s, b.q_deg].map(|v| v * v);
+    pts.iter()
+        .enumerate()
+        .map(|(i, p)| FitPoint { avar: (0..squares.len()).map(|j| squares[j] * cols[j][i]).sum(), ..*p })
+        .collect()
+}
+
 /// The base model with its N, B, K, R and Q replaced by the fitted squares.
 pub(super) fn with_base_terms(base: &GyroSim, theta: &[f64]) -> GyroSim {
     GyroSim {

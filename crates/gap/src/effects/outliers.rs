@@ -38,15 +38,20 @@
 //!   corrected by indirect inference against synthetic records of itself ([`calibrate`]).
 //! - **Base terms.** The spikes' own Allan variance (autocovariance `eps E s^2` at lag 0, `eps centre^2 rho_k` at
 //!   lag k: runs share a sign) is taken off the OADEV and the base terms are re-fitted on what is left, each
-//!   point's degrees of freedom scaled by the share left squared (its sampling error is the whole variance's). The flagged spikes, replaced by their neighbours' median, are the realisation
-//!   the chain's later steps learn without.
+//!   point's degrees of freedom scaled by the share left squared (its sampling error is the whole variance's). The
+//!   flagged spikes, replaced by their neighbours' median, are the realisation the chain's later steps learn
+//!   without, and those steps' re-fits keep the white noise read here ([`super::common::refit_base`]).
+//! - **Beside jumps taken out.** Where an earlier step took jumps out (a bistable bias's flips, bias steps), a
+//!   jump placed a sample off leaves a pulse of its whole size: the samples within [`JUMP_GUARD`] of each jump are
+//!   not read, and the curve the base terms are re-fitted on is the model's own (fitted beside the jumps on the
+//!   record as recorded), not that of the samples less the jumps, which keeps what the recovery missed.
 
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::{GyroSim, Outliers};
 use std::sync::Arc;
 
 use super::common::*;
-use super::curve::{ar1_avar, refit_base_terms};
+use super::curve::{ar1_avar, base_curve, refit_base_terms};
 use super::params::OutliersParams;
 use super::quantization::lattice;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
@@ -350,6 +355,18 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
             *v = true;
         }
     }
+    // Beside jumps an earlier step took out (a bistable bias's flips, bias steps), a jump placed a sample off
+    // leaves a pulse of its whole size: the recovery's residue, not a spike, so the samples around each are not
+    // read.
+    if let Some(s) = d.shaped_dps {
+        // The levels come back from sums of samples: equal to rounding, not exactly.
+        let tiny = 1e-9 * s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for i in 1..n.min(s.len()) {
+            if (s[i] - s[i - 1]).abs() > tiny {
+                gap[i.saturating_sub(JUMP_GUARD)..(i + JUMP_GUARD).min(n)].fill(true);
+            }
+        }
+    }
     // On an ADC lattice the residuals sit on a few values (most on 0 where the step is coarser than the noise):
     // a dither makes them continuous, so the core has a scale, and the spikes' magnitudes are held beyond the steps
     // the lattice itself takes between neighbours.
@@ -399,6 +416,9 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     })
 }
 
+/// The samples either side of a jump taken out that the spikes' reading leaves aside ([`outliers`]).
+const JUMP_GUARD: usize = 2;
+
 /// `x` plus a Gaussian dither of sd [`DITHER_STEPS`] lattice steps `q` (a fixed stream, so the diagnosis is
 /// repeatable).
 fn dither(x: &[f64], q: f64) -> Vec<f64> {
@@ -436,6 +456,11 @@ fn spike_avar(o: &Outliers, m: f64) -> f64 {
 
 /// The base terms re-fitted on the OADEV less the spikes' Allan variance (no ramp the base fit did not have);
 /// each point's EDF is scaled by the share left squared, since its sampling error is the whole variance's.
+///
+/// Where an earlier step took jumps out (a bistable bias's levels, bias steps: `d.shaped_dps`), the samples carry
+/// the recovery's residue (a flip placed a sample off is a one-sample pulse of its whole size, a spike of its own),
+/// and the model's base terms were fitted beside the process on the curve as recorded, spikes and all: the curve
+/// re-fitted is then the model's own base curve, less the spikes'.
 fn refit_without(d: &TrainingData, o: &Outliers) -> GyroSim {
     let rate_hz = d.rate_hz;
     // Where the model's channel has a lattice, the base's N is the analog noise the quantisation estimator
@@ -444,7 +469,11 @@ fn refit_without(d: &TrainingData, o: &Outliers) -> GyroSim {
     if d.lattice_dps.is_some() {
         return d.base.clone();
     }
-    let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz)
+    let mut pts = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz);
+    if d.shaped_dps.is_some() {
+        pts = base_curve(d.base, &pts, rate_hz);
+    }
+    let pts: Vec<_> = pts
         .into_iter()
         .filter_map(|mut p| {
             let own = spike_avar(o, p.tau_s * rate_hz);

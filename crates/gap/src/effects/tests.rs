@@ -556,6 +556,51 @@ fn bias_steps_beside_a_telegraph_taken_out_keep_the_white_noise() {
     assert!(g.k_dps_per_rt_s < 0.5 * walk.sqrt(), "K {} against the walk's {}", g.k_dps_per_rt_s, walk.sqrt());
 }
 
+/// Spikes found beside a bistable bias that an earlier step took out. The model the chain carries there was
+/// fitted beside the telegraph on the curve as recorded: its white noise holds the spikes' too, and the telegraph's
+/// ensemble draws the whole telegraph. The samples less the recovered levels keep what the recovery missed (here
+/// the step read a tenth small, and every flip placed a sample late: a pulse of the step's size, more of them than
+/// spikes), which a re-fit of their curve reads as flicker the model then draws beside the telegraph, and which
+/// the spikes' law would take for spikes. So the samples beside each flip are left aside, and the spikes' base is
+/// the model's own curve less the spikes' law: the white noise of the samples, no flicker. Spikes of 40 sample
+/// sds on 1 sample in 2,000, telegraph steps of 6 sds, a flip every 1,250 samples on average.
+#[test]
+fn spikes_beside_a_telegraph_taken_out_keep_the_models_base() {
+    let (rate_hz, n) = (10.0, 1 << 19);
+    let (white_sd, eps, size, step) = (0.1, 5e-4, 4.0, 0.6);
+    let mut rng = SimRng::new(19);
+    let telegraph = telegraph(&mut rng, n, rate_hz, step, [50.0, 200.0]);
+    let x: Vec<f64> = telegraph
+        .iter()
+        .map(|level| {
+            let spike = if rng.uniform() < eps { size * if rng.uniform() < 0.5 { -1.0 } else { 1.0 } } else { 0.0 };
+            level + spike + white_sd * rng.normal()
+        })
+        .collect();
+    let recovered: Vec<f64> = (0..n).map(|i| 0.9 * telegraph[i.saturating_sub(1)]).collect();
+    let less: Vec<f64> = x.iter().zip(&recovered).map(|(x, t)| x - t).collect();
+    let n_white = white_sd / rate_hz.sqrt();
+    let n_with_spikes = ((white_sd * white_sd + eps * size * size) / rate_hz).sqrt();
+    let base = GyroSim { n_deg_per_rt_s: n_with_spikes, ..Default::default() };
+    let f = fit(&oadev_points(&less, rate_hz), &FitOptions::default()).unwrap();
+    let d = TrainingData { recorded_dps: &x, shaped_dps: Some(&recovered), ..data_of(&less, rate_hz, &base, &f) };
+    let e = fit_effect(Effect::Outliers, &d).expect("the spikes are found");
+    let (g, o) = (&e.gyro, e.gyro.outliers.as_ref().unwrap());
+    eprintln!(
+        "{o:?}: N {:.4e} (truth {n_white:.4e}) B {:.3e} K {:.3e} Q {:.3e}",
+        g.n_deg_per_rt_s, g.b_dps, g.k_dps_per_rt_s, g.q_deg
+    );
+    assert!(rel(o.size_dps, size) < 0.1 && rel(o.per_sample, eps) < 0.2, "{o:?}");
+    assert!(rel(g.n_deg_per_rt_s, n_white) < 0.05, "N {} (truth {n_white})", g.n_deg_per_rt_s);
+    assert!(
+        g.b_dps == 0.0 && g.k_dps_per_rt_s == 0.0 && g.q_deg == 0.0,
+        "B {} K {} Q {}",
+        g.b_dps,
+        g.k_dps_per_rt_s,
+        g.q_deg
+    );
+}
+
 /// One bias step of 0.1 deg/s in a record of the base gyro (ten times the scan's threshold) is fitted as a
 /// process: found at its sample within a window, its size within 10%, and a rate of one step over the record's
 /// length divided by its detection probability. A Poisson process seen through half a record often leaves one
@@ -626,6 +671,41 @@ fn outliers_recovered() {
     let size = 10.0 * 0.01 * rate_hz.sqrt();
     // Tolerance: 25% on the rate (100 events), 5% on the size.
     assert!(rel(o.per_sample, 1e-4) < 0.25 && rel(o.size_dps, size) < 0.05, "{o:?}");
+}
+
+/// A warm-up read beside a spike mixture an earlier step found keeps that step's white noise. The mixture (5.2
+/// sds on 10% of the samples, written out here) overlaps the core, so the spikes step flags and cleans only part of
+/// it, and reads N off the record's curve less the whole law. An IEEE re-fit of the cleaned samples less the
+/// warm-up puts the unflagged spikes in N, and the model, which draws the law beside N, would carry them twice.
+#[test]
+fn a_warm_up_beside_a_spike_mixture_keeps_the_white_noise() {
+    let (rate_hz, n, sd) = (10.0, 400_000, 0.01);
+    let mut rng = SimRng::new(41);
+    let x: Vec<f64> = (0..n)
+        .map(|i| {
+            let spike = if rng.uniform() < 0.1 { (4.9 + 0.6 * rng.uniform()) * sd } else { 0.0 };
+            let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+            0.05 * (-(i as f64) / rate_hz / 2000.0).exp() + sd * rng.normal() + sign * spike
+        })
+        .collect();
+    let n_white = sd / rate_hz.sqrt();
+    let (g, f) = base_of(&x, rate_hz);
+    let spikes = fit_effect(Effect::Outliers, &data_of(&x, rate_hz, &g, &f)).expect("the mixture is found");
+    let n_spikes = spikes.gyro.n_deg_per_rt_s;
+    let cleaned = spikes.cleaned.as_deref().expect("the flagged samples cleaned").clone();
+    let (_, f2) = base_of(&cleaned, rate_hz);
+    let d = TrainingData { recorded_dps: &x, ..data_of(&cleaned, rate_hz, &spikes.gyro, &f2) };
+    let w = fit_effect(Effect::WarmUp, &d).expect("the warm-up is found");
+    let refit = f2.sim_terms(GyroSim::default()).n_deg_per_rt_s;
+    eprintln!(
+        "N: truth {n_white:.4e}, spikes step {n_spikes:.4e}, warm-up {:.4e}, re-fit {refit:.4e}",
+        w.gyro.n_deg_per_rt_s
+    );
+    assert!(rel(n_spikes, n_white) < 0.05, "the premise: the spikes step reads N {n_spikes} (truth {n_white})");
+    assert!(refit > 1.05 * n_white, "the premise: the cleaned samples' white noise {refit} carries unflagged spikes");
+    assert!(rel(w.gyro.n_deg_per_rt_s, n_white) < 0.05, "N {} (truth {n_white})", w.gyro.n_deg_per_rt_s);
+    let u = w.gyro.warm_up.as_ref().unwrap();
+    assert!(rel(u.size_dps, 0.05) < 0.2 && rel(u.tau_s, 2000.0) < 0.3, "{u:?}");
 }
 
 /// A coupling's spread draws its in-band complex coefficient, `k` through the lag's gain and phase at the
