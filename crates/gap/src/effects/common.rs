@@ -11,7 +11,7 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
-use super::curve::{base_columns, less_known};
+use super::curve::{base_curve, less_known};
 use super::TrainingData;
 use crate::fill::with_gaps;
 pub(super) use crate::spectral::{block_means, sine_tapers};
@@ -138,14 +138,12 @@ fn ieee_refit(base: &GyroSim, pts: &[FitPoint], keep_white: bool) -> Option<(Gyr
 /// each point kept at no less than a tenth of the base curve.
 fn less_taken_out(d: &TrainingData, cleaned: &[FitPoint]) -> Vec<FitPoint> {
     let before = gapped_oadev_points(d.rate_dps, d.gaps, d.rate_hz);
-    let b = d.base;
-    let cols = base_columns(cleaned, d.rate_hz, b.bandwidth_hz, true);
-    let squares = [b.n_deg_per_rt_s, b.b_dps, b.k_dps_per_rt_s, b.r_dps_per_s, b.q_deg].map(|v| v * v);
+    let base = base_curve(d.base, cleaned, d.rate_hz);
     cleaned
         .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let model: f64 = (0..squares.len()).map(|j| squares[j] * cols[j][i]).sum();
+        .zip(&base)
+        .map(|(p, m)| {
+            let model = m.avar;
             let taken = before.iter().find(|q| q.tau_s == p.tau_s).map_or(0.0, |q| q.avar - p.avar);
             FitPoint { avar: (model - taken).max(0.1 * model), ..*p }
         })
