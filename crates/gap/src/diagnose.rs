@@ -56,8 +56,8 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, report_progress: &ProgressF
     let start = chain::Start {
         judge: &judge,
         effects: &opts.effects,
-        base: base_model.clone(),
-        base_eval: base_eval.clone(),
+        base: &base_model,
+        base_eval: &base_eval,
         base_fit: &base_fit,
         training,
         temp: temp_train,

@@ -119,8 +119,8 @@ pub(crate) struct Start<'a> {
     /// The vocabulary the chain names from.
     pub effects: &'a [Effect],
     /// The base model and its comparison with the record.
-    pub base: Model,
-    pub base_eval: Evaluated,
+    pub base: &'a Model,
+    pub base_eval: &'a Evaluated,
     /// The IEEE fit the base model was made from.
     pub base_fit: &'a NoiseFit,
     /// The training samples (gaps as NaN) and their temperature.
@@ -169,7 +169,7 @@ pub(crate) fn search(start: &Start, progress: &mut Progress) -> Result<Found, Ga
 /// The greedy search from `start`: each step adds the effect that explains most of the gap on the model so far;
 /// `forced_first`, where given, is the first step's effect (from the first ranking) in place of the best-scored.
 fn greedy(start: &Start, progress: &mut Progress, forced_first: Option<Effect>) -> Result<Found, GapError> {
-    let Start { judge, effects, ref base, ref base_eval, base_fit, training, temp, rate_hz } = *start;
+    let Start { judge, effects, base, base_eval, base_fit, training, temp, rate_hz } = *start;
     let filled = fill_gaps(training);
     let mut s = Search {
         judge,
