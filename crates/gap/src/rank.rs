@@ -19,9 +19,10 @@
 //!   parameters must cut the total by more than 15% against an effect with none to win. A gap in the temperature
 //!   view goes to the temperature coupling when it explains the total and scores within [`DRIVER_PREFERENCE`]
 //!   of the best or clears that view: a sinusoid at the temperature's cycle imitates it, but only the coupling
-//!   has a driver. A Gauss-Markov process that leaves no white noise beside it is white noise through a
-//!   first-order filter, the same spectrum a filter corner draws: the corner is chosen when it scores within
-//!   [`FILTER_PREFERENCE`] of it.
+//!   has a driver. A Gauss-Markov process that follows the Allan curve no better than a filter corner is white
+//!   noise through a first-order filter, the spectrum the corner draws with fewer parameters: it is not chosen
+//!   where the corner explains the total, and one that leaves no white noise beside it gives way to a corner that
+//!   scores within [`FILTER_PREFERENCE`] of it.
 
 use serde::Serialize;
 
@@ -57,6 +58,11 @@ pub const DRIVER_PREFERENCE: f64 = 1.25;
 /// where the process left no white noise beside it (see [`choose`]): a single ensemble draw moves a total by about
 /// this much.
 pub const FILTER_PREFERENCE: f64 = 1.10;
+
+/// How much further a Gauss-Markov process must take the Allan curve's chi-square than a filter corner to be read
+/// as a process of its own (see [`choose`]): the 1% point of the chi-square law of one degree of freedom, the
+/// white noise the process leaves above its corner.
+pub const ONE_FREEDOM_CHI2: f64 = 6.63;
 
 /// The white noise a Gauss-Markov process may leave beside it, as a fraction of its own low-frequency density
 /// `sigma sqrt(2 T)`, and still be read as the white noise seen through a filter (see [`choose`]).
@@ -323,6 +329,26 @@ fn white_through_a_filter(c: &CandidateResult) -> bool {
         .is_some_and(|g| fit.gyro.n_deg_per_rt_s < WHITE_LEFT * g.sigma_dps * (2.0 * g.tau_s).sqrt())
 }
 
+/// Whether the Gauss-Markov process `markov` follows the Allan curve no better than the filter corner `corner`,
+/// by the fall of the curve's chi-square each fit reports: the process beside white noise has one freedom more
+/// than white noise through a corner (the white noise left above the corner), and where that freedom does not buy
+/// [`ONE_FREEDOM_CHI2`] the two are one spectrum, read by the corner with the fewer parameters. On the singles of
+/// both generators a corner's own record gives the two falls within 2 of each other (or the corner's the larger,
+/// where its time constant is below the process's two samples), and a process's gives its own fall 80 or more
+/// beyond the corner's.
+fn draws_the_corners_curve(markov: &CandidateResult, corner: &CandidateResult) -> bool {
+    use crate::effects::params::EffectParams;
+    let fall = |c: &CandidateResult| match c.fit.as_ref().map(|f| &f.params) {
+        Some(EffectParams::GaussMarkov(p)) => Some(p.delta_chi2),
+        Some(EffectParams::Bandwidth(p)) => Some(p.delta_chi2),
+        _ => None,
+    };
+    match (fall(markov), fall(corner)) {
+        (Some(m), Some(c)) => markov.effect == Effect::GaussMarkov && m < c + ONE_FREEDOM_CHI2,
+        _ => false,
+    }
+}
+
 /// The candidate that explains the current model's gap (see the module doc), by its index in `candidates`;
 /// `None` when none removes a quarter of the total `total_before`. `loc` is where the gap lies.
 ///
@@ -333,18 +359,25 @@ fn white_through_a_filter(c: &CandidateResult) -> bool {
 /// judged there on what it leaves, which a 4% error in the coefficient over ten cycles already shows, while a
 /// sinusoid is judged on the raw coherence.
 ///
-/// A Gauss-Markov process that took the white noise's place ([`white_through_a_filter`]) gives way to a filter
-/// corner that explains the total and scores within [`FILTER_PREFERENCE`] of it: the two draw one spectrum, and a
-/// sensor's bandwidth is the reading with the fewer parameters.
+/// A Gauss-Markov process that follows the Allan curve no better than a filter corner that explains the total
+/// ([`draws_the_corners_curve`]) is not chosen: the two draw one spectrum, a sensor's bandwidth is the reading
+/// with the fewer parameters, and what the views find between them is the ensemble's draw and the effects neither
+/// models (beside a warm-up the record's excess at long taus ranked a process of two samples above the corner by
+/// 24%). One that took the white noise's place ([`white_through_a_filter`]) gives way to a corner that explains the
+/// total and scores within [`FILTER_PREFERENCE`] of it.
 pub fn choose(candidates: &[CandidateResult], total_before: f64, loc: Option<&Location>) -> Option<usize> {
     let in_temperature_view = loc.is_some_and(|l| l.view == ViewKind::Temperature);
     let explains = |c: &CandidateResult| {
         c.score.is_some_and(|s| explains(s, total_before)) && (in_temperature_view || !weak_coupling(c))
     };
+    // A process that follows the curve no better than a corner that explains the total is that corner's spectrum.
+    let a_corners_spectrum = |m: &CandidateResult| {
+        candidates.iter().any(|c| c.effect == Effect::Bandwidth && draws_the_corners_curve(m, c) && explains(c))
+    };
     let best = candidates
         .iter()
         .enumerate()
-        .filter(|(_, c)| explains(c))
+        .filter(|(_, c)| explains(c) && !a_corners_spectrum(c))
         .min_by(|a, b| a.1.score.unwrap_or(f64::INFINITY).total_cmp(&b.1.score.unwrap_or(f64::INFINITY)))
         .map(|(i, _)| i)?;
     let b = &candidates[best];
@@ -434,10 +467,15 @@ mod tests {
 
     /// A candidate of `effect` with `gyro` as its model, scoring `score` with no parameters.
     fn candidate(effect: Effect, gyro: GyroSim, score: f64) -> CandidateResult {
+        candidate_falling(effect, gyro, score, 0.0)
+    }
+
+    /// [`candidate`] whose fit took the Allan curve's chi-square down by `fall`.
+    fn candidate_falling(effect: Effect, gyro: GyroSim, score: f64, fall: f64) -> CandidateResult {
         use crate::effects::params::{BandwidthParams, GaussMarkovParams};
         let params = match effect {
-            Effect::GaussMarkov => GaussMarkovParams { sigma_dps: 0.0, tau_s: 0.0, delta_chi2: 0.0 }.into(),
-            _ => BandwidthParams { bandwidth_hz: 0.0, n_deg_per_rt_s: 0.0, delta_chi2: 0.0 }.into(),
+            Effect::GaussMarkov => GaussMarkovParams { sigma_dps: 0.0, tau_s: 0.0, delta_chi2: fall }.into(),
+            _ => BandwidthParams { bandwidth_hz: 0.0, n_deg_per_rt_s: 0.0, delta_chi2: fall }.into(),
         };
         let fit = EffectFit { effect, params, n_params: 0, gyro, channel: None, spread: None, cleaned: None };
         CandidateResult {
@@ -465,9 +503,10 @@ mod tests {
         };
         let corner = GyroSim { n_deg_per_rt_s: 3.3e-3, bandwidth_hz: Some(10.6), ..Default::default() };
         let pick = |n: f64, corner_score: f64| {
+            // The process's fit follows the curve better than the corner's by far more than one freedom's worth.
             let c = [
-                candidate(Effect::GaussMarkov, markov(n), 1.11),
-                candidate(Effect::Bandwidth, corner.clone(), corner_score),
+                candidate_falling(Effect::GaussMarkov, markov(n), 1.11, 100.0),
+                candidate_falling(Effect::Bandwidth, corner.clone(), corner_score, 0.0),
             ];
             c[choose(&c, 40.0, None).unwrap()].effect
         };
@@ -476,6 +515,35 @@ mod tests {
         assert_eq!(pick(0.0, 1.30), Effect::GaussMarkov);
         // A process beside white noise of its own is not a filter's doing.
         assert_eq!(pick(1e-3, 1.19), Effect::GaussMarkov);
+    }
+
+    #[test]
+    fn a_markov_process_that_follows_the_curve_no_better_than_a_corner_gives_way_to_it() {
+        use octavar_shared::sim::GaussMarkovSim;
+        // A process of T = 16 ms beside white noise at 6% of its own density (above WHITE_LEFT): a fit of white
+        // noise through a 10.4 Hz corner at 148 Hz, whose curve the corner follows as well.
+        let markov = GyroSim {
+            n_deg_per_rt_s: 2.1e-4,
+            gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.0189, tau_s: 0.0159 }),
+            ..Default::default()
+        };
+        assert!(!white_through_a_filter(&candidate(Effect::GaussMarkov, markov.clone(), 1.07)));
+        let corner = GyroSim { n_deg_per_rt_s: 3.4e-3, bandwidth_hz: Some(10.4), ..Default::default() };
+        let pick = |markov_fall: f64, corner_score: f64| {
+            let c = [
+                candidate_falling(Effect::GaussMarkov, markov.clone(), 1.07, markov_fall),
+                candidate_falling(Effect::Bandwidth, corner.clone(), corner_score, 5012.6),
+            ];
+            c[choose(&c, 40.0, None).unwrap()].effect
+        };
+        // The falls of that record's two fits: one spectrum.
+        assert_eq!(pick(5012.8, 1.16), Effect::Bandwidth);
+        // The process's freedom bought more than one parameter's chi-square: a process of its own.
+        assert_eq!(pick(5012.6 + 2.0 * ONE_FREEDOM_CHI2, 1.16), Effect::GaussMarkov);
+        // Worse in the views, the corner is still the reading of that spectrum...
+        assert_eq!(pick(5012.8, 1.30), Effect::Bandwidth);
+        // ...unless it does not explain the gap.
+        assert_eq!(pick(5012.8, 35.0), Effect::GaussMarkov);
     }
 
     #[test]

@@ -212,7 +212,7 @@ pub(super) fn bias_steps(d: &TrainingData) -> Option<EffectFit> {
     } else if d.shaped_dps.is_some() {
         less_step_walk(d.base, per_hour / 3600.0 * sigma * sigma)
     } else {
-        refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0)
+        refit_base(d, &cleaned, f64::INFINITY).map_or_else(|| d.base.clone(), |r| r.0)
     };
     let gyro = GyroSim { bias_steps: Some(BiasSteps { per_hour, sigma_dps: sigma }), ..refit };
     let at: Vec<f64> = steps.iter().map(|s| s.0 as f64 / rate_hz).collect();

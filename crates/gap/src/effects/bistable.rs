@@ -383,7 +383,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     let cleaned: Vec<f64> = x.iter().zip(telegraph_levels(x, &edges, step, p_high)).map(|(v, l)| v - l).collect();
     let refit = match &on_curve {
         Some((_, _, theta)) => with_base_terms(d.base, theta),
-        None => refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0),
+        None => refit_base(d, &cleaned, f64::INFINITY).map_or_else(|| d.base.clone(), |r| r.0),
     };
     let gyro = GyroSim {
         bistable: Some(BistableSim { step_dps: step, dwell_low_s: dwell_low, dwell_high_s: dwell_high }),

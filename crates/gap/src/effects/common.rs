@@ -11,7 +11,7 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
-use super::curve::{base_curve, less_known};
+use super::curve::{base_curve, less_known, weighed_by_fit_error};
 use super::TrainingData;
 use crate::fill::with_gaps;
 pub(super) use crate::spectral::{block_means, sine_tapers};
@@ -85,15 +85,23 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
 /// are re-fitted on its own base curve less what this effect's component takes out of the samples' curve
 /// ([`less_taken_out`]); what the samples carry, for a generalised least-squares test, is [`refit_noise`]'s.
 ///
+/// Elsewhere, where the component was fitted `t` standard errors from zero (a coupling's coefficient, a warm-up's
+/// size, the weakest sinusoid's amplitude), the curve's points weigh less where the fit took noise out with it
+/// ([`weighed_by_fit_error`]); `t` infinite for a component that was not fitted so (bias jumps' levels).
+///
 /// Where the model carries spikes an earlier step found, its white noise and quantisation stay as they are: that
 /// step read them off the record's curve less the spikes' law, while the samples here lack only the spikes it
 /// flagged, and the ones too small to flag (a mixture of 5-sigma spikes on 5% of the samples) are white noise on
 /// their curve; a re-fit there puts them in N, and the model, which draws the whole law beside N, carries them
 /// twice.
-pub(super) fn refit_base(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, [f64; 5])> {
+pub(super) fn refit_base(d: &TrainingData, cleaned: &[f64], t: f64) -> Option<(GyroSim, [f64; 5])> {
     let pts = gapped_oadev_points(cleaned, d.gaps, d.rate_hz);
     let pts = match d.shaped_dps {
         Some(_) => less_taken_out(d, &pts),
+        None if t.is_finite() => {
+            let record = gapped_oadev_points(d.rate_dps, d.gaps, d.rate_hz);
+            less_known(&weighed_by_fit_error(&pts, &record, t), d.base, d.base.bandwidth_hz, d.rate_hz, d.lattice_dps)
+        }
         None => less_known(&pts, d.base, d.base.bandwidth_hz, d.rate_hz, d.lattice_dps),
     };
     ieee_refit(d.base, &pts, d.base.outliers.is_some())

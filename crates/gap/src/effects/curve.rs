@@ -385,6 +385,26 @@ pub(super) fn with_base_terms(base: &GyroSim, theta: &[f64]) -> GyroSim {
 /// floor of 3% already keeps the first octaves from dominating).
 pub(super) const CURVE_DELTA_CHI2: f64 = 30.0;
 
+/// `cleaned`'s points (the curve of samples less a component fitted to them, `t` standard errors from zero) with
+/// their uncertainty widened by what the fit took of the noise. A component fitted by least squares takes the
+/// noise's projection on it too, as much as its own estimation error: at each tau about `1 / t^2` of the
+/// component's Allan variance there (`record`'s less `cleaned`'s). Where the component dominated the record's
+/// curve and was fitted loosely (a temperature response at t = 7.6 over 1.75 cycles of its driver), what is
+/// left is the noise less a part fitted away, low by more than its chi-square spread: the flicker at 330 s stood
+/// at a quarter of the truth, and the base fit read B at two thirds of it. Each point's log-domain variance
+/// `2 / edf` grows by the square of that share of its Allan variance; a sinusoid fitted hundreds of standard
+/// errors from zero leaves its points as they are.
+pub(super) fn weighed_by_fit_error(cleaned: &[FitPoint], record: &[FitPoint], t: f64) -> Vec<FitPoint> {
+    cleaned
+        .iter()
+        .map(|p| {
+            let taken = record.iter().find(|q| q.tau_s == p.tau_s).map_or(0.0, |q| (q.avar - p.avar).max(0.0));
+            let error = if p.avar > 0.0 { taken / p.avar / (t * t) } else { 0.0 };
+            FitPoint { edf: 2.0 / (2.0 / p.edf + error * error), ..*p }
+        })
+        .collect()
+}
+
 /// `base` with its IEEE terms re-fitted jointly on the OADEV points `pts` (a component's own Allan variance
 /// already taken out of them), with no ramp the base fit did not have (an all-zero column is never used); `base`
 /// as it is when fewer than three points are left or the fit fails.

@@ -670,7 +670,9 @@ fn sinusoids_fit(
             v - list.iter().map(|s| s.amplitude_dps * (two_pi * t / s.period_s + s.phase_rad).sin()).sum::<f64>()
         })
         .collect();
-    let mut gyro = refit_base(d, &cleaned).map_or_else(|| d.base.clone(), |r| r.0);
+    // The weakest sinusoid's amplitude over its first standard error.
+    let t = found.iter().map(|f| (f.sinusoid.amplitude_dps / f.se[0]).abs()).fold(f64::INFINITY, f64::min);
+    let mut gyro = refit_base(d, &cleaned, t).map_or_else(|| d.base.clone(), |r| r.0);
     let noise = match d.shaped_dps {
         Some(_) => NoiseSpectrum::of(&refit_noise(d, &cleaned).map_or_else(|| gyro.clone(), |r| r.0), d.rate_hz),
         None => NoiseSpectrum::of(&gyro, d.rate_hz),

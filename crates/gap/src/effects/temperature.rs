@@ -247,7 +247,7 @@ impl<'a> Regression<'a> {
             .map(|(xr, xi)| (1..=half).map(|k| (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k] * k as f64 * df).sum::<f64>())
             .sum::<f64>()
             / sxx;
-        let (refit, _) = refit_base(d, &self.cleaned_of(k, lag))?;
+        let (refit, _) = refit_base(d, &self.cleaned_of(k, lag), k / se)?;
         // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
         let c0 = mean(r) - k * mean(x);
         let ref_c = (d.base.bias_dps - c0) / k;

@@ -125,6 +125,46 @@ fn temperature_recovers_coefficient_and_lag() {
     assert!(rel(c.lag_s, 300.0) < 0.2, "{c:?}");
 }
 
+/// A coupling read loosely (t of 3 to 7) over under two cycles of its driver takes the flicker's wander at that
+/// period with it: the base terms re-fitted beside it weigh the curve's points by what the fit took
+/// ([`common::refit_base`]), and read B nearer the truth than a plain fit on the record less the coupling, on the
+/// worst of 24 records.
+#[test]
+fn a_loose_coupling_leaves_the_flicker_beneath_it() {
+    let rate_hz = 50.0;
+    let wander = Some(Wander { sigma_c: 0.1, tau_s: 390.0 });
+    let temp = TemperatureProfile { min_c: 22.0, max_c: 24.0, period_s: 1550.0, wander, ..Default::default() };
+    let truth = 6.5e-3;
+    let m = GyroSim {
+        n_deg_per_rt_s: 7.2e-3,
+        b_dps: truth,
+        k_dps_per_rt_s: 6.5e-6,
+        temperature: Some(TempCoupling { dps_per_c: 0.0207, ref_c: 23.0, lag_s: 210.0 }),
+        ..Default::default()
+    };
+    let read: Vec<(f64, f64)> = (0..24u64)
+        .into_par_iter()
+        .filter_map(|seed| {
+            let (x, t) = simulate(&m, rate_hz, 135_000, seed, Some(&temp));
+            let (g, f) = base_of(&x, rate_hz);
+            let d = TrainingData { temp_c: Some(&t), ..data_of(&x, rate_hz, &g, &f) };
+            let e = fit_effect(Effect::Temperature, &d)?;
+            let c = e.gyro.temperature?;
+            let only = GyroSim { temperature: Some(c), ..Default::default() };
+            let response = crate::chain::deterministic_part(&only, rate_hz, Some(&t), x.len())?;
+            let cleaned: Vec<f64> = x.iter().zip(&response).map(|(a, b)| a - b).collect();
+            let plain = common::refit_base(&d, &cleaned, f64::INFINITY)?.0.b_dps;
+            Some((e.gyro.b_dps, plain))
+        })
+        .collect();
+    assert!(read.len() >= 20, "the coupling found on {} of 24 records", read.len());
+    // The worst of the records: the plain re-fit reads B 18% low on one (the premise), the weighed one within 6%.
+    let worst = |pick: fn(&(f64, f64)) -> f64| read.iter().map(|r| (pick(r) / truth).ln().abs()).fold(0.0, f64::max);
+    let (weighed, plain) = (worst(|r| r.0), worst(|r| r.1));
+    assert!(plain > 0.15, "the plain re-fit's worst |ln(B / truth)| {plain:.3}: the records no longer test this");
+    assert!(weighed < 0.1, "worst |ln(B / truth)|: {weighed:.3} (plain {plain:.3})");
+}
+
 /// One FFT and the two-neighbour identity give what five tapered FFTs give, on the same grid.
 #[test]
 fn sine_tapers_from_one_fft_match_the_direct_transforms() {
@@ -462,6 +502,32 @@ fn gauss_markov_recovered() {
         assert!(rel(g.sigma_dps, sigma) < 0.25, "{g:?}");
         assert!((g.tau_s / t).ln().abs() < 1.5f64.ln(), "{g:?}");
     }
+}
+
+/// The premise of [`crate::rank::ONE_FREEDOM_CHI2`]: on white noise through a corner a few samples long, a
+/// Gauss-Markov process follows the Allan curve as the corner does (the process is that filtered noise); on a
+/// process beside white noise of its own, the process follows it far better.
+#[test]
+fn a_markov_process_follows_a_corners_curve_no_better_than_the_corner() {
+    let fall = |e: &EffectFit| match &e.params {
+        params::EffectParams::GaussMarkov(p) => p.delta_chi2,
+        params::EffectParams::Bandwidth(p) => p.delta_chi2,
+        _ => unreachable!(),
+    };
+    let falls = |m: &GyroSim, rate_hz: f64| {
+        let (x, _) = simulate(m, rate_hz, 400_000, 11, None);
+        let markov = run(Effect::GaussMarkov, &x, None, rate_hz).unwrap();
+        let corner = run(Effect::Bandwidth, &x, None, rate_hz).unwrap();
+        (fall(&markov), fall(&corner))
+    };
+    let one = crate::rank::ONE_FREEDOM_CHI2;
+    // A corner of 2.2 samples' time constant.
+    let (markov, corner) = falls(&GyroSim { bandwidth_hz: Some(10.6), ..base_model() }, 148.0);
+    assert!(corner > 100.0 && markov < corner + one, "corner's record: process {markov}, corner {corner}");
+    // A process of 20 samples.
+    let m = GyroSim { gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.02, tau_s: 1.0 }), ..base_model() };
+    let (markov, corner) = falls(&m, 20.0);
+    assert!(markov > corner + 10.0 * one, "process's record: process {markov}, corner {corner}");
 }
 
 /// `n` samples of the ADXRS300 bench channel's codes at 500 Hz, as deg/s, with its step `q`, the model and the

@@ -286,7 +286,7 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     if !((size / se).abs() > T_STAT) {
         return None;
     }
-    let (refit, _) = refit_base(d, &cleaned_of(size, tau_s))?;
+    let (refit, _) = refit_base(d, &cleaned_of(size, tau_s), size / se)?;
     let gyro = GyroSim { warm_up: Some(WarmUpSim { size_dps: size, tau_s }), ..refit };
     Some(EffectFit {
         effect: Effect::WarmUp,
