@@ -492,7 +492,10 @@ fn most_significant_bump(d: &TrainingData, seg: usize) -> Option<Bump> {
 
 /// The base terms re-fitted on the OADEV less the resonance's exact Allan variance, without the points where the
 /// resonance makes up more than 80% of the Allan variance, and without a ramp where the base fit has none; the
-/// base model itself where that fit fails.
+/// base model itself where that fit fails. What the model already carries is taken off too ([`less_known`]): on a
+/// coarse ADC lattice an earlier step read, the rounding's white noise is the channel's, and a re-fit that kept it
+/// put it in N a second time (N 7.6e-3 where the lattice's step had left 6.3e-3, and the resonance's candidate
+/// then widened the spectrum's gap it was to close).
 fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim {
     let rate_hz = d.rate_hz;
     let pts: Vec<_> = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz)
@@ -506,5 +509,5 @@ fn refit_without(d: &TrainingData, bump: &Bump) -> octavar_shared::sim::GyroSim 
             })
         })
         .collect();
-    refit_base_terms(d.base, &pts, rate_hz)
+    refit_base_terms(d.base, &less_known(&pts, d.base, d.base.bandwidth_hz, rate_hz, d.lattice_dps), rate_hz)
 }

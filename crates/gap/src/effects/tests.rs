@@ -530,6 +530,41 @@ fn a_markov_process_follows_a_corners_curve_no_better_than_the_corner() {
     assert!(markov > corner + 10.0 * one, "process's record: process {markov}, corner {corner}");
 }
 
+/// A filter corner read on a model that carries a Gauss-Markov process and no corner: the process is fitted
+/// beside each corner tried, so the curve's chi-square falls only by what a corner adds, below the corner's own
+/// test ([`crate::evidence`]) on every record; the process's variance stays in the model.
+#[test]
+fn no_corner_is_read_beside_a_markov_process_that_has_none() {
+    let rate_hz = 6.1;
+    let m = GyroSim {
+        n_deg_per_rt_s: 3.4e-3,
+        b_dps: 2.5e-3,
+        gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.046, tau_s: 1.2 }),
+        ..Default::default()
+    };
+    let falls: Vec<f64> = (0..6u64)
+        .into_par_iter()
+        .map(|seed| {
+            let (x, _) = simulate(&m, rate_hz, 128_000, seed, None);
+            let (g, f) = base_of(&x, rate_hz);
+            let markov = fit_effect(Effect::GaussMarkov, &data_of(&x, rate_hz, &g, &f)).expect("the process");
+            let d = TrainingData { base: &markov.gyro, ..data_of(&x, rate_hz, &g, &f) };
+            match fit_effect(Effect::Bandwidth, &d) {
+                Some(e) => {
+                    assert!(e.gyro.gauss_markov.is_some_and(|p| p.sigma_dps > 0.0), "seed {seed}: {:?}", e.gyro);
+                    match e.params {
+                        params::EffectParams::Bandwidth(p) => p.delta_chi2,
+                        _ => unreachable!(),
+                    }
+                }
+                None => 0.0,
+            }
+        })
+        .collect();
+    let test = crate::evidence::threshold(Effect::Bandwidth).unwrap();
+    assert!(falls.iter().all(|&v| v < test), "the corner's falls beside the process: {falls:?}");
+}
+
 /// `n` samples of the ADXRS300 bench channel's codes at 500 Hz, as deg/s, with its step `q`, the model and the
 /// rate: half a step of white noise, and a random walk that moves the offset over a few steps (the inversion of
 /// the quantised variance assumes the offset wanders over the lattice).
@@ -542,6 +577,33 @@ fn quantized(n: usize, seed: u64) -> (Vec<f64>, f64, GyroSim, f64) {
     let mut g = VirtualGyro::new(&m, ch, rate_hz, seed).unwrap();
     let x = (0..n).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
     (x, q, m, rate_hz)
+}
+
+/// A resonance read after a coarse ADC lattice: its base re-fit leaves the rounding's white noise to the
+/// lattice the model already carries, and reads the analog N (the record's own white noise is 15% above it).
+#[test]
+fn a_resonance_read_on_a_lattice_leaves_its_rounding_to_it() {
+    let ch = Channel::bench(ADXRS300);
+    let q = ch.dps_per_code();
+    let rate_hz: f64 = 500.0;
+    let n_true = 0.5 * q / rate_hz.sqrt();
+    let m = GyroSim {
+        n_deg_per_rt_s: n_true,
+        k_dps_per_rt_s: 0.01,
+        bias_dps: 0.1,
+        resonance: Some(ResonanceSim { sigma_dps: 1.5 * q, freq_hz: 20.0, q: 10.0 }),
+        ..Default::default()
+    };
+    let mut g = VirtualGyro::new(&m, ch, rate_hz, 4).unwrap();
+    let x: Vec<f64> = (0..400_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+    let (b, f) = base_of(&x, rate_hz);
+    let lattice = fit_effect(Effect::Quantization, &data_of(&x, rate_hz, &b, &f)).expect("the lattice");
+    let on_lattice = TrainingData { base: &lattice.gyro, lattice_dps: Some(q), ..data_of(&x, rate_hz, &b, &f) };
+    let n_of = |d: &TrainingData| fit_effect(Effect::Resonance, d).expect("the resonance").gyro.n_deg_per_rt_s;
+    let plain = n_of(&TrainingData { lattice_dps: None, ..on_lattice });
+    assert!(plain > 1.1 * n_true, "premise: the record's white noise {plain:.3e} is the analog N {n_true:.3e}");
+    let read = n_of(&on_lattice);
+    assert!(rel(read, n_true) < 0.07, "N {read:.3e} for {n_true:.3e} (the record's: {plain:.3e})");
 }
 
 #[test]
