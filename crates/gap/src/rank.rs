@@ -338,13 +338,10 @@ fn white_through_a_filter(c: &CandidateResult) -> bool {
 /// beyond the corner's.
 fn draws_the_corners_curve(markov: &CandidateResult, corner: &CandidateResult) -> bool {
     use crate::effects::params::EffectParams;
-    let fall = |c: &CandidateResult| match c.fit.as_ref().map(|f| &f.params) {
-        Some(EffectParams::GaussMarkov(p)) => Some(p.delta_chi2),
-        Some(EffectParams::Bandwidth(p)) => Some(p.delta_chi2),
-        _ => None,
-    };
-    match (fall(markov), fall(corner)) {
-        (Some(m), Some(c)) => markov.effect == Effect::GaussMarkov && m < c + ONE_FREEDOM_CHI2,
+    match (markov.fit.as_ref().map(|f| &f.params), corner.fit.as_ref().map(|f| &f.params)) {
+        (Some(EffectParams::GaussMarkov(m)), Some(EffectParams::Bandwidth(c))) => {
+            m.delta_chi2 < c.delta_chi2 + ONE_FREEDOM_CHI2
+        }
         _ => false,
     }
 }
@@ -371,9 +368,8 @@ pub fn choose(candidates: &[CandidateResult], total_before: f64, loc: Option<&Lo
         c.score.is_some_and(|s| explains(s, total_before)) && (in_temperature_view || !weak_coupling(c))
     };
     // A process that follows the curve no better than a corner that explains the total is that corner's spectrum.
-    let a_corners_spectrum = |m: &CandidateResult| {
-        candidates.iter().any(|c| c.effect == Effect::Bandwidth && draws_the_corners_curve(m, c) && explains(c))
-    };
+    let a_corners_spectrum =
+        |m: &CandidateResult| candidates.iter().any(|c| draws_the_corners_curve(m, c) && explains(c));
     let best = candidates
         .iter()
         .enumerate()
