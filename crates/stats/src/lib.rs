@@ -10,7 +10,8 @@
 //! - `blocks`: ADEV and HDEV of frequency records at octave taus from block sums, without the phase array;
 //! - [`analysis`]: all of it in one call, one row per tau, like a Stable32 table;
 //! - [`fit`]: the IEEE 952 noise terms Q, N, B, K, R fitted to an Allan variance curve, with their intervals;
-//! - [`quantity`]: what a channel measures (gyro or accelerometer) and its base unit.
+//! - [`quantity`]: what a channel measures (gyro or accelerometer) and its base unit;
+//! - [`tails`]: the normal and Poisson upper tails the gap diagnosis's tests are read against.
 //!
 //! This crate is the bottom of the host's layers: it imports only `octavar_shared`.
 
@@ -37,6 +38,7 @@ pub mod robust;
 pub mod series;
 pub mod stream_oadev;
 pub mod strided;
+pub mod tails;
 pub mod taus;
 #[doc(hidden)]
 pub mod test_signals;

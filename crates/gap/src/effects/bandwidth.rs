@@ -79,9 +79,11 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
         joint_fit_keeping(&pts, &cols, keep)
     };
     let plain = score(None)?;
-    let (f, chi) =
-        log_search(rate_hz / 2000.0, rate_hz / 2.0, 40, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
-    if !(chi + CURVE_DELTA_CHI2 < plain.chi2) {
+    let (lo, hi) = (rate_hz / 2000.0, rate_hz / 2.0);
+    let (f, chi) = log_search(lo, hi, 40, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
+    // A corner at the Nyquist frequency is the search's bound: whatever bends the curve at the shortest tau (a
+    // resonance's misfit there) takes it, and a first-order filter above the band is not seen at all.
+    if !(chi + CURVE_DELTA_CHI2 < plain.chi2) || at_top(f, lo, hi, 40) {
         return None;
     }
     let j = score(Some(f))?;

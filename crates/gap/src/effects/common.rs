@@ -171,10 +171,7 @@ pub(super) fn ieee_squares(gyro: &GyroSim) -> [f64; 4] {
     [gyro.q_deg, gyro.n_deg_per_rt_s, gyro.b_dps, gyro.k_dps_per_rt_s].map(|v| v * v)
 }
 
-/// The standard normal upper tail.
-pub(super) fn normal_sf(z: f64) -> f64 {
-    0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)
-}
+pub(super) use octavar_stats::tails::normal_sf;
 
 /// Golden-section minimisation of `f` on [lo, hi].
 pub(super) fn golden(mut lo: f64, mut hi: f64, iters: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
@@ -271,6 +268,15 @@ pub(super) fn brent(lo: f64, hi: f64, tol: f64, max_evals: usize, f: impl Fn(f64
         }
     }
     (x, fx)
+}
+
+/// Whether `x`, found by [`log_search`] on `[lo, hi]` with `n` points, sits at `hi`: within a thousandth of a grid
+/// step of it, so the criterion was still falling where the search stopped and the estimate is the search's bound,
+/// not the data's. Such an estimate is not identified: past the bound, a filter corner above the Nyquist frequency
+/// or a temperature lag longer than the record trades its value against the coefficient beside it.
+pub(super) fn at_top(x: f64, lo: f64, hi: f64, n: usize) -> bool {
+    let step = (hi / lo).ln() / (n - 1) as f64;
+    (hi / x).ln() < 1e-3 * step
 }
 
 /// Grid search over `ln x` on [lo, hi] (n points), then golden refinement between the best point's neighbours.

@@ -23,9 +23,10 @@
 //!   `size_dps` and `spread_dps`: a spike adds its magnitude to the residual, so the law is read in deg/s.
 //! - **Evidence.** A process is kept when twice the log-likelihood gained over the Gaussian alone exceeds
 //!   [`MIN_LR`], the centre stands at least [`MIN_CENTRE_SIGMAS`] core sds out (a light or slightly heavy core is
-//!   not a spike process), at least [`MIN_SPIKES`] residuals beyond [`TAIL_SIGMAS`] core sds are more than the
-//!   core explains, and the flagged spikes are not most of them within [`CLUSTER_SPAN`] of the record (what a burst
-//!   leaves is an event, not a steady process).
+//!   not a spike process), at least [`MIN_SPIKES`] residuals stand beyond [`TAIL_SIGMAS`] core sds, more than the
+//!   core's Gaussian tail gives at [`TAIL_ALPHA`] (their count is Poisson under the core alone), and the flagged
+//!   spikes are not most of them within [`CLUSTER_SPAN`] of the record (what a burst leaves is an event, not a
+//!   steady process).
 //! - **Runs.** A residual is flagged where the spike component is the likelier (and beyond [`FLAG_SIGMAS`]).
 //!   Flagged pairs k samples apart with one sign come from a run or by chance; chance gives as many of opposite
 //!   signs. The same-sign excess over `n eps D^2` (D the chance that a spike is flagged, from the fitted law) is
@@ -56,6 +57,7 @@ use super::params::OutliersParams;
 use super::quantization::lattice;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 use octavar_stats::robust::mad_scale_in_place;
+use octavar_stats::tails::poisson_sf;
 
 mod calibrate;
 mod mixture;
@@ -77,6 +79,10 @@ const TAIL_SIGMAS: f64 = 5.0;
 
 /// Fewest spikes that make a rate: two or three events are not a process.
 const MIN_SPIKES: usize = 5;
+
+/// The residuals beyond [`TAIL_SIGMAS`] must be more than the Gaussian core gives (a Poisson count) at this
+/// significance: at the 0.1-0.6 residuals a core of 0.2-1 million samples leaves there, that is 5 or 6 of them.
+const TAIL_ALPHA: f64 = 1e-4;
 
 /// The residuals are taken again without the flagged spikes in the windows when the magnitudes' centre stands
 /// this many core sds out.
@@ -246,11 +252,12 @@ impl Contamination {
     /// [`TAIL_SIGMAS`], not a cluster).
     pub fn is_process(&self, n: usize) -> bool {
         let m = &self.mix;
-        let excess = self.tail.0 as f64 - self.tail.1;
+        let (beyond, expected) = self.tail;
         let hits: Vec<usize> = self.flagged.iter().map(|f| f.0).collect();
         m.lr >= MIN_LR
             && m.centre >= MIN_CENTRE_SIGMAS * m.sigma
-            && excess >= MIN_SPIKES as f64 + 3.0 * self.tail.1.sqrt()
+            && beyond >= MIN_SPIKES
+            && poisson_sf(expected, beyond) <= TAIL_ALPHA
             && hits.len() >= MIN_SPIKES
             && !clustered(&hits, n)
     }

@@ -1122,3 +1122,55 @@ fn a_named_jump_process_is_found_again_on_another_record() {
         assert!(JumpScan::of(&nothing_out, &x, rate_hz).is_none());
     }
 }
+
+/// [`common::at_top`] marks a search's minimum at its upper bound (a criterion still falling there), and only there:
+/// not an interior minimum, nor one at the lower bound.
+#[test]
+fn a_search_that_ends_at_its_top_is_told_from_one_inside() {
+    let (lo, hi, n) = (0.1, 1000.0, 40);
+    let falling = common::log_search(lo, hi, n, |x| -x.ln());
+    let inside = common::log_search(lo, hi, n, |x| (x.ln() - 3.0).powi(2));
+    let at_bottom = common::log_search(lo, hi, n, |x| x.ln());
+    assert!(common::at_top(falling.0, lo, hi, n), "{falling:?}");
+    assert!(!common::at_top(inside.0, lo, hi, n) && (inside.0.ln() - 3.0).abs() < 1e-3, "{inside:?}");
+    assert!(!common::at_top(at_bottom.0, lo, hi, n), "{at_bottom:?}");
+    // An interior minimum a tenth of a grid step below the top is inside.
+    let step = (hi / lo).ln() / (n - 1) as f64;
+    let near = common::log_search(lo, hi, n, |x| (x.ln() - (hi.ln() - 0.1 * step)).powi(2));
+    assert!(!common::at_top(near.0, lo, hi, n), "{near:?}");
+}
+
+/// A coupling whose lag runs past the search (ten records: its response is a slow ramp whose size trades against
+/// the coefficient) is not read, where the search's bound would have given it a lag of three records; one lagging a
+/// third of the record, the longest the sweep draws, is read at its lag, inside the search.
+#[test]
+fn a_coupling_whose_lag_runs_past_the_search_is_not_read() {
+    let (rate_hz, n) = (10.0, 262_144);
+    let record = n as f64 / rate_hz;
+    let temp = TemperatureProfile {
+        min_c: 22.0,
+        max_c: 28.0,
+        period_s: 3600.0,
+        wander: Some(Wander { sigma_c: 0.3, tau_s: 900.0 }),
+        ..Default::default()
+    };
+    let cases: Vec<(f64, f64, u64)> =
+        [1, 2].into_iter().flat_map(|s| [(3.0, 10.0 * record, s), (0.05, record / 3.0, s)]).collect();
+    let read: Vec<(f64, u64, Option<EffectFit>)> = cases
+        .par_iter()
+        .map(|&(k, lag, seed)| {
+            let coupling = TempCoupling { dps_per_c: k, ref_c: 25.0, lag_s: lag };
+            let m = GyroSim { temperature: Some(coupling), ..base_model() };
+            let (x, t) = simulate(&m, rate_hz, n, seed, Some(&temp));
+            (lag, seed, run(Effect::Temperature, &x, Some(&t), rate_hz))
+        })
+        .collect();
+    for (lag, seed, e) in read {
+        if lag > record {
+            assert!(e.is_none(), "seed {seed}: a lag of ten records read as {:?}", e.map(|e| e.params));
+        } else {
+            let c = e.expect("a coupling lagging a third of the record is read").gyro.temperature.unwrap();
+            assert!((c.lag_s / lag).ln().abs() < 2f64.ln() && c.lag_s < 3.0 * record, "seed {seed}: {c:?}");
+        }
+    }
+}

@@ -2,6 +2,8 @@
 //! Poisson rate of them allows (pairs by the law of the smallest gap, three or more by a scan over octave windows),
 //! each cut to its most significant run; the large samples outside them are a steady spike process.
 
+use octavar_stats::tails::{ln_poisson_sf, poisson_sf};
+
 /// Family-wise false-alarm probability of the burst test over a part.
 const BURST_ALPHA: f64 = 1e-3;
 /// Fewest large samples in a burst found by the window test (pairs have their own test).
@@ -117,27 +119,4 @@ fn burst_count(n_valid: usize, p: f64, w: usize, alpha: f64) -> Option<usize> {
     let lead = n_valid as f64 * p;
     let start = MIN_BURST_SPIKES.max(mu.ceil() as usize + 1);
     (start..=w).find(|&k| lead * poisson_sf(mu, k - 1) <= alpha)
-}
-
-/// P(Poisson(mu) >= k).
-fn poisson_sf(mu: f64, k: usize) -> f64 {
-    ln_poisson_sf(mu, k).exp().min(1.0)
-}
-
-/// ln P(Poisson(mu) >= k), accurate far in the tail: the first term's logarithm plus that of the ratio sum.
-fn ln_poisson_sf(mu: f64, k: usize) -> f64 {
-    if k == 0 {
-        return 0.0;
-    }
-    if mu <= 0.0 {
-        return f64::NEG_INFINITY;
-    }
-    let lead = -mu + k as f64 * mu.ln() - statrs::function::gamma::ln_gamma(k as f64 + 1.0);
-    let (mut term, mut sum, mut j) = (1.0, 1.0, k);
-    while term > sum * 1e-17 && j < k + 100_000 {
-        j += 1;
-        term *= mu / j as f64;
-        sum += term;
-    }
-    (lead + sum.ln()).min(0.0)
 }

@@ -197,10 +197,7 @@ pub(super) fn kappa(m: f64) -> f64 {
     ((2.0 * m.max(2.0).ln()).sqrt() + KAPPA_MARGIN).max(KAPPA_FLOOR)
 }
 
-/// The standard normal upper tail.
-pub(super) fn normal_sf(z: f64) -> f64 {
-    0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)
-}
+pub(super) use octavar_stats::tails::normal_sf;
 
 pub(super) use octavar_stats::robust::median;
 
