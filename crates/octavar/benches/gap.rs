@@ -25,7 +25,9 @@ fn time(name: &str, x: &[f64], rate_hz: f64) -> f64 {
         let r = diagnose(&input, &GapOptions { holdout_check: check, ..Default::default() }, &|_, _, _| {})
             .expect("the diagnosis runs");
         let secs = t0.elapsed().as_secs_f64();
-        println!("  {name:<18} {:>10}: {secs:>5.1} s ({} samples): {}", check.name(), x.len(), r.effect_name());
+        let chain: Vec<&str> = r.effects().into_iter().map(|e| e.name()).collect();
+        let named = if chain.is_empty() { "none".to_string() } else { chain.join(" + ") };
+        println!("  {name:<18} {:>10}: {secs:>5.1} s ({} samples): {named}", check.name(), x.len());
         if check == HoldoutCheck::Plain {
             plain = secs;
         }
