@@ -31,6 +31,9 @@ impl EffectKind for Kind {
     }
 }
 
+/// Points of the corner's log grid, from a thousandth of the Nyquist frequency to it.
+const CORNER_GRID: usize = 40;
+
 /// A first-order output bandwidth.
 ///
 /// Method: the OADEV at octave tau (Greenhall EDFs) is fitted jointly with N (white noise through the sampled
@@ -80,10 +83,10 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     };
     let plain = score(None)?;
     let (lo, hi) = (rate_hz / 2000.0, rate_hz / 2.0);
-    let (f, chi) = log_search(lo, hi, 40, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
+    let (f, chi) = log_search(lo, hi, CORNER_GRID, |f| score(Some(f)).map_or(f64::INFINITY, |j| j.chi2));
     // A corner at the Nyquist frequency is the search's bound: whatever bends the curve at the shortest tau (a
     // resonance's misfit there) takes it, and a first-order filter above the band is not seen at all.
-    if !(chi + CURVE_DELTA_CHI2 < plain.chi2) || at_top(f, lo, hi, 40) {
+    if !(chi + CURVE_DELTA_CHI2 < plain.chi2) || at_top(f, lo, hi, CORNER_GRID) {
         return None;
     }
     let j = score(Some(f))?;

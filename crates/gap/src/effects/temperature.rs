@@ -172,8 +172,8 @@ impl<'a> Regression<'a> {
 
     /// The lag of least GLS residual on a log grid from the block length to three record lengths, or 0 where no
     /// lag does better; `None` where the residual still falls at three record lengths. A lag that long makes the
-    /// lagged temperature a slow ramp, its size traded against the coefficient (-1.9 deg/s/degC at 131,000 s
-    /// where the truth is a warm-up): the coupling is not identified, and something else drives the rate.
+    /// lagged temperature a slow ramp whose size trades against the coefficient: the coupling is not identified,
+    /// and a ramp-like effect (a warm-up, a drift) is the likelier driver of the rate.
     fn best_lag(&self, rt: &[(Vec<f64>, Vec<f64>)], s: &[f64]) -> Option<f64> {
         let (lo, hi) = (self.dt, 3.0 * self.nb as f64 * self.dt);
         let (lag, crit) = log_search(lo, hi, LAG_GRID, |lag| self.gls(&self.transform(&self.lagged(lag)), rt, s).1);
