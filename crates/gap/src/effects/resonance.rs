@@ -99,21 +99,32 @@ fn median_background(ln_p: &[f64], k_lo: usize, k_hi: usize) -> Vec<f64> {
     bg
 }
 
-/// The unit-variance resonance's one-sided spectrum, 1/Hz, at the frequencies `f`: the AR(2) of shared::sim,
-/// `2 tau0 b^2 / |1 - a1 e^{-iw} - a2 e^{-2iw}|^2`, `w = 2 pi f / rate_hz`.
-fn unit_spectrum(freq_hz: f64, q: f64, rate_hz: f64, f: impl Iterator<Item = f64>) -> impl Iterator<Item = f64> {
+/// The unit-variance resonance's one-sided spectrum, 1/Hz, at frequencies given by their [`phasors`]: the AR(2)
+/// of shared::sim, `2 tau0 b^2 / |1 - a1 e^{-iw} - a2 e^{-2iw}|^2`, `w = 2 pi f / rate_hz`.
+fn unit_spectrum<'a>(
+    freq_hz: f64,
+    q: f64,
+    rate_hz: f64,
+    phasors: impl Iterator<Item = &'a [f64; 4]> + 'a,
+) -> impl Iterator<Item = f64> + 'a {
     let (a1, a2, b) = Resonance::coefficients(freq_hz, q, 1.0 / rate_hz);
-    f.map(move |f| {
-        let w = 2.0 * std::f64::consts::PI * f / rate_hz;
-        let re = 1.0 - a1 * w.cos() - a2 * (2.0 * w).cos();
-        let im = a1 * w.sin() + a2 * (2.0 * w).sin();
+    phasors.map(move |&[c1, s1, c2, s2]| {
+        let re = 1.0 - a1 * c1 - a2 * c2;
+        let im = a1 * s1 + a2 * s2;
         2.0 / rate_hz * b * b / (re * re + im * im)
     })
 }
 
+/// `[cos w, sin w, cos 2w, sin 2w]` at `w = 2 pi f / rate_hz`: what [`unit_spectrum`] needs of a frequency, the
+/// same at every parameter a fit tries.
+fn phasors(f: f64, rate_hz: f64) -> [f64; 4] {
+    let w = 2.0 * std::f64::consts::PI * f / rate_hz;
+    [w.cos(), w.sin(), (2.0 * w).cos(), (2.0 * w).sin()]
+}
+
 /// The unit-variance resonance's one-sided spectrum at one frequency.
 pub(super) fn unit_spectrum_at(freq_hz: f64, q: f64, rate_hz: f64, f: f64) -> f64 {
-    unit_spectrum(freq_hz, q, rate_hz, std::iter::once(f)).next().unwrap_or(f64::NAN)
+    unit_spectrum(freq_hz, q, rate_hz, std::iter::once(&phasors(f, rate_hz))).next().unwrap_or(f64::NAN)
 }
 
 /// A bump fitted over one window of the spectrum.
@@ -141,6 +152,8 @@ struct Window<'a> {
     u: Vec<f64>,
     y: &'a [f64],
     rate_hz: f64,
+    /// Each bin's [`phasors`].
+    phasors: Vec<[f64; 4]>,
     /// The power gain of the model's output bandwidth at each bin (1 without one): the simulator passes the
     /// resonance through it, so the bump in the record is the resonance's spectrum times this gain.
     gain: Vec<f64>,
@@ -154,7 +167,7 @@ impl Window<'_> {
             return None;
         }
         let s2 = th[3].exp();
-        let v: Vec<f64> = unit_spectrum(f0, q, self.rate_hz, self.f.iter().copied())
+        let v: Vec<f64> = unit_spectrum(f0, q, self.rate_hz, self.phasors.iter())
             .zip(self.u.iter().zip(&self.gain))
             .map(|(h, (&u, g))| ((th[0] + th[1] * u + th[2] * u * u).exp() + s2 * h * g).ln())
             .collect();
@@ -301,6 +314,7 @@ fn fit_bump(
             u: f[lo..=hi].iter().map(|x| (x / f0).ln()).collect(),
             y: &ln_p[lo..=hi],
             rate_hz,
+            phasors: f[lo..=hi].iter().map(|&x| phasors(x, rate_hz)).collect(),
             gain: f[lo..=hi].iter().map(|&x| gain_at(x)).collect(),
         };
         let (bg, rss0) = w.background()?;
