@@ -492,10 +492,11 @@ fn summary_of_file() {
 }
 
 /// The guard (CI only): on each generator, every single item and control of five seeds whose records are short
-/// ([`GUARD_SEEDS`]: 0.2-0.5 million samples at 2-16 Hz, about 2 s a case), and ten pairs spread over the 54
-/// (`pairs:10`) of the cheapest of them ([`GUARD_PAIR_SEED`]), against floors a little below what this code
-/// reaches there ([`GUARD_SINGLES`], [`GUARD_PAIRS`], [`GUARD_CONTROLS`]), so that a change that loses ground
-/// fails. Its cases are not written to the sweep's file.
+/// ([`GUARD_SEEDS`]: 0.2-0.5 million samples at 2-16 Hz, about 2 s a case), ten pairs spread over the 54
+/// (`pairs:10`) and four triples spread over the 100 (`triples:4`) of the cheapest of them
+/// ([`GUARD_MIXED_SEED`]), against floors a little below what this code reaches there ([`GUARD_SINGLES`],
+/// [`GUARD_PAIRS`], [`GUARD_TRIPLES`], [`GUARD_CONTROLS`]), so that a change that loses ground fails. Its cases
+/// are not written to the sweep's file.
 #[test]
 fn guard() {
     if std::env::var_os("CI").is_none() {
@@ -503,11 +504,11 @@ fn guard() {
         return;
     }
     let alone = cases::kinds_from("singles,controls");
-    let pairs = cases::kinds_from("pairs:10");
+    let mixed = cases::kinds_from("pairs:10,triples:4");
     let mut rows = Vec::new();
     for gen in [Gen::Sim, Gen::Indep] {
         let seeded = GUARD_SEEDS.iter().flat_map(|&s| alone.iter().map(move |k| (k, s)));
-        for (kind, seed) in seeded.chain(pairs.iter().map(|k| (k, GUARD_PAIR_SEED))) {
+        for (kind, seed) in seeded.chain(mixed.iter().map(|k| (k, GUARD_MIXED_SEED))) {
             let row = run_case(gen, kind, seed);
             log_row(&row);
             rows.push(row);
@@ -516,7 +517,9 @@ fn guard() {
     summary(&rows);
     let mut fails = Vec::new();
     for gen in ["sim", "indep"] {
-        for (group, need) in [("single", GUARD_SINGLES), ("pair", GUARD_PAIRS), ("control", GUARD_CONTROLS)] {
+        for (group, need) in
+            [("single", GUARD_SINGLES), ("pair", GUARD_PAIRS), ("triple", GUARD_TRIPLES), ("control", GUARD_CONTROLS)]
+        {
             let pass = rows.iter().filter(|r| r.gen == gen && r.group == group && r.pass).count();
             if pass < need {
                 fails.push(format!("{gen} {group}: {pass} pass, the guard wants {need}"));
@@ -531,14 +534,17 @@ const CHEAP_SEED: u64 = 2;
 /// The guard's seeds for singles and controls: the sweep's five shortest records (seeds 2, 3, 5, 6 and 7: 0.20 to
 /// 0.42 million samples at 2.3 to 50 Hz).
 const GUARD_SEEDS: [u64; 5] = [2, 3, 5, 6, 7];
-/// The guard's seed for its ten pairs: 0.20 million samples at 2.3 Hz.
-const GUARD_PAIR_SEED: u64 = 6;
+/// The guard's seed for its pairs and triples: 0.20 million samples at 2.3 Hz.
+const GUARD_MIXED_SEED: u64 = 6;
 /// Single items of the guard's seeds (55) each generator must pass: both reach 52 (shared::sim misses the slow
 /// sinusoid of seed 2, the Gauss-Markov process of seed 7 and the contamination of seed 7; the independent
 /// generator the slow sinusoid, the Gauss-Markov process of seed 7 and the temperature coupling of seed 3).
 const GUARD_SINGLES: usize = 51;
 /// Pairs of the `pairs:10` picks each generator must pass (8 on shared::sim, 9 on the independent generator).
 const GUARD_PAIRS: usize = 7;
+/// Triples of the `triples:4` picks each generator must pass (1 on shared::sim, 2 on the independent generator:
+/// the 70% is far from met on this seed's 2.3 Hz record, docs/gap.md).
+const GUARD_TRIPLES: usize = 1;
 /// Controls of the guard's seeds (15) each generator must pass.
 const GUARD_CONTROLS: usize = 15;
 
