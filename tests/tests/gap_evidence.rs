@@ -260,3 +260,56 @@ fn evidence_statistics() {
         }
     }
 }
+
+/// The sinusoid estimator's amplitude z by the sinusoid's cycles in the training part, on `EVIDENCE_RECORDS`
+/// (default 300) controls of each generator: the largest z in each band of cycles, which sets how many cycles
+/// the sinusoid's own test needs at its threshold (`octavar::gap::evidence`).
+#[test]
+#[ignore = "the calibration of the sinusoid's test by cycles: EVIDENCE_RECORDS (default 300) records of each generator"]
+fn sinusoid_z_by_cycles() {
+    use octavar::gap::effects::EffectParams;
+    let records: u64 = std::env::var("EVIDENCE_RECORDS").ok().and_then(|v| v.parse().ok()).unwrap_or(300);
+    const EDGES: [f64; 6] = [0.0, 5.0, 8.0, 12.0, 20.0, f64::INFINITY];
+    for generator in [Generator::Sim, Generator::Indep] {
+        let all: Vec<Vec<(f64, f64)>> = (0..records)
+            .into_par_iter()
+            .map(|seed| {
+                let c = control(generator, seed);
+                let n_train = c.rate_dps.len() / 2;
+                let training = &c.rate_dps[..n_train];
+                let (_, fit) = fit_base(training, c.rate_hz, &FitOptions::default()).unwrap();
+                let base = base_model(&fit, training);
+                let data = TrainingData {
+                    rate_dps: training,
+                    recorded_dps: training,
+                    temp_c: None,
+                    rate_hz: c.rate_hz,
+                    base: &base,
+                    base_fit: &fit,
+                    gaps: &[],
+                    lattice_dps: None,
+                    shaped_dps: None,
+                };
+                let training_s = n_train as f64 / c.rate_hz;
+                match fit_effect(Effect::Sinusoid, &data).map(|f| f.params) {
+                    Some(EffectParams::Sinusoid(p)) => p
+                        .sinusoids
+                        .iter()
+                        .map(|s| (training_s / s.period_s, s.amplitude_dps / s.amplitude_se_dps))
+                        .collect(),
+                    _ => Vec::new(),
+                }
+            })
+            .collect();
+        for w in EDGES.windows(2) {
+            let mut z: Vec<(f64, usize)> = all
+                .iter()
+                .enumerate()
+                .flat_map(|(s, v)| v.iter().filter(|(c, _)| *c >= w[0] && *c < w[1]).map(move |(_, z)| (*z, s)))
+                .collect();
+            z.sort_by(|a, b| b.0.total_cmp(&a.0));
+            let top: Vec<String> = z.iter().take(5).map(|(x, s)| format!("{x:.2} (record {s})")).collect();
+            println!("{generator:?} cycles {}..{}: {} sinusoid(s); largest z {}", w[0], w[1], z.len(), top.join(" "));
+        }
+    }
+}

@@ -15,7 +15,7 @@
 //! | resonance | `delta_chi2`: the fall of the Welch spectrum's chi-square with the bump | 100 | the estimator's own acceptance |
 //! | bandwidth | `delta_chi2`: the fall of the Allan curve's log chi-square with the corner | 30 | the estimator's own acceptance |
 //! | outliers | `lr`: twice the log-likelihood the spike law gains over the Gaussian core | 50 | the estimator's own acceptance |
-//! | sinusoid | `short_period_z`: amplitude / its standard error, among sinusoids of 20 cycles or more per part | 8 | effect-free records reach 5.5 |
+//! | sinusoid | `short_period_z`: amplitude / its standard error, among sinusoids of 8 cycles or more per part | 8 | effect-free records reach 5.5 |
 //!
 //! Beside a significant gap the model leaves, the two chi-square tests name only an effect that takes that gap
 //! below significance itself: a curve's chi-square falls with any added freedom where the model misses something
@@ -25,15 +25,16 @@
 //! On 300 effect-free records of each generator (`evidence_statistics` in tests/tests/gap_evidence.rs) these six
 //! estimators found a trace beyond its threshold once: a temperature t of 5.46 on one record of the independent
 //! generator (a rate of 0.3%, below 1.6% at 95% confidence). The sinusoid's test is its amplitude over its
-//! standard error under the noise model, only among sinusoids of at least
-//! [`effects::SHORT_PERIOD_CYCLES`] cycles in the training part: its periodogram finds traces on 4-7% of
-//! effect-free records, nearly all at periods of a third to a fifth of the record, where flicker and random walk
-//! make the lowest bins of a short record stand above any smooth background, and there the amplitude's z (5.5 at
-//! most) cannot be told from a sinusoid of two cycles that the views barely see (5.3). At 20 cycles and more the
-//! z stays at or below 4.0 and 5.5 on the two generators, while a sinusoid the views lose beside a bistable bias
-//! stands at 33. The Gauss-Markov process's fall of the Allan chi-square has no test here: it reaches 160 on 3%
-//! of effect-free records (flicker is a sum of Gauss-Markov processes). The other effects' estimators find a trace only where a view would show it too (a
-//! lattice), or their detection threshold is a rate of events, not a standard error. Rare spikes are the
+//! standard error under the noise model, only among sinusoids of at least [`effects::SHORT_PERIOD_CYCLES`] (8)
+//! cycles in the training part: its periodogram finds traces on 4-7% of effect-free records, nearly all at periods
+//! of a third to a fifth of the record, where flicker and random walk make the lowest bins of a short record stand
+//! above any smooth background, and a record whose slow wander the noise model lacks would raise them further. On
+//! 1,000 effect-free records of each generator (`sinusoid_z_by_cycles`) the amplitude's z stays at or below 4.6
+//! (shared::sim) and 5.5 (independent) at 8 cycles and more, 4.3 below, while a sinusoid the views lose beside a
+//! bistable bias stands at 33 and one of 12 cycles beside a Gauss-Markov process and a warm-up at 21. The
+//! Gauss-Markov process's fall of the Allan chi-square has no test here: it reaches 160 on 3% of effect-free
+//! records (flicker is a sum of Gauss-Markov processes). The other effects' estimators find a trace only where a
+//! view would show it too (a lattice), or their detection threshold is a rate of events, not a standard error. Rare spikes are the
 //! exception among events: a dozen spikes of 6 sigma in a quarter of a million samples leave every view's gap
 //! below 1, while the spike law's likelihood ratio stands at 80-150; no effect-free record of either generator
 //! gave the outliers estimator a trace at all.
