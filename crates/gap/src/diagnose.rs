@@ -3,6 +3,7 @@
 
 use super::base::{base_model, fit_base, training_adev};
 use super::chain::{self, Model, Progress, ProgressFn};
+use super::effects::Effect;
 use super::error::GapError;
 use super::input::{GapInput, GapOptions, HoldoutCheck, MIN_PART};
 use super::judge::Judge;
@@ -65,13 +66,16 @@ pub fn diagnose(input: &GapInput, opts: &GapOptions, report_progress: &ProgressF
     };
     let found = chain::search(&start, &mut progress)?;
     // The backward step: each effect the views named, tried out of the chain learnt again without it.
-    let found = chain::prune(found, |effects, rounds| {
+    let mut relearn = |effects: &[Effect], rounds: &[chain::Rounds], stage: &str| {
         let (m, realised) = chain::learn(effects, rounds, &base_model, &base_fit, training, temp_train, rate_hz);
-        progress.expect("prune", 1);
-        let eval = judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), realised.as_deref(), "prune")?;
-        progress.tick("prune");
+        progress.expect(stage, 1);
+        let eval = judge.evaluate(&m.gyro, &m.spreads, m.channel.as_ref(), realised.as_deref(), stage)?;
+        progress.tick(stage);
         Ok((m, eval))
-    })?;
+    };
+    let found = chain::prune(found, |effects, rounds| relearn(effects, rounds, "prune"))?;
+    // The exchange: each effect the views named, tried against the runner-up of its own step.
+    let found = chain::exchange(found, |effects, rounds| relearn(effects, rounds, "exchange"))?;
 
     // The held-out check against predictive ensembles (see [`holdout`]), of the base model and the whole chain.
     let predictive_views = if predictive {

@@ -172,8 +172,18 @@ mod tests {
         assert_eq!((doc["input"]["kind"].as_str(), doc["input"]["unit"].as_str()), (Some("gyro"), Some("deg/s")));
         let base = ["band_s", "fit", "fit_strain", "model", "sign", "significant", "size", "total", "view", "worst"];
         assert_eq!(section_keys("base"), base);
-        let chain =
-            ["effects", "model", "model_channel", "pruned", "retried", "total", "unexplained", "verdict", "worst"];
+        let chain = [
+            "effects",
+            "exchanged",
+            "model",
+            "model_channel",
+            "pruned",
+            "retried",
+            "total",
+            "unexplained",
+            "verdict",
+            "worst",
+        ];
         assert_eq!(section_keys("chain"), chain);
         for (section, key, flat) in [
             ("input", "missing_samples", "missing_samples"),

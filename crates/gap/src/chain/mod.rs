@@ -53,11 +53,17 @@
 //! of a later one (a Gauss-Markov process before the filter corner it imitated) is dropped where the chain
 //! without it agrees with the record as well.
 //!
+//! Then each effect the views named is tried in exchange for the best-scored other candidate of its own step
+//! ([`exchange`]): a Gauss-Markov process that scored ahead of the sensor's filter corner while a resonance was
+//! still unnamed gives way to the corner where the chain learnt with it scores clearly better.
+//!
 //! `model` holds the types, `data` what a step learns from, `backfit` the re-estimation of one effect at a time,
-//! `joint` the joint one, `search` the steps and `prune` the backward step.
+//! `joint` the joint one, `search` the steps, `prune` the backward step and `exchange` the trade of one effect for
+//! another.
 
 mod backfit;
 mod data;
+mod exchange;
 pub mod joint;
 mod model;
 mod prune;
@@ -65,6 +71,8 @@ mod search;
 
 pub use backfit::{backfit, learn, without};
 pub use data::{deterministic_part, StepData};
+pub(crate) use exchange::exchange;
+pub use exchange::Exchanged;
 pub use model::{Model, NamedBy, Rounds, Step, MAX_STEPS};
 pub(crate) use prune::prune;
 pub use prune::Pruned;

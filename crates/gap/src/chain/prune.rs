@@ -96,7 +96,7 @@ fn without_step(found: &Found, k: usize) -> (Vec<Effect>, Vec<Rounds>) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use octavar_shared::sim::GyroSim;
 
     use super::*;
@@ -111,12 +111,12 @@ mod tests {
     use crate::views::ViewKind;
 
     /// A comparison whose one view has the gap (and so the total) `gap`.
-    fn eval(gap: f64) -> Evaluated {
+    pub(in crate::chain) fn eval(gap: f64) -> Evaluated {
         let view = ViewGap { view: ViewKind::Adev, points: Vec::new(), rms: gap, gap, window: (0, 0) };
         Evaluated { training: vec![view], holdout: Vec::new(), adev_band: Vec::new(), real_holdout: None }
     }
 
-    fn step(effect: Effect, named_by: NamedBy) -> Step {
+    pub(in crate::chain) fn step(effect: Effect, named_by: NamedBy) -> Step {
         let params = match effect {
             Effect::GaussMarkov => GaussMarkovParams { sigma_dps: 0.0, tau_s: 0.0, delta_chi2: 0.0 }.into(),
             _ => BandwidthParams { bandwidth_hz: 0.0, n_deg_per_rt_s: 0.0, delta_chi2: 0.0 }.into(),
@@ -150,10 +150,19 @@ mod tests {
     }
 
     /// The chain `steps` with the views' total `total`.
-    fn found(steps: Vec<Step>, total: f64) -> Found {
+    pub(in crate::chain) fn found(steps: Vec<Step>, total: f64) -> Found {
         let model = Model { gyro: GyroSim::default(), spreads: Vec::new(), channel: None };
         let (first_candidates, last_tried, pruned) = (Vec::new(), Vec::new(), Vec::new());
-        Found { steps, first_candidates, last_tried, model, eval: eval(total), pruned, retried: None }
+        Found {
+            steps,
+            first_candidates,
+            last_tried,
+            model,
+            eval: eval(total),
+            pruned,
+            exchanged: Vec::new(),
+            retried: None,
+        }
     }
 
     /// The chain learnt again: the filter corner alone agrees with the total `without_markov`; the process alone
@@ -169,7 +178,7 @@ mod tests {
         }
     }
 
-    fn effects(f: &Found) -> Vec<Effect> {
+    pub(in crate::chain) fn effects(f: &Found) -> Vec<Effect> {
         f.steps.iter().map(|s| s.effect).collect()
     }
 

@@ -71,6 +71,8 @@ pub(crate) struct Found {
     pub eval: Evaluated,
     /// The effects the backward step took out of the chain, in the order taken ([`super::prune`]).
     pub pruned: Vec<super::Pruned>,
+    /// The effect the exchange step traded for another candidate of its step ([`super::exchange`]).
+    pub exchanged: Vec<super::Exchanged>,
     /// Where the greedy chain left a significant gap and the chain searched again from the first ranking's
     /// runner-up explained it better: what the greedy chain had found.
     pub retried: Option<Retried>,
@@ -238,7 +240,16 @@ fn greedy(start: &Start, progress: &mut Progress, forced_first: Option<Effect>) 
         s.joint_round()?;
     }
     let (steps, model, eval) = (s.steps, s.model, s.eval);
-    Ok(Found { steps, first_candidates, last_tried, model, eval, pruned: Vec::new(), retried: None })
+    Ok(Found {
+        steps,
+        first_candidates,
+        last_tried,
+        model,
+        eval,
+        pruned: Vec::new(),
+        exchanged: Vec::new(),
+        retried: None,
+    })
 }
 
 impl Search<'_, '_> {

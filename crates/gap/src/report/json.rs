@@ -46,6 +46,17 @@ impl GapReport {
                 total: self.total[1],
                 worst: self.worst[1],
                 pruned: self.pruned_docs(),
+                exchanged: self
+                    .chain
+                    .exchanged
+                    .iter()
+                    .map(|x| ExchangedDoc {
+                        effect: x.effect.name(),
+                        replacement: x.replacement.name(),
+                        total_with: x.total_with,
+                        total_after: x.total_after,
+                    })
+                    .collect(),
                 retried: self.chain.retried.as_ref().map(|r| RetriedDoc {
                     greedy: r.greedy.iter().map(|e| e.name()).collect(),
                     greedy_total: r.greedy_total,
@@ -479,6 +490,8 @@ struct ChainDoc<'a> {
     worst: f64,
     /// The effects taken out of the chain as redundant.
     pruned: Vec<PrunedDoc>,
+    /// The effect traded for the best-scored other candidate of its step.
+    exchanged: Vec<ExchangedDoc>,
     /// The greedy chain given up for one searched from another first step.
     retried: Option<RetriedDoc>,
 }
@@ -490,6 +503,16 @@ struct RetriedDoc {
     greedy_total: f64,
     greedy_worst: f64,
     first: &'static str,
+}
+
+/// An effect of the chain exchanged for another candidate of its step, with the views' training totals of the
+/// chain before and after.
+#[derive(Debug, Serialize)]
+struct ExchangedDoc {
+    effect: &'static str,
+    replacement: &'static str,
+    total_with: f64,
+    total_after: f64,
 }
 
 /// An effect taken out of the chain as redundant, with the views' training totals of the chain with and without it.

@@ -21,7 +21,9 @@
 //! `fs_hz` (the sample rate), `seeds`, `pruned` `[{effect, total_with, total_without}]` (the effects the views
 //! named that a later one made redundant, taken out of the chain: the views' training totals with and without); in
 //! `chain`, `retried` `{greedy, greedy_total, greedy_worst, first}` where the greedy chain left a significant gap and
-//! the chain searched again from the first ranking's runner-up (`first`) explained it better (null otherwise); `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
+//! the chain searched again from the first ranking's runner-up (`first`) explained it better (null otherwise), and
+//! `exchanged` `[{effect, replacement, total_with, total_after}]` (an effect the views named traded for the
+//! best-scored other candidate of its step: the views' training totals of the chain before and after); `holdout_predictive` `{gap_before, gap_after, shrink, worst}` with
 //! [`super::input::HoldoutCheck::Predictive`] (null without).
 //!
 //! The report itself ([`GapReport`]) is nested: the record as diagnosed ([`InputSummary`]), the base model
@@ -138,6 +140,8 @@ pub struct ChainResult {
     /// The effects the views named that a later one made redundant, taken out of the chain
     /// ([`crate::chain::prune`]).
     pub pruned: Vec<crate::chain::Pruned>,
+    /// The effect of the chain traded for the best-scored other candidate of its step ([`crate::chain::exchange`]).
+    pub exchanged: Vec<crate::chain::Exchanged>,
     /// The greedy chain given up for one searched from the first ranking's runner-up, where that explained what
     /// the greedy one left ([`crate::chain::Retried`]).
     pub retried: Option<crate::chain::Retried>,
@@ -167,7 +171,7 @@ pub(crate) fn assemble(
     predictive: Option<PredictiveViews>,
 ) -> GapReport {
     let (gyro, fit, base_eval, real_adev) = base;
-    let Found { steps, first_candidates, last_tried, model, eval: last_eval, pruned, retried } = found;
+    let Found { steps, first_candidates, last_tried, model, eval: last_eval, pruned, exchanged, retried } = found;
     let location = rank::locate(&base_eval.training);
     let in_band = |v: &[ViewGap]| -> Option<f64> { location.as_ref().and_then(|l| rank::band_gap(v, l)) };
     let gap_before = rank::gap_of(&base_eval.training);
@@ -218,6 +222,7 @@ pub(crate) fn assemble(
             eval: last_eval,
             unexplained,
             pruned,
+            exchanged,
             retried,
         },
         holdout: HoldoutResult {

@@ -187,6 +187,17 @@ impl GapReport {
                 p.total_with
             )?;
         }
+        for x in &self.chain.exchanged {
+            writeln!(
+                s,
+                "exchanged: {} for {}, the runner-up of its step (the chain learnt with it: total over views {:.2}, with {} {:.2})",
+                x.effect.name(),
+                x.replacement.name(),
+                x.total_after,
+                x.effect.name(),
+                x.total_with
+            )?;
+        }
         if self.chain.steps.is_empty() {
             writeln!(
                 s,
