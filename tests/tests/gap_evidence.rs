@@ -113,7 +113,14 @@ fn control(generator: Generator, seed: u64) -> Control {
 /// The test statistic of each tested effect's estimator on the training half of control `seed` (`None`: it
 /// found no trace).
 fn statistics(generator: Generator, seed: u64) -> [Option<f64>; TESTED.len()] {
-    let c = control(generator, seed);
+    on_training(&control(generator, seed), |data| {
+        TESTED.map(|e| fit_effect(e, data).and_then(|f| evidence::of(&f)).map(|ev| ev.value))
+    })
+}
+
+/// `f` of what the estimators see of control `c`, as the chain's first step: its training half with the base fit
+/// the diagnosis makes there.
+fn on_training<R>(c: &Control, f: impl FnOnce(&TrainingData) -> R) -> R {
     let n_train = c.rate_dps.len() / 2;
     let training = &c.rate_dps[..n_train];
     let (_, fit) = fit_base(training, c.rate_hz, &FitOptions::default()).unwrap();
@@ -129,7 +136,7 @@ fn statistics(generator: Generator, seed: u64) -> [Option<f64>; TESTED.len()] {
         lattice_dps: None,
         shaped_dps: None,
     };
-    TESTED.map(|e| fit_effect(e, &data).and_then(|f| evidence::of(&f)).map(|ev| ev.value))
+    f(&data)
 }
 
 /// The statistic by which each tested effect's estimator names itself on control `seed` (`None`: it found no
@@ -275,23 +282,9 @@ fn sinusoid_z_by_cycles() {
             .into_par_iter()
             .map(|seed| {
                 let c = control(generator, seed);
-                let n_train = c.rate_dps.len() / 2;
-                let training = &c.rate_dps[..n_train];
-                let (_, fit) = fit_base(training, c.rate_hz, &FitOptions::default()).unwrap();
-                let base = base_model(&fit, training);
-                let data = TrainingData {
-                    rate_dps: training,
-                    recorded_dps: training,
-                    temp_c: None,
-                    rate_hz: c.rate_hz,
-                    base: &base,
-                    base_fit: &fit,
-                    gaps: &[],
-                    lattice_dps: None,
-                    shaped_dps: None,
-                };
-                let training_s = n_train as f64 / c.rate_hz;
-                match fit_effect(Effect::Sinusoid, &data).map(|f| f.params) {
+                let training_s = (c.rate_dps.len() / 2) as f64 / c.rate_hz;
+                let params = on_training(&c, |data| fit_effect(Effect::Sinusoid, data).map(|f| f.params));
+                match params {
                     Some(EffectParams::Sinusoid(p)) => p
                         .sinusoids
                         .iter()

@@ -19,7 +19,7 @@
 //! Effects that their estimator named are not exchanged: no view sees them, so the views cannot prefer another.
 
 use super::model::{Model, NamedBy, Rounds};
-use super::search::Found;
+use super::search::{by_score, Found};
 use crate::effects::Effect;
 use crate::error::GapError;
 use crate::evidence;
@@ -72,16 +72,10 @@ pub(crate) fn exchange(
         if step.named_by != NamedBy::View {
             continue;
         }
-        let Some(c) = step
-            .candidates
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| c.fit.is_some() && c.score.is_some() && !effects.contains(&c.effect))
-            .min_by(|a, b| a.1.score.unwrap_or(f64::INFINITY).total_cmp(&b.1.score.unwrap_or(f64::INFINITY)))
-            .map(|(i, _)| i)
-        else {
-            continue;
-        };
+        let runner_up = by_score(&step.candidates)
+            .into_iter()
+            .find(|&i| step.candidates[i].fit.is_some() && !effects.contains(&step.candidates[i].effect));
+        let Some(c) = runner_up else { continue };
         let candidate = &step.candidates[c];
         let mut with = effects.clone();
         with[k] = candidate.effect;

@@ -770,7 +770,7 @@ fn pair_pool(candidates: &[CandidateResult], before: &[ViewGap]) -> Vec<usize> {
 const PAIR_VIEW_SHARE: f64 = 0.75;
 
 /// The indices of the candidates that have a score, best (lowest) first.
-fn by_score(candidates: &[CandidateResult]) -> Vec<usize> {
+pub(super) fn by_score(candidates: &[CandidateResult]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..candidates.len()).filter(|&i| candidates[i].score.is_some()).collect();
     order.sort_by(|&a, &b| {
         candidates[a].score.unwrap_or(f64::INFINITY).total_cmp(&candidates[b].score.unwrap_or(f64::INFINITY))
