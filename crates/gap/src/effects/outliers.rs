@@ -12,9 +12,14 @@
 //!   spikes leave of the Allan variance, took up as 8%). Samples whose window touches a gap are left out.
 //! - **Lattice.** Where the samples sit on an ADC lattice, the residuals are read on the samples plus a Gaussian
 //!   dither of half a step: a step coarser than the noise leaves most residuals at exactly 0, where the core has
-//!   no scale and every sample one step off reads as a spike. The spikes' magnitudes are held beyond three steps (a
-//!   sample a step off its neighbours is the lattice's own), and flagged samples are cleaned back onto the
-//!   lattice. Where the model's channel already rounds to the lattice, its base terms (the quantisation
+//!   no scale and every sample one step off reads as a spike. The spikes' magnitudes are held beyond the lattice's
+//!   own reach where spikes stand there ([`lattice_reach`]: a step and a half where the noise is a quarter of a
+//!   step, two and a half where it is half a step), and beyond three steps otherwise. Every sample whose
+//!   undithered residual stands beyond the reach is cleaned, onto its neighbours' median on the lattice. A law
+//!   read from the reach is corrected against synthetic records rounded to the lattice over the white noise under
+//!   it ([`calibrate`]); one held beyond three steps is left as read, against that bound. Where the noise is near
+//!   a step or more, the lattice has no reach: the law is held beyond three steps, and the flagged samples are
+//!   cleaned back onto the lattice. Where the model's channel already rounds to the lattice, its base terms (the quantisation
 //!   estimator's, N the analog noise under the lattice) stay as they are.
 //! - **Mixture.** The residuals' magnitudes are fitted by maximum likelihood as a Gaussian core plus spikes whose
 //!   magnitude is uniform on `centre +- spread` ([`mixture`]): the core's scale is read where the core dominates,
@@ -60,6 +65,7 @@ use octavar_stats::robust::mad_scale_in_place;
 use octavar_stats::tails::poisson_sf;
 
 mod calibrate;
+mod lattice_reach;
 mod mixture;
 #[cfg(test)]
 mod tests;
@@ -378,28 +384,62 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     // a dither makes them continuous, so the core has a scale, and the spikes' magnitudes are held beyond the steps
     // the lattice itself takes between neighbours.
     let lattice = lattice(&outside_gaps(d.recorded_dps, d.gaps));
+    // The residuals on the lattice itself, and how far the lattice's own reach: beyond it, every residual is a
+    // spike's.
+    let on_lattice = lattice.and_then(|(q, _)| {
+        let r = residuals(x, &gap, None);
+        let read = lattice_reach::read(&r, q)?;
+        let at = calibrate::OnLattice { step: q, white: read.noise_steps * q, least: read.least_steps * q };
+        Some((r, at, read.reach_steps * q, read.least_steps < lattice_reach::FAR_STEPS))
+    });
     let dithered = lattice.map(|(q, _)| dither(x, q));
-    let least = lattice.map_or(0.0, |(q, _)| LATTICE_LEAST_STEPS * q);
+    let least = match (&on_lattice, lattice) {
+        (Some((_, at, _, _)), _) => at.least,
+        (None, Some((q, _))) => lattice_reach::FAR_STEPS * q,
+        (None, None) => 0.0,
+    };
     let c = read(dithered.as_deref().unwrap_or(x), &gap, least)?;
     if !c.is_process(n) {
         return None;
     }
-    // Spikes clear of the core are read off their cluster; the calibration is for laws near it.
-    let law = match clear_law(c.mix, &c.flagged, c.valid) {
-        Some(mix) => calibrate::Law { mix, ..calibrate::Law::of(&c) },
-        None => calibrate::corrected(&c, n, least),
+    // Spikes clear of the core are read off their cluster; the calibration is for laws near it. On a lattice it
+    // runs where the law is read from the reach (spikes stand between the reach and three steps); held beyond
+    // three steps, the law is left as read, against that bound.
+    let law = match (clear_law(c.mix, &c.flagged, c.valid), lattice, &on_lattice) {
+        (Some(mix), _, _) => calibrate::Law { mix, ..calibrate::Law::of(&c) },
+        (None, Some(_), Some((_, at, _, true))) => calibrate::corrected(&c, n, Some(*at)),
+        (None, Some(_), _) => calibrate::Law::of(&c),
+        (None, None, _) => calibrate::corrected(&c, n, None),
     };
     let m = law.mix;
     let run_mean = law.run_mean();
     let spikes = law.outliers();
     let refit = refit_without(d, &spikes);
     let mut cleaned = x.to_vec();
-    for &(i, r) in &c.flagged {
-        // The dithered neighbours' median, back on the lattice where the sample was.
-        cleaned[i] = match lattice {
-            Some((q, _)) => x[i] - q * (r / q).round(),
-            None => x[i] - r,
-        };
+    match (lattice, &on_lattice) {
+        // On a lattice, the samples whose undithered residual stands beyond the lattice's reach, each moved onto
+        // its neighbours' median: every one is a spike's, and the dithered flags would both miss spikes of two or
+        // three steps (a core the dither widens holds them) and move a sample a step too far where the dither
+        // pushed its residual past a half step. The steps that learn without the spikes would read what is left
+        // as white noise under the lattice.
+        (Some((q, _)), Some((raw, _, reach, _))) => {
+            for (i, r) in raw.iter().enumerate() {
+                if r.abs() >= reach - 0.25 * q {
+                    cleaned[i] = x[i] - q * (r / q).round();
+                }
+            }
+        }
+        // Without a reach, the flagged samples, back on the lattice where they were.
+        (Some((q, _)), None) => {
+            for &(i, r) in &c.flagged {
+                cleaned[i] = x[i] - q * (r / q).round();
+            }
+        }
+        (None, _) => {
+            for &(i, r) in &c.flagged {
+                cleaned[i] = x[i] - r;
+            }
+        }
     }
     Some(EffectFit {
         effect: Effect::Outliers,
@@ -440,11 +480,6 @@ const DITHER_STEPS: f64 = 0.5;
 
 /// The dither's stream.
 const DITHER_SEED: u64 = 0xd1_7e4;
-
-/// On a lattice, the spikes' magnitude law is held beyond this many steps (the distribution view's tail threshold
-/// there): below it, a sample one step off its neighbours (the noise crossing a decision level) is the lattice's
-/// own, and on a coarse lattice those are common enough to fit as a spike law of their own.
-const LATTICE_LEAST_STEPS: f64 = crate::views::LATTICE_TAIL_STEPS;
 
 /// The Allan variance of the spike process of `o` at `m` samples, from its autocovariance: `R0 = eps E s^2` and
 /// `R_k = R1 c2^(k-1)`, `R1 = eps centre^2 (1 - 1 / run_mean)` (a run's spikes share a sign). With `c2 > 0` that is

@@ -71,26 +71,48 @@ const RESIDUAL_INFLATION: f64 = 1.08;
 /// The stream of the synthetic records (fixed, so the diagnosis is repeatable).
 const SEED: u64 = 0x5_b1a5;
 
-/// The law of `read_off` (read from a record of `n` samples, the magnitudes beyond `least`) corrected for the
-/// estimator's bias; as read where the spikes stand clear of the core, or where a synthetic record gives no
-/// reading. On an ADC lattice (`least` above 0) the law is left as read too: its magnitudes are held beyond three
-/// steps, so a law near the core is read against that bound, which no synthetic record corrects.
-pub(super) fn corrected(read_off: &Contamination, n: usize, least: f64) -> Law {
+/// The ADC lattice a record sits on, as the synthetic records copy it.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct OnLattice {
+    /// The step, deg/s.
+    pub step: f64,
+    /// The sd of the white noise under the lattice, deg/s ([`super::lattice_reach::Reading::noise_steps`]).
+    pub white: f64,
+    /// The spikes' magnitudes are read beyond this, deg/s (the lattice's reach).
+    pub least: f64,
+}
+
+/// The law of `read_off` (read from a record of `n` samples) corrected for the estimator's bias; as read where the
+/// spikes stand clear of the core, or where a synthetic record gives no reading.
+///
+/// On an ADC lattice the synthetic records are rounded to it, over a level that crosses it slowly, and read as the
+/// record was (dithered, the magnitudes beyond the lattice's reach); their white noise is the one under the
+/// lattice, which the dithered core's scale (mostly the dither's and the rounding's) does not follow.
+pub(super) fn corrected(read_off: &Contamination, n: usize, lattice: Option<OnLattice>) -> Law {
     let seen = Law::of(read_off);
     let m = seen.mix;
-    if m.centre - m.spread >= CLEAR_SIGMAS * m.sigma || n < 64 || least > 0.0 {
+    if m.centre - m.spread >= CLEAR_SIGMAS * m.sigma || n < 64 {
         return seen;
     }
     let len = ((SYNTHETIC_SPIKES / m.eps.max(1e-12)) as usize).clamp(n, (MAX_LENGTHS * n as f64) as usize);
     let mut law = seen;
-    let mut white = m.sigma / RESIDUAL_INFLATION;
+    let mut white = lattice.map_or(m.sigma / RESIDUAL_INFLATION, |l| l.white);
     let no_gaps = vec![false; len];
     for round in 0..ROUNDS {
         let x = synthetic(&law, white, len, SEED + round as u64);
-        let Some(got) = read(&x, &no_gaps, 0.0) else { return law };
+        let got = match lattice {
+            Some(l) => {
+                let x = super::lattice_reach::rounded_over_slow_level(&x, l.step);
+                read(&super::dither(&x, l.step), &no_gaps, l.least)
+            }
+            None => read(&x, &no_gaps, 0.0),
+        };
+        let Some(got) = got else { return law };
         let got = Law::of(&got);
         let scale = |now: f64, want: f64, have: f64| now * (want / have).clamp(0.5, 2.0);
-        white = scale(white, seen.mix.sigma, got.mix.sigma);
+        if lattice.is_none() {
+            white = scale(white, seen.mix.sigma, got.mix.sigma);
+        }
         let eps = scale(law.mix.eps, seen.mix.eps, got.mix.eps).min(0.5);
         let centre = scale(law.mix.centre, seen.mix.centre, got.mix.centre);
         let spread = (law.mix.spread + seen.mix.spread - got.mix.spread).clamp(0.0, centre);
