@@ -7,9 +7,9 @@
 //!   by its own value. Eight neighbours keep the median close where spikes come in runs of up to three or are
 //!   dense (at a 20% contamination, four of eight neighbours are spikes in under 6% of windows). Two passes: the
 //!   second (where the magnitudes' centre stands [`SECOND_PASS_SIGMAS`] out) leaves the spikes the first flagged
-//!   out of the windows, so a spike's partner in its run does not pull
-//!   the median (in runs of two at 6-13 sds it read the magnitudes 2% low, which the base N, fitted on what the
-//!   spikes leave of the Allan variance, took up as 8%). Samples whose window touches a gap are left out.
+//!   out of the windows, so a spike's partner in its run does not pull the median (in runs of two at 6-13 sds it
+//!   read the magnitudes 2% low, which the base N, fitted on what the spikes leave of the Allan variance, took up
+//!   as 8%). Samples whose window touches a gap are left out.
 //! - **Lattice.** Where the samples sit on an ADC lattice, the residuals are read on the samples plus a Gaussian
 //!   dither of half a step: a step coarser than the noise leaves most residuals at exactly 0, where the core has
 //!   no scale and every sample one step off reads as a spike. The spikes' magnitudes are held beyond the lattice's
@@ -19,8 +19,8 @@
 //!   read from the reach is corrected against synthetic records rounded to the lattice over the white noise under
 //!   it ([`calibrate`]); one held beyond three steps is left as read, against that bound. Where the noise is near
 //!   a step or more, the lattice has no reach: the law is held beyond three steps, and the flagged samples are
-//!   cleaned back onto the lattice. Where the model's channel already rounds to the lattice, its base terms (the quantisation
-//!   estimator's, N the analog noise under the lattice) stay as they are.
+//!   cleaned back onto the lattice. Where the model's channel already rounds to the lattice, its base terms (the
+//!   quantisation estimator's, N the analog noise under the lattice) stay as they are.
 //! - **Mixture.** The residuals' magnitudes are fitted by maximum likelihood as a Gaussian core plus spikes whose
 //!   magnitude is uniform on `centre +- spread` ([`mixture`]): the core's scale is read where the core dominates,
 //!   not inflated by the contamination as a MAD would be, and spikes too small to stand above any threshold are
@@ -386,15 +386,10 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let lattice = lattice(&outside_gaps(d.recorded_dps, d.gaps));
     // The residuals on the lattice itself, and how far the lattice's own reach: beyond it, every residual is a
     // spike's.
-    let on_lattice = lattice.and_then(|(q, _)| {
-        let r = residuals(x, &gap, None);
-        let read = lattice_reach::read(&r, q)?;
-        let at = calibrate::OnLattice { step: q, white: read.noise_steps * q, least: read.least_steps * q };
-        Some((r, at, read.reach_steps * q, read.least_steps < lattice_reach::FAR_STEPS))
-    });
+    let on_lattice = lattice.and_then(|(q, _)| lattice_reach::OnLattice::read(residuals(x, &gap, None), q));
     let dithered = lattice.map(|(q, _)| dither(x, q));
     let least = match (&on_lattice, lattice) {
-        (Some((_, at, _, _)), _) => at.least,
+        (Some(at), _) => at.least(),
         (None, Some((q, _))) => lattice_reach::FAR_STEPS * q,
         (None, None) => 0.0,
     };
@@ -407,7 +402,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     // three steps, the law is left as read, against that bound.
     let law = match (clear_law(c.mix, &c.flagged, c.valid), lattice, &on_lattice) {
         (Some(mix), _, _) => calibrate::Law { mix, ..calibrate::Law::of(&c) },
-        (None, Some(_), Some((_, at, _, true))) => calibrate::corrected(&c, n, Some(*at)),
+        (None, Some(_), Some(at)) if at.busy() => calibrate::corrected(&c, n, Some(at.calibration())),
         (None, Some(_), _) => calibrate::Law::of(&c),
         (None, None, _) => calibrate::corrected(&c, n, None),
     };
@@ -422,8 +417,9 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
         // three steps (a core the dither widens holds them) and move a sample a step too far where the dither
         // pushed its residual past a half step. The steps that learn without the spikes would read what is left
         // as white noise under the lattice.
-        (Some((q, _)), Some((raw, _, reach, _))) => {
-            for (i, r) in raw.iter().enumerate() {
+        (Some((q, _)), Some(at)) => {
+            let reach = at.reach();
+            for (i, r) in at.residuals.iter().enumerate() {
                 if r.abs() >= reach - 0.25 * q {
                     cleaned[i] = x[i] - q * (r / q).round();
                 }

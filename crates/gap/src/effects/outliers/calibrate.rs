@@ -7,8 +7,8 @@
 //! record, so the law is corrected against the estimator itself: a synthetic record is drawn from the law read
 //! (white noise plus shared::sim's spikes, the generator the simulation uses), read again by the same estimator,
 //! and each parameter is moved by the difference between what the record gave and what the synthetic record
-//! gave (`theta <- theta + (read(record) - read(synthetic(theta)))`, [`ROUNDS`] times). Scale parameters (the core's sd,
-//! the share, the centre) are corrected on a log scale; the spread and the run law on their own.
+//! gave (`theta <- theta + (read(record) - read(synthetic(theta)))`, [`ROUNDS`] times). Scale parameters (the
+//! core's sd, the share, the centre) are corrected on a log scale; the spread and the run law on their own.
 //!
 //! Spikes that stand clear of the core are read without such bias (every one of them flagged, their runs
 //! counted whole), and correcting them would only add the synthetic record's sampling noise: the law is then
@@ -78,7 +78,8 @@ pub(super) struct OnLattice {
     pub step: f64,
     /// The sd of the white noise under the lattice, deg/s ([`super::lattice_reach::Reading::noise_steps`]).
     pub white: f64,
-    /// The spikes' magnitudes are read beyond this, deg/s (the lattice's reach).
+    /// The spikes' magnitudes are read beyond this, deg/s: the lattice's reach, where spikes stand between it and
+    /// three steps (the only laws on a lattice that are calibrated; [`super::lattice_reach::OnLattice::least`]).
     pub least: f64,
 }
 

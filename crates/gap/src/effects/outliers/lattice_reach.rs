@@ -104,6 +104,57 @@ pub(super) struct Reading {
     pub least_steps: f64,
 }
 
+impl Reading {
+    /// Whether spikes stand between the reach and [`FAR_STEPS`], so that their law is read from the reach.
+    pub fn busy(&self) -> bool {
+        self.least_steps < FAR_STEPS
+    }
+}
+
+/// A record's samples on a lattice that has a reach: the step, the residuals read on the samples as they are
+/// (undithered) and what those say of the lattice.
+pub(super) struct OnLattice {
+    /// The step, deg/s.
+    pub step: f64,
+    /// [`super::residuals`] of the samples, undithered (NaN where not read).
+    pub residuals: Vec<f64>,
+    /// What the residuals say of the lattice.
+    pub reading: Reading,
+}
+
+impl OnLattice {
+    /// The residuals `residuals` of samples on the lattice of step `q`, read ([`read`]); `None` where the lattice
+    /// has no reach.
+    pub fn read(residuals: Vec<f64>, q: f64) -> Option<Self> {
+        let reading = read(&residuals, q)?;
+        Some(Self { step: q, residuals, reading })
+    }
+
+    /// The lattice's reach, deg/s: every residual beyond it is a spike's.
+    pub fn reach(&self) -> f64 {
+        self.reading.reach_steps * self.step
+    }
+
+    /// Where the spikes' magnitude law is held from, deg/s ([`Reading::least_steps`]).
+    pub fn least(&self) -> f64 {
+        self.reading.least_steps * self.step
+    }
+
+    /// Whether the spikes' law is read from the reach ([`Reading::busy`]).
+    pub fn busy(&self) -> bool {
+        self.reading.busy()
+    }
+
+    /// The lattice as the calibration's synthetic records are rounded to it.
+    pub fn calibration(&self) -> super::calibrate::OnLattice {
+        super::calibrate::OnLattice {
+            step: self.step,
+            white: self.reading.noise_steps * self.step,
+            least: self.least(),
+        }
+    }
+}
+
 /// The share of residuals between the reach and [`FAR_STEPS`] beyond which spikes stand there: ten times what a
 /// clean record leaves beyond its reach. Below it, the law is held beyond the far bound, since the dithered core
 /// of a coarse lattice (residuals of 0 and one step, blurred) is a little heavier than a Gaussian just beyond a
