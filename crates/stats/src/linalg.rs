@@ -72,19 +72,22 @@ pub fn invert(a: &[Vec<f64>], min_pivot: f64) -> Option<Vec<Vec<f64>>> {
 /// not positive (the matrix is not positive definite to rounding).
 pub fn cholesky(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
     let n = a.len();
-    let mut l = vec![vec![0.0; n]; n];
-    for i in 0..n {
-        for j in 0..=i {
-            let s: f64 = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
-            if i == j {
-                if !(s > 0.0) {
-                    return None;
-                }
-                l[i][i] = s.sqrt();
-            } else {
-                l[i][j] = s / l[j][j];
-            }
+    let mut l: Vec<Vec<f64>> = Vec::with_capacity(n);
+    for (i, a_i) in a.iter().enumerate() {
+        // Row i from the rows above it: the dot products run over slices, in the same order as the textbook's
+        // index loop (so the same rounding), without its bounds checks.
+        let mut row = vec![0.0; n];
+        for j in 0..i {
+            let l_j = &l[j][..j];
+            let s = a_i[j] - row[..j].iter().zip(l_j).map(|(p, q)| p * q).sum::<f64>();
+            row[j] = s / l[j][j];
         }
+        let s = a_i[i] - row[..i].iter().map(|p| p * p).sum::<f64>();
+        if !(s > 0.0) {
+            return None;
+        }
+        row[i] = s.sqrt();
+        l.push(row);
     }
     Some(l)
 }
@@ -93,9 +96,9 @@ pub fn cholesky(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
 /// this whitens `b`.
 pub fn forward_solve(l: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
     let mut x = vec![0.0; b.len()];
-    for i in 0..b.len() {
-        let s: f64 = (0..i).map(|k| l[i][k] * x[k]).sum();
-        x[i] = (b[i] - s) / l[i][i];
+    for (i, (l_i, b_i)) in l.iter().zip(b).enumerate() {
+        let s: f64 = l_i[..i].iter().zip(&x[..i]).map(|(p, q)| p * q).sum();
+        x[i] = (b_i - s) / l_i[i];
     }
     x
 }

@@ -216,6 +216,30 @@ pub fn kinds_from(list: &str) -> Vec<Kind> {
     out
 }
 
+/// The cases of a `SWEEP_KINDS` list over `seeds`: each kind of [`kinds_from`] at every seed, and for the group
+/// `random_triples` (or `random_triples:K`, K of them evenly spread) each triple at one seed of its own, the
+/// seeds taken in turn, so that the triples draw their records and parameters as many times as there are seeds
+/// instead of sharing one draw.
+pub fn seeded_kinds_from(list: &str, seeds: std::ops::Range<u64>) -> Vec<(Kind, u64)> {
+    let seeds: Vec<u64> = seeds.collect();
+    let (mut fixed, mut spread) = (Vec::new(), Vec::new());
+    for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        match item.strip_prefix("random_triples") {
+            Some(rest) => {
+                let k = rest.strip_prefix(':').map_or_else(|| "triples".to_string(), |k| format!("triples:{k}"));
+                spread.extend(kinds_from(&k));
+            }
+            None => fixed.extend(kinds_from(item)),
+        }
+    }
+    let mut out: Vec<(Kind, u64)> = Vec::new();
+    for (i, &seed) in seeds.iter().enumerate() {
+        out.extend(fixed.iter().map(|k| (k.clone(), seed)));
+        out.extend(spread.iter().skip(i).step_by(seeds.len()).map(|k| (k.clone(), seed)));
+    }
+    out
+}
+
 /// One drawn case.
 #[derive(Clone, Debug)]
 pub struct Case {
