@@ -482,6 +482,31 @@ fn sweep() {
     summary(&read_rows(&path));
 }
 
+/// The sweep's case lists: `random_triples` puts each of the [`TRIPLES`] triples at exactly one seed, the seeds
+/// taken in turn (ten a seed over ten seeds), and every other kind at every seed; `random_triples:K` spreads K.
+#[test]
+fn random_triples_take_one_seed_each() {
+    let cases = cases::seeded_kinds_from("random_triples,controls", 0..10);
+    let triples: Vec<&(Kind, u64)> = cases.iter().filter(|(k, _)| k.group() == "triple").collect();
+    assert_eq!(triples.len(), TRIPLES);
+    let mut names: Vec<String> = triples.iter().map(|(k, _)| k.name()).collect();
+    names.sort();
+    names.dedup();
+    assert_eq!(names.len(), TRIPLES, "a triple at two seeds");
+    for seed in 0..10 {
+        assert_eq!(triples.iter().filter(|(_, s)| *s == seed).count(), TRIPLES / 10, "seed {seed}");
+        assert_eq!(cases.iter().filter(|(k, s)| *s == seed && k.group() == "control").count(), 3, "seed {seed}");
+    }
+    let all = cases::kinds_from("triples");
+    for (i, (kind, seed)) in triples.iter().enumerate() {
+        let at = all.iter().position(|k| k == kind).expect("one of the triples");
+        assert_eq!(*seed, (at % 10) as u64, "{} is triple {at}, met {i}th", kind.name());
+    }
+    let some = cases::seeded_kinds_from("random_triples:20", 3..8);
+    assert_eq!(some.len(), 20);
+    assert!((3..8).all(|s| some.iter().filter(|(_, x)| *x == s).count() == 4));
+}
+
 /// The tables and floors of the sweep's file, without running anything.
 #[test]
 #[ignore = "prints the tables of SWEEP_OUT (default target/gap_sweep.jsonl)"]
