@@ -402,7 +402,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     // three steps, the law is left as read, against that bound.
     let law = match (clear_law(c.mix, &c.flagged, c.valid), lattice, &on_lattice) {
         (Some(mix), _, _) => calibrate::Law { mix, ..calibrate::Law::of(&c) },
-        (None, Some(_), Some(at)) if at.busy() => calibrate::corrected(&c, n, Some(at.calibration())),
+        (None, Some(_), Some(at)) if at.busy() => calibrate::corrected(&c, n, Some(calibrate::OnLattice::of(at))),
         (None, Some(_), _) => calibrate::Law::of(&c),
         (None, None, _) => calibrate::corrected(&c, n, None),
     };

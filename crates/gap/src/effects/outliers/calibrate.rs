@@ -83,6 +83,13 @@ pub(super) struct OnLattice {
     pub least: f64,
 }
 
+impl OnLattice {
+    /// The lattice that `at` read, as the synthetic records are rounded to it.
+    pub fn of(at: &super::lattice_reach::OnLattice) -> Self {
+        OnLattice { step: at.step, white: at.reading.noise_steps * at.step, least: at.least() }
+    }
+}
+
 /// The law of `read_off` (read from a record of `n` samples) corrected for the estimator's bias; as read where the
 /// spikes stand clear of the core, or where a synthetic record gives no reading.
 ///

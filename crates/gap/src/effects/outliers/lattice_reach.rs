@@ -144,15 +144,6 @@ impl OnLattice {
     pub fn busy(&self) -> bool {
         self.reading.busy()
     }
-
-    /// The lattice as the calibration's synthetic records are rounded to it.
-    pub fn calibration(&self) -> super::calibrate::OnLattice {
-        super::calibrate::OnLattice {
-            step: self.step,
-            white: self.reading.noise_steps * self.step,
-            least: self.least(),
-        }
-    }
 }
 
 /// The share of residuals between the reach and [`FAR_STEPS`] beyond which spikes stand there: ten times what a
