@@ -102,6 +102,10 @@ pub struct Row {
     pub holdout_after: Option<f64>,
     /// The oracle's held-out gap.
     pub oracle_gap: Option<f64>,
+    /// The worst view's training gap of the whole chain: above significance, the chain stopped beside a gap it
+    /// could not explain; below, nothing was left for a view to see.
+    #[serde(default)]
+    pub training_after: Option<f64>,
     pub transients: usize,
     pub rate_hz: f64,
     pub samples: usize,
@@ -234,6 +238,7 @@ pub fn run_case(gen: Gen, kind: &Kind, seed: u64) -> Row {
         holdout_before: finite(before),
         holdout_after: finite(after),
         oracle_gap: finite(oracle_gap),
+        training_after: finite(r.worst[1]),
         transients: r.input.transients.len(),
         rate_hz: case.rate_hz,
         samples: case.samples,

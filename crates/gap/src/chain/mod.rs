@@ -42,12 +42,16 @@
 //! a later step's candidate explains too little on the chain as found, and once over the whole chain, keeping it
 //! where the fit improves, and [`learn`] repeats it where the diagnosis did.
 //!
-//! Once the steps are found, the base terms and every effect of the chain are re-estimated together ([`joint`]):
-//! the deterministic effects by least squares in the time domain, the stochastic ones with the base terms on the
-//! Allan curve, GMWM-style. The round is kept where the views find the model no worse and it does not turn a
-//! significant gap into none. It runs after the search, not between steps: between steps, the freedom of the
-//! effects found so far covers part of the gap the next one leaves (a resonance widened over a filter's
-//! roll-off), and that effect then goes unnamed.
+//! The base terms and every effect of the chain are re-estimated together ([`joint`]): the deterministic effects
+//! by least squares in the time domain, the stochastic ones with the base terms on the Allan curve, GMWM-style.
+//! The round is kept where the views find the model no worse. It runs where the search is stuck (a significant
+//! gap that no route names an effect for), after which every route is tried once more on the re-estimated model,
+//! and once the chain is found. It does not run after every step: there, the freedom of the effects found so far
+//! covers part of the gap the next one leaves (a resonance widened over a filter's roll-off), and that effect
+//! then goes unnamed. Where the search is stuck, no route names the next one as the model stands, and what is
+//! off may be the chain's own estimates, each read with only the steps before it in place: the white noise a
+//! base fit read beside a sinusoid and bias steps (a spectrum a quarter below the record's, held out at 14.7)
+//! comes back to the record's once the sinusoid is in the model (held out at 1.7).
 //!
 //! Last, each effect the views named is tried out of the chain ([`prune`]): an effect read early in place of part
 //! of a later one (a Gauss-Markov process before the filter corner it imitated) is dropped where the chain

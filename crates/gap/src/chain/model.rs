@@ -78,7 +78,8 @@ pub struct Step {
     /// Whether a backfitting round followed this step (the re-learning on other data repeats it).
     pub backfitted: bool,
     /// Whether a joint re-estimation of the base terms and every effect so far followed this step and was kept
-    /// ([`super::joint`]: after the chain's last step; the re-learning on other data repeats it).
+    /// ([`super::joint`]: where the search was stuck after it, or after the chain's last step; the re-learning on
+    /// other data repeats it).
     pub joint: bool,
 }
 

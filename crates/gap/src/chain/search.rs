@@ -190,6 +190,8 @@ fn greedy(start: &Start, progress: &mut Progress, forced_first: Option<Effect>) 
     };
     let mut first_candidates = Vec::new();
     let mut last_tried = Vec::new();
+    // The chain's length when a joint round was last tried on a stuck chain (once a length).
+    let mut jointly_at = None;
     while s.steps.len() < MAX_STEPS {
         let first = s.steps.is_empty();
         let significant = rank::gap_of(&s.eval.training) > rank::SIGNIFICANT_GAP;
@@ -232,6 +234,15 @@ fn greedy(start: &Start, progress: &mut Progress, forced_first: Option<Effect>) 
         if !first && s.less_jumps_step(&remaining, &data, &ranked, &location)? {
             last_tried.clear();
             continue;
+        }
+        // Stuck beside a significant gap: the chain's effects and the base terms, each read with only the steps
+        // before it in place, may be what is off (a white noise the base fit read with a sinusoid still in the
+        // samples). Re-estimated together, every route is tried once more on that model.
+        if significant && !first && jointly_at != Some(s.steps.len()) {
+            jointly_at = Some(s.steps.len());
+            if s.joint_round()? {
+                continue;
+            }
         }
         break;
     }
@@ -661,35 +672,29 @@ impl Search<'_, '_> {
         self.eval = after;
     }
 
-    /// A joint re-estimation of the chain's model once its steps are found ([`joint::reestimate`]): the base
-    /// terms and every effect so
-    /// far fitted together on the training samples less the recovered realisations, kept when the views find the
-    /// model no worse and it does not turn a significant gap into none; each step's parameters are then read
-    /// from it.
-    fn joint_round(&mut self) -> Result<(), GapError> {
+    /// A joint re-estimation of the chain's model ([`joint::reestimate`]): the base terms and every effect so far
+    /// fitted together on the training samples less the recovered realisations, kept when the views find the
+    /// model no worse; each step's parameters are then read from it. Says whether it was kept.
+    fn joint_round(&mut self) -> Result<bool, GapError> {
         let shaped = self.shaped.as_deref();
         let Some(m) = joint::reestimate(&self.model, &self.series, shaped, &self.gaps, self.temp, self.rate_hz) else {
-            return Ok(());
+            return Ok(false);
         };
         self.progress.expect("joint", 1);
         let realised = self.realised.clone();
         let after = self.evaluate(&m, realised.as_deref(), "joint")?;
-        // A round that turns a significant gap into none has not re-estimated the chain's effects but covered the
-        // next one with their freedom (a resonance widened over a filter's roll-off): the chain's steps name that
-        // one, and the report's verdict must not be bought by the re-fit.
-        let significant = |e: &Evaluated| rank::gap_of(&e.training) > rank::SIGNIFICANT_GAP;
-        let hides_a_gap = significant(&self.eval) && !significant(&after);
-        if rank::total_of(&after.training) <= rank::total_of(&self.eval.training) && !hides_a_gap {
-            for s in self.steps.iter_mut() {
-                s.refit = Some(s.final_fit().reestimated(&m.gyro));
-            }
-            if let Some(last) = self.steps.last_mut() {
-                last.joint = true;
-            }
-            self.model = m;
-            self.eval = after;
+        if rank::total_of(&after.training) > rank::total_of(&self.eval.training) {
+            return Ok(false);
         }
-        Ok(())
+        for s in self.steps.iter_mut() {
+            s.refit = Some(s.final_fit().reestimated(&m.gyro));
+        }
+        if let Some(last) = self.steps.last_mut() {
+            last.joint = true;
+        }
+        self.model = m;
+        self.eval = after;
+        Ok(true)
     }
 
     /// `m` jointly re-estimated ([`joint::reestimate`]) on the training samples less the realisations the chain
