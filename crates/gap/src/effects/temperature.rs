@@ -248,7 +248,9 @@ impl<'a> Regression<'a> {
             .map(|(xr, xi)| (1..=half).map(|k| (xr[k] * xr[k] + xi[k] * xi[k]) / s2[k] * k as f64 * df).sum::<f64>())
             .sum::<f64>()
             / sxx;
-        let (refit, _) = refit_base(d, &self.cleaned_of(k, lag), k / se)?;
+        // Where the base terms cannot be re-fitted (a model with none left, whose curve the re-fit reads its
+        // points against), the coupling stands on the model's base terms as they are.
+        let refit = refit_base(d, &self.cleaned_of(k, lag), k / se).map_or_else(|| d.base.clone(), |r| r.0);
         // The sim adds bias + k (T_lag - ref): ref keeps the intercept (mean rate - k mean T_lag) with the base bias.
         let c0 = mean(r) - k * mean(x);
         let ref_c = (d.base.bias_dps - c0) / k;

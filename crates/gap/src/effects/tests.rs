@@ -165,6 +165,31 @@ fn a_loose_coupling_leaves_the_flicker_beneath_it() {
     assert!(weighed < 0.1, "worst |ln(B / truth)|: {weighed:.3} (plain {plain:.3})");
 }
 
+/// A coupling found where the model's base terms are all zero is kept. A bistable bias read on the Allan curve of
+/// a record whose filter corner hides the white noise gives the telegraph every octave and leaves no base term;
+/// the base terms' re-fit beside the coupling then has no curve to read (each point held at a tenth of the
+/// model's, zero), and the model keeps its base terms as they are.
+#[test]
+fn a_coupling_is_kept_where_the_models_base_terms_are_all_zero() {
+    let (rate_hz, n) = (20.0, 200_000);
+    let temp = TemperatureProfile { min_c: 20.0, max_c: 22.0, period_s: 1000.0, ..Default::default() };
+    let m = GyroSim { temperature: Some(TempCoupling { dps_per_c: 0.025, ref_c: 21.0, lag_s: 3.0 }), ..base_model() };
+    let (x, t) = simulate(&m, rate_hz, n, 5, Some(&temp));
+    let levels = telegraph(&mut SimRng::new(5), n, rate_hz, 0.15, [60.0, 30.0]);
+    let recorded: Vec<f64> = x.iter().zip(&levels).map(|(x, l)| x + l).collect();
+    let (_, f) = base_of(&x, rate_hz);
+    let silent = GyroSim::default();
+    let d = TrainingData {
+        recorded_dps: &recorded,
+        shaped_dps: Some(&levels),
+        temp_c: Some(&t),
+        ..data_of(&x, rate_hz, &silent, &f)
+    };
+    let e = fit_effect(Effect::Temperature, &d).expect("the coupling is found");
+    let c = e.gyro.temperature.unwrap();
+    assert!(rel(c.dps_per_c, 0.025) < 0.1, "{c:?}");
+}
+
 /// One FFT and the two-neighbour identity give what five tapered FFTs give, on the same grid.
 #[test]
 fn sine_tapers_from_one_fft_match_the_direct_transforms() {

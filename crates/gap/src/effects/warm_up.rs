@@ -286,7 +286,8 @@ pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     if !((size / se).abs() > T_STAT) {
         return None;
     }
-    let (refit, _) = refit_base(d, &cleaned_of(size, tau_s), size / se)?;
+    // As the temperature coupling's: where the base terms cannot be re-fitted, the model's stand.
+    let refit = refit_base(d, &cleaned_of(size, tau_s), size / se).map_or_else(|| d.base.clone(), |r| r.0);
     let gyro = GyroSim { warm_up: Some(WarmUpSim { size_dps: size, tau_s }), ..refit };
     Some(EffectFit {
         effect: Effect::WarmUp,

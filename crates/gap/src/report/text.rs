@@ -181,7 +181,7 @@ impl GapReport {
         for p in &self.chain.pruned {
             writeln!(
                 s,
-                "taken out of the chain: {}, made redundant by a later effect (the chain learnt without it: total over views {:.2}, with it {:.2})",
+                "taken out of the chain: {}, made redundant by the rest of the chain (the chain learnt without it: total over views {:.2}, with it {:.2})",
                 p.effect.name(),
                 p.total_without,
                 p.total_with
