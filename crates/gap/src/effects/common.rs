@@ -7,11 +7,14 @@ use std::ops::Range;
 use std::sync::Arc;
 
 use octavar_shared::sim::noise::LowPass;
-use octavar_shared::sim::GyroSim;
+use octavar_shared::sim::{GaussMarkovSim, GyroSim};
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
-use super::curve::{base_curve, less_known, weighed_by_fit_error};
+use super::curve::{
+    base_columns, base_curve, filtered_gm_avar, filtered_resonance_avar, joint_fit_keeping, less_known,
+    weighed_by_fit_error, with_base_terms, BASE_COLS,
+};
 use super::TrainingData;
 use crate::fill::with_gaps;
 pub(super) use crate::spectral::{block_means, sine_tapers};
@@ -64,8 +67,8 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
 }
 
 /// The IEEE fit (default options, the base's bandwidth) on a record cleaned of an effect's fitted component (the
-/// step's data `d` otherwise): the base model with its Q, N, B, K, R replaced by the fitted terms of that fit, and
-/// the fit's squares.
+/// step's data `d` otherwise): the base model with its Q, N, B, K, R replaced by the fitted terms of that fit (and
+/// the variances of a Gauss-Markov process or a resonance it carries by theirs), and the fit's squares.
 ///
 /// The rate ramp R enters only when the base fit has one: a ramp is a deterministic drift, and taking an
 /// effect's component out of the record cannot create one. Where the re-fit found one anyway, it was the
@@ -74,9 +77,9 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
 /// its own.
 ///
 /// `gaps` are the runs of samples that were missing or masked (filled in `cleaned`): the Allan deviation is taken
-/// with them as gaps, as the base fit took it. The stochastic effects the base already carries (a Gauss-Markov
-/// process, a resonance) and the quantisation noise of the model's ADC lattice ([`less_known`]) are taken off the
-/// curve first, so that the IEEE terms do not absorb them a second time.
+/// with them as gaps, as the base fit took it. The quantisation noise of the model's ADC lattice ([`less_known`])
+/// is taken off the curve first, so that the IEEE terms do not absorb it a second time; a Gauss-Markov process or
+/// a resonance the base already carries is fitted beside the terms, its shape held ([`refit_beside_processes`]).
 ///
 /// Where an earlier step took jumps out of the samples (bias steps, a bistable bias's levels: `d.shaped_dps`),
 /// the samples carry that recovery's residue (a flip placed a sample late leaves a one-sample pulse), and the
@@ -97,15 +100,79 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
 pub(super) fn refit_base(d: &TrainingData, cleaned: &[f64], t: f64) -> Option<(GyroSim, [f64; 5])> {
     let pts = gapped_oadev_points(cleaned, d.gaps, d.rate_hz);
     let pts = match d.shaped_dps {
-        Some(_) => less_taken_out(d, &pts),
-        None if t.is_finite() => {
-            let record = gapped_oadev_points(d.rate_dps, d.gaps, d.rate_hz);
-            less_known(&weighed_by_fit_error(&pts, &record, t), d.base, d.base.bandwidth_hz, d.rate_hz, d.lattice_dps)
-        }
-        None => less_known(&pts, d.base, d.base.bandwidth_hz, d.rate_hz, d.lattice_dps),
+        Some(_) => return ieee_refit(d.base, &less_taken_out(d, &pts), d.base.outliers.is_some()),
+        None if t.is_finite() => weighed_by_fit_error(&pts, &gapped_oadev_points(d.rate_dps, d.gaps, d.rate_hz), t),
+        None => pts,
     };
-    ieee_refit(d.base, &pts, d.base.outliers.is_some())
+    match d.base.gauss_markov.is_some() || d.base.resonance.is_some() {
+        true => refit_beside_processes(d, &pts),
+        false => ieee_refit(
+            d.base,
+            &less_known(&pts, d.base, d.base.bandwidth_hz, d.rate_hz, d.lattice_dps),
+            d.base.outliers.is_some(),
+        ),
+    }
 }
+
+/// [`refit_base`] where the model carries a Gauss-Markov process or a resonance: they are fitted beside the base
+/// terms (GMWM's joint fit on the octave Allan variances), each variance free, the resonance's centre and Q held
+/// (its own step read them off the spectrum), the process's time constant read again within a factor of
+/// [`MARKOV_REREAD`] of the one it had (its step read it on a curve that still held the component this re-fit
+/// takes out). Taken off the curve at the variance its own step read instead, a process leaves a small
+/// difference of large numbers where it dominates: beside a Gauss-Markov process of 1.2 s, a temperature
+/// coupling's re-fit read a flicker floor of 8.6e-3 deg/s out of it where the process's own joint fit read none,
+/// and the Allan view went from 0.8 to 5.8. The ramp enters only where the model has one, as in [`ieee_refit`];
+/// where the model carries spikes, its white noise and quantisation stay as they are (see [`refit_base`]).
+fn refit_beside_processes(d: &TrainingData, pts: &[FitPoint]) -> Option<(GyroSim, [f64; 5])> {
+    let (base, rate_hz, bw) = (d.base, d.rate_hz, d.base.bandwidth_hz);
+    let known = GyroSim { gauss_markov: None, resonance: None, ..base.clone() };
+    let pts = less_known(pts, &known, bw, rate_hz, d.lattice_dps);
+    let mut cols = base_columns(&pts, rate_hz, bw, base.q_deg > 0.0);
+    if base.r_dps_per_s == 0.0 {
+        cols[3].iter_mut().for_each(|v| *v = 0.0);
+    }
+    if let Some(r) = &base.resonance {
+        cols.push(
+            pts.iter().map(|p| filtered_resonance_avar(r.freq_hz, r.q, bw, p.tau_s * rate_hz, rate_hz)).collect(),
+        );
+    }
+    let resonance_col = base.resonance.as_ref().map(|_| cols.len() - 1);
+    let keep = (1u32 << cols.len()) - (1 << BASE_COLS);
+    let with_markov = |t: f64| {
+        let mut c = cols.clone();
+        c.push(pts.iter().map(|p| filtered_gm_avar(t, bw, p.tau_s, rate_hz)).collect());
+        c
+    };
+    let (j, markov) = match base.gauss_markov {
+        Some(g) => {
+            let (lo, hi) = (g.tau_s / MARKOV_REREAD, g.tau_s * MARKOV_REREAD);
+            let keep = keep | 1 << cols.len();
+            let chi = |t: f64| joint_fit_keeping(&pts, &with_markov(t), keep).map_or(f64::INFINITY, |j| j.chi2);
+            let (t, _) = log_search(lo.max(2.0 / rate_hz), hi.max(2.0 / rate_hz), 9, chi);
+            let j = joint_fit_keeping(&pts, &with_markov(t), keep)?;
+            let sigma = j.theta[cols.len()].max(0.0).sqrt();
+            (j, Some(GaussMarkovSim { sigma_dps: sigma, tau_s: t }))
+        }
+        None => (joint_fit_keeping(&pts, &cols, keep)?, None),
+    };
+    let mut gyro = with_base_terms(base, &j.theta);
+    gyro.gauss_markov = markov;
+    if let (Some(r), Some(c)) = (gyro.resonance.as_mut(), resonance_col) {
+        r.sigma_dps = j.theta[c].max(0.0).sqrt();
+    }
+    // The fit's squares in the IEEE fit's order (Q, N, B, K, R); the columns' order is N, B, K, R, Q.
+    let t = &j.theta;
+    let mut squares = [t[4], t[0], t[1], t[2], t[3]].map(|v| v.max(0.0));
+    if base.outliers.is_some() {
+        (gyro.n_deg_per_rt_s, gyro.q_deg) = (base.n_deg_per_rt_s, base.q_deg);
+        squares[Term::N as usize] = base.n_deg_per_rt_s.powi(2);
+        squares[Term::Q as usize] = base.q_deg.powi(2);
+    }
+    Some((gyro, squares))
+}
+
+/// How far either way of its step's time constant a Gauss-Markov process's is read again by [`refit_base`].
+const MARKOV_REREAD: f64 = 3.0;
 
 /// The IEEE fit on the curve of `cleaned` (the step's samples less an effect's component), less the effects the
 /// model already carries ([`less_known`]): the noise those samples carry, which a generalised least-squares test

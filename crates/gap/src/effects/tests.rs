@@ -190,6 +190,44 @@ fn a_coupling_is_kept_where_the_models_base_terms_are_all_zero() {
     assert!(rel(c.dps_per_c, 0.025) < 0.1, "{c:?}");
 }
 
+/// Beside a Gauss-Markov process the model already carries, a coupling's re-fit reads the base terms and the
+/// process together on the samples less the coupling ([`common::refit_base`]): the flicker floor, the white noise
+/// and the process's variance and time constant come out near the truth on every one of 8 records, where taking
+/// the process off the curve at its variance and fitting the IEEE terms to what is left reads a flicker floor of
+/// four times the truth out of the difference.
+#[test]
+fn a_coupling_beside_a_markov_process_re_fits_the_base_terms_with_it() {
+    let rate_hz = 6.1;
+    let temp = TemperatureProfile { min_c: 21.0, max_c: 25.0, period_s: 6750.0, ..Default::default() };
+    let markov = GaussMarkovSim { sigma_dps: 0.046, tau_s: 1.2 };
+    let m = GyroSim {
+        n_deg_per_rt_s: 5e-3,
+        b_dps: 2e-3,
+        gauss_markov: Some(markov),
+        temperature: Some(TempCoupling { dps_per_c: 0.02, ref_c: 23.0, lag_s: 250.0 }),
+        ..Default::default()
+    };
+    let read: Vec<GyroSim> = (0..8u64)
+        .into_par_iter()
+        .filter_map(|seed| {
+            let (x, t) = simulate(&m, rate_hz, 128_000, seed, Some(&temp));
+            let (_, f) = base_of(&x, rate_hz);
+            // The model as the process's own step leaves it: the process and the base terms, no coupling.
+            let base = GyroSim { temperature: None, bias_dps: common::mean(&x), ..m.clone() };
+            let d = TrainingData { temp_c: Some(&t), ..data_of(&x, rate_hz, &base, &f) };
+            fit_effect(Effect::Temperature, &d).map(|e| e.gyro)
+        })
+        .collect();
+    assert_eq!(read.len(), 8, "the coupling found on {} of 8 records", read.len());
+    for g in &read {
+        let (sigma, tau) = g.gauss_markov.map_or((0.0, 0.0), |p| (p.sigma_dps, p.tau_s));
+        assert!(rel(sigma, markov.sigma_dps) < 0.1, "{g:?}");
+        assert!(rel(tau, markov.tau_s) < 0.3, "{g:?}");
+        assert!(rel(g.n_deg_per_rt_s, m.n_deg_per_rt_s) < 0.5, "{g:?}");
+        assert!(g.b_dps < 2.0 * m.b_dps, "a flicker floor read out of the process's difference: {g:?}");
+    }
+}
+
 /// One FFT and the two-neighbour identity give what five tapered FFTs give, on the same grid.
 #[test]
 fn sine_tapers_from_one_fft_match_the_direct_transforms() {
