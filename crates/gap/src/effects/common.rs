@@ -79,7 +79,7 @@ pub(super) fn outside_gaps<'a>(x: &'a [f64], gaps: &[Range<usize>]) -> std::borr
 /// `gaps` are the runs of samples that were missing or masked (filled in `cleaned`): the Allan deviation is taken
 /// with them as gaps, as the base fit took it. The quantisation noise of the model's ADC lattice ([`less_known`])
 /// is taken off the curve first, so that the IEEE terms do not absorb it a second time; a Gauss-Markov process or
-/// a resonance the base already carries is fitted beside the terms, its shape held ([`refit_beside_processes`]).
+/// a resonance the base already carries is fitted beside the terms ([`refit_beside_processes`]).
 ///
 /// Where an earlier step took jumps out of the samples (bias steps, a bistable bias's levels: `d.shaped_dps`),
 /// the samples carry that recovery's residue (a flip placed a sample late leaves a one-sample pulse), and the
@@ -164,9 +164,7 @@ fn refit_beside_processes(d: &TrainingData, pts: &[FitPoint]) -> Option<(GyroSim
     let t = &j.theta;
     let mut squares = [t[4], t[0], t[1], t[2], t[3]].map(|v| v.max(0.0));
     if base.outliers.is_some() {
-        (gyro.n_deg_per_rt_s, gyro.q_deg) = (base.n_deg_per_rt_s, base.q_deg);
-        squares[Term::N as usize] = base.n_deg_per_rt_s.powi(2);
-        squares[Term::Q as usize] = base.q_deg.powi(2);
+        keep_white_noise(base, &mut gyro, &mut squares);
     }
     Some((gyro, squares))
 }
@@ -201,11 +199,17 @@ fn ieee_refit(base: &GyroSim, pts: &[FitPoint], keep_white: bool) -> Option<(Gyr
     let f = fit(pts, &opts).ok()?;
     let (mut gyro, mut squares) = (f.sim_terms(base.clone()), f.squares);
     if keep_white {
-        (gyro.n_deg_per_rt_s, gyro.q_deg) = (base.n_deg_per_rt_s, base.q_deg);
-        squares[Term::N as usize] = base.n_deg_per_rt_s.powi(2);
-        squares[Term::Q as usize] = base.q_deg.powi(2);
+        keep_white_noise(base, &mut gyro, &mut squares);
     }
     Some((gyro, squares))
+}
+
+/// `gyro` and its fit's `squares` (Q, N, B, K, R) with `base`'s N and Q in place of the fitted ones: a model with
+/// spikes keeps the white noise its spike step read ([`refit_base`]).
+fn keep_white_noise(base: &GyroSim, gyro: &mut GyroSim, squares: &mut [f64; 5]) {
+    (gyro.n_deg_per_rt_s, gyro.q_deg) = (base.n_deg_per_rt_s, base.q_deg);
+    squares[Term::N as usize] = base.n_deg_per_rt_s.powi(2);
+    squares[Term::Q as usize] = base.q_deg.powi(2);
 }
 
 /// The base terms' Allan variance under `d.base` at the points `cleaned` (the samples less an effect's component),
