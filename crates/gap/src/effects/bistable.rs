@@ -236,7 +236,8 @@ fn read_jumps(x: &[f64], flips: &Flips, l: usize) -> ReadJumps {
 /// `s^2 p (1 - p)` and correlation time `T = dwell_low dwell_high / (dwell_low + dwell_high)`; the counted dwells
 /// miss the excursions shorter than the scan's window, and the correction for them is approximate where the
 /// shorter dwell is a few windows. So with the step held (the jumps measure it well), that variance and `T` are
-/// fitted with the base terms on the OADEV of the record (T within a factor of 4 of the counted one), and the
+/// fitted with the base terms on the OADEV of the record (T from a quarter of the counted one to three of the count's
+/// standard errors above it, `counts` the completed dwells (low, high)), and the
 /// dwells `T / p` and `T / (1 - p)` replace the counted ones where they lower the curve's chi-square by
 /// [`CURVE_DELTA_CHI2`] and the telegraph and base terms follow the curve there (reduced chi-square at most
 /// [`MAX_CURVE_STRAIN`]); `p` takes the root on the counted dwells' side of one half, or where that root is within
@@ -251,6 +252,7 @@ fn telegraph_on_curve(
     step: f64,
     dwell_low: f64,
     dwell_high: f64,
+    counts: (usize, usize),
     occupancy: f64,
 ) -> Option<(f64, f64, Vec<f64>)> {
     let rate_hz = d.rate_hz;
@@ -279,7 +281,14 @@ fn telegraph_on_curve(
         cols.push(column(t));
         joint_fit_keeping(&pts, &cols, keep)
     };
-    let (t, chi) = log_search(t0 / 4.0, t0 * 4.0, 24, |t| fit_at(t).map_or(f64::INFINITY, |j| j.chi2));
+    // Missed excursions make the counted dwells long, never short: the curve may shorten T to a quarter, but
+    // lengthen it only within three of the count's standard errors. Longer, the curve's power at long tau is
+    // another effect's (a 5,000 s sinusoid and a temperature response beside a telegraph of 12 s read T at 24 s,
+    // and the ensemble's flips then carried half the record's power at 1-20 s).
+    let (w_low, w_high) = (dwell_high / (dwell_low + dwell_high), dwell_low / (dwell_low + dwell_high));
+    let t_se = (w_low * w_low / counts.0.max(1) as f64 + w_high * w_high / counts.1.max(1) as f64).sqrt();
+    let t_hi = t0 * (1.0 + 3.0 * t_se).min(4.0);
+    let (t, chi) = log_search(t0 / 4.0, t_hi, 24, |t| fit_at(t).map_or(f64::INFINITY, |j| j.chi2));
     let counted_result = (dwell_low, dwell_high, at_counted.theta.clone());
     // A curve the telegraph and the base terms cannot follow at any correlation time has a shape they lack (a
     // Gauss-Markov hump beside the telegraph's), which pulls the fitted time towards it: the counted dwells stand.
@@ -378,7 +387,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     }
     // The record less the two zero-mean levels, for the base terms' re-fit.
     let p_high = time_high / (time_high + time_low);
-    let on_curve = telegraph_on_curve(d, step, dwell_low, dwell_high, p_high);
+    let on_curve = telegraph_on_curve(d, step, dwell_low, dwell_high, (count_low, count_high), p_high);
     let (dwell_low, dwell_high) = on_curve.as_ref().map_or((dwell_low, dwell_high), |c| (c.0, c.1));
     let cleaned: Vec<f64> = x.iter().zip(telegraph_levels(x, &edges, step, p_high)).map(|(v, l)| v - l).collect();
     let refit = match &on_curve {
