@@ -252,8 +252,8 @@ const MAX_JUMP_SHIFT: usize = 16;
 ///
 /// The scans that find jumps place each at the middle of its edge, and through a filter the edge's middle comes
 /// the filter's delay after the jump: taken out a sample or two late, each jump leaves a filtered pulse of its own
-/// size in the record, and a few hundred of them add more short-tau variance than the white noise has (a bistable
-/// bias of 300 flips at 15 Hz read N 6% high beside a corner of 0.8 Hz). Each jump moves within twice the filter's
+/// size in the record, and a few hundred of them raise the short-tau variance by a tenth or more (a bistable bias
+/// of 300 flips at 15 Hz read N 6% high beside a corner of 0.8 Hz). Each jump moves within twice the filter's
 /// time constant (and two samples; at most [`MAX_JUMP_SHIFT`]) and no nearer its neighbours than a sample, the
 /// jumps in time order, each against the ones before it as placed.
 pub(super) fn jumps_placed_through_filter(x: &[f64], shaped: &[f64], bandwidth_hz: f64, rate_hz: f64) -> Vec<f64> {
