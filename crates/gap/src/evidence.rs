@@ -256,4 +256,27 @@ mod tests {
         let control = diagnosed_record(simulated(&quiet(), 1));
         assert!(control.effects().is_empty(), "{:?}", control.effects());
     }
+
+    /// The same twelve spikes beside bias steps (20 an hour of 0.1 deg/s sd, which the views name first and the
+    /// chain takes out of the samples): the spikes' reading leaves the samples beside each step taken out aside,
+    /// so the spikes are still named on their estimator's test, and the steps alone name nothing else.
+    #[test]
+    fn rare_spikes_beside_bias_steps_taken_out_are_named_by_their_estimator() {
+        use octavar_shared::sim::BiasSteps;
+        let stepped = GyroSim { bias_steps: Some(BiasSteps { per_hour: 20.0, sigma_dps: 0.1 }), ..quiet() };
+        for seed in [1] {
+            let mut x = simulated(&stepped, seed);
+            let control = diagnosed_record(x.clone());
+            assert_eq!(control.effects(), [Effect::BiasSteps], "seed {seed}: {}", control.text());
+            for k in 0..12 {
+                x[10_007 + 20_011 * k] += if k % 2 == 0 { 0.2 } else { -0.2 };
+            }
+            let r = diagnosed_record(x);
+            assert_eq!(r.effects(), [Effect::BiasSteps, Effect::Outliers], "seed {seed}: {}", r.text());
+            let NamedBy::Estimator(ev) = r.chain.steps[1].named_by else {
+                panic!("seed {seed}: named by {:?}", r.chain.steps[1].named_by)
+            };
+            assert!(ev.statistic == "lr" && ev.names(), "seed {seed}: {ev:?}");
+        }
+    }
 }

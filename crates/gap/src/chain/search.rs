@@ -470,15 +470,8 @@ impl Search<'_, '_> {
             data.training(&self.filled, &self.model.gyro, self.model.channel.as_ref(), self.temp, self.rate_hz);
         let significant = rank::gap_of(&self.eval.training) > rank::SIGNIFICANT_GAP;
         let mut chosen = None;
-        // Spikes are named on their own evidence only in the samples as recorded: once a step has taken jumps or a
-        // response out, what it leaves at a flip or a step is that step's residue, one or two samples wide, which
-        // the spike law would take for spikes. A step that takes nothing out of the samples (a lattice) leaves
-        // them as recorded.
-        let as_recorded = training.rate_dps == training.recorded_dps;
-        let remaining: Vec<Effect> =
-            remaining.iter().copied().filter(|&e| e != Effect::Outliers || as_recorded).collect();
         for mut fit in
-            evidence::named(&remaining, |e| candidates.iter().find(|c| c.effect == e).map(|c| c.fit.clone()), &training)
+            evidence::named(remaining, |e| candidates.iter().find(|c| c.effect == e).map(|c| c.fit.clone()), &training)
         {
             let Some(ev) = evidence::of(&fit) else { continue };
             let m = self.model.with(&fit);

@@ -20,7 +20,12 @@
 //!   it ([`calibrate`]); one held beyond three steps is left as read, against that bound. Where the noise is near
 //!   a step or more, the lattice has no reach: the law is held beyond three steps, and the flagged samples are
 //!   cleaned back onto the lattice. Where the model's channel already rounds to the lattice, its base terms (the
-//!   quantisation estimator's, N the analog noise under the lattice) stay as they are.
+//!   quantisation estimator's, N the analog noise under the lattice) stay as they are. Spikes too few for the
+//!   dithered core's mixture (a dozen of two steps in a quarter of a million samples) are counted beyond the
+//!   reach against what a clean lattice leaves there ([`beyond_reach`]).
+//! - **After other steps.** The estimator reads whatever the chain's earlier steps left: a smooth part taken out
+//!   leaves each sample's step against its neighbours as it was, and beside jumps taken out the samples around
+//!   each are left aside (below), so spikes may be named on the estimator's own test after any step.
 //! - **Mixture.** The residuals' magnitudes are fitted by maximum likelihood as a Gaussian core plus spikes whose
 //!   magnitude is uniform on `centre +- spread` ([`mixture`]): the core's scale is read where the core dominates,
 //!   not inflated by the contamination as a MAD would be, and spikes too small to stand above any threshold are
@@ -379,6 +384,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
                 gap[i.saturating_sub(JUMP_GUARD)..(i + JUMP_GUARD).min(n)].fill(true);
             }
         }
+        leave_out_excursions(x, s, tiny, &mut gap);
     }
     // On an ADC lattice the residuals sit on a few values (most on 0 where the step is coarser than the noise):
     // a dither makes them continuous, so the core has a scale, and the spikes' magnitudes are held beyond the steps
@@ -393,18 +399,27 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
         (None, Some((q, _))) => lattice_reach::FAR_STEPS * q,
         (None, None) => 0.0,
     };
-    let c = read(dithered.as_deref().unwrap_or(x), &gap, least)?;
-    if !c.is_process(n) {
-        return None;
-    }
-    // Spikes clear of the core are read off their cluster; the calibration is for laws near it. On a lattice it
-    // runs where the law is read from the reach (spikes stand between the reach and three steps); held beyond
-    // three steps, the law is left as read, against that bound.
-    let law = match (clear_law(c.mix, &c.flagged, c.valid), lattice, &on_lattice) {
-        (Some(mix), _, _) => calibrate::Law { mix, ..calibrate::Law::of(&c) },
-        (None, Some(_), Some(at)) if at.busy() => calibrate::corrected(&c, n, Some(calibrate::OnLattice::of(at))),
-        (None, Some(_), _) => calibrate::Law::of(&c),
-        (None, None, _) => calibrate::corrected(&c, n, None),
+    let (c, law) = match read(dithered.as_deref().unwrap_or(x), &gap, least).filter(|c| c.is_process(n)) {
+        Some(c) => {
+            // Spikes clear of the core are read off their cluster; the calibration is for laws near it. On a
+            // lattice it runs where the law is read from the reach (spikes stand between the reach and three
+            // steps); held beyond three steps, the law is left as read, against that bound.
+            let law = match (clear_law(c.mix, &c.flagged, c.valid), lattice, &on_lattice) {
+                (Some(mix), _, _) => calibrate::Law { mix, ..calibrate::Law::of(&c) },
+                (None, Some(_), Some(at)) if at.busy() => {
+                    calibrate::corrected(&c, n, Some(calibrate::OnLattice::of(at)))
+                }
+                (None, Some(_), _) => calibrate::Law::of(&c),
+                (None, None, _) => calibrate::corrected(&c, n, None),
+            };
+            (c, law)
+        }
+        // Spikes beyond a lattice's reach too few for the dithered core's mixture: read off their count.
+        None => {
+            let c = beyond_reach(on_lattice.as_ref().filter(|at| at.reading.spiked())?).filter(|c| c.is_process(n))?;
+            let law = calibrate::Law::of(&c);
+            (c, law)
+        }
     };
     let m = law.mix;
     let run_mean = law.run_mean();
@@ -458,6 +473,85 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
         cleaned: Some(Arc::new(cleaned)),
     })
 }
+
+/// Spikes on a lattice read off the undithered residuals at or beyond its reach, where no clean residual stands
+/// (a clean lattice leaves there at most [`lattice_reach::clean_share_bound`]): a dozen spikes of two steps in a
+/// quarter of a million samples are too few for the dithered core's mixture, which finds them at three dithered
+/// sds among a thousand of the core's own, yet a clean lattice under noise of a seventh of a step leaves none
+/// there. The evidence is their count against the clean bound: `lr` is twice the log-likelihood of the count
+/// under its own rate over the bound's (`2 (k ln(k / mu0) - k + mu0)`); the law's centre and spread are the
+/// magnitudes' quartiles (their midpoint and half range when fewer than [`QUARTILE_SPIKES`]), its share the count
+/// over the residuals read, and the core the white noise under the lattice. Spikes under the reach are not
+/// counted: on a lattice they are its own residuals.
+fn beyond_reach(at: &lattice_reach::OnLattice) -> Option<Contamination> {
+    let (q, reach) = (at.step, at.reach());
+    let flagged: Vec<(usize, f64)> =
+        at.residuals.iter().enumerate().filter(|(_, r)| r.abs() >= reach - 0.25 * q).map(|(i, &r)| (i, r)).collect();
+    let k = flagged.len();
+    if k < MIN_SPIKES || at.reading.read == 0 {
+        return None;
+    }
+    let mu0 = at.reading.clean_beyond.max(1e-12);
+    let kf = k as f64;
+    let lr = 2.0 * (kf * (kf / mu0).ln() - kf + mu0);
+    let mut mags: Vec<f64> = flagged.iter().map(|f| f.1.abs()).collect();
+    mags.sort_by(f64::total_cmp);
+    let (centre, spread) = if k >= QUARTILE_SPIKES {
+        let quantile = |p: f64| {
+            let pos = p * (k - 1) as f64;
+            let (i, frac) = (pos.floor() as usize, pos.fract());
+            mags[i] + frac * (mags[(i + 1).min(k - 1)] - mags[i])
+        };
+        let (q1, q3) = (quantile(0.25), quantile(0.75));
+        (0.5 * (q1 + q3), q3 - q1)
+    } else {
+        (0.5 * (mags[0] + mags[k - 1]), 0.5 * (mags[k - 1] - mags[0]))
+    };
+    let valid = at.reading.read;
+    let mix = mixture::Mixture { sigma: at.reading.noise_steps * q, eps: kf / valid as f64, centre, spread, lr };
+    Some(Contamination { mix, flagged, rho1: 0.0, cont_next: 0.0, tail: (k, mu0), valid })
+}
+
+/// Marks in `gap` the samples where a two-level bias taken out (`shaped`: a bistable bias's levels, equal within
+/// `tiny`) made an excursion too short for its scan to resolve: a sample or two at the other level, whose residual
+/// is the step between the levels towards the other one, within [`EXCURSION_SDS`] residual sds, and at least
+/// [`EXCURSION_LEAST_SDS`] out. A telegraph's
+/// dwells are exponential, so a few of hundreds are a sample or two long; the bistable model draws them, and the
+/// spike law would read them as spikes of the step's size (13 of them beside a Gauss-Markov process of 1.2 s at
+/// 6 Hz read as a spike process at 0.237 deg/s, the step being 0.229). Spikes of their own size and sign stand
+/// beside either level alike and are read.
+fn leave_out_excursions(x: &[f64], shaped: &[f64], tiny: f64, gap: &mut [bool]) {
+    let n = x.len().min(shaped.len());
+    let lo = shaped[..n].iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = shaped[..n].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if !(hi - lo > tiny) || shaped[..n].iter().any(|&v| (v - lo).abs() > tiny && (v - hi).abs() > tiny) {
+        return;
+    }
+    let r = residuals(x, gap, None);
+    let mut valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+    if valid.is_empty() {
+        return;
+    }
+    let (_, scale) = mad_scale_in_place(&mut valid);
+    if !(scale > 0.0) {
+        return;
+    }
+    let step = hi - lo;
+    for (i, ri) in r.iter().enumerate().take(n) {
+        let towards = if (shaped[i] - lo).abs() <= tiny { step } else { -step };
+        if ri.abs() >= EXCURSION_LEAST_SDS * scale && (ri - towards).abs() < EXCURSION_SDS * scale {
+            gap[i] = true;
+        }
+    }
+}
+
+/// How near, in residual sds, a residual must stand to a two-level bias's step towards the other level to be an
+/// excursion the bias's scan did not resolve ([`leave_out_excursions`]).
+const EXCURSION_SDS: f64 = 3.0;
+
+/// How far out, in residual sds, a residual must stand to be left out as an excursion: the core's own samples
+/// stay read, so its scale is not bent.
+const EXCURSION_LEAST_SDS: f64 = 4.0;
 
 /// The samples either side of a jump taken out that the spikes' reading leaves aside ([`outliers`]).
 const JUMP_GUARD: usize = 2;

@@ -850,6 +850,50 @@ fn spikes_beside_a_telegraph_taken_out_keep_the_models_base() {
     );
 }
 
+/// A bistable bias's excursions too short for its scan (a sample at the other level, the telegraph's step towards
+/// it) are left in the samples less the recovered levels: sixteen of them are not a spike process, though they
+/// stand six sds out (the premise, checked: without the levels the same samples read as one). Spikes of either sign
+/// beside them are still read, their size within a tenth and their share within a fifth.
+#[test]
+fn a_telegraphs_short_excursions_are_not_spikes() {
+    let (rate_hz, n) = (10.0, 1 << 19);
+    let (white_sd, step) = (0.1, 0.6);
+    for (seed, eps) in [(23, 0.0), (24, 0.0), (25, 5e-4)] {
+        let mut rng = SimRng::new(seed);
+        let levels = telegraph(&mut rng, n, rate_hz, step, [50.0, 200.0]);
+        let mut x: Vec<f64> = levels.iter().map(|l| l + white_sd * rng.normal()).collect();
+        let mut put = 0;
+        while put < 16 {
+            let i = 10 + (rng.uniform() * (n - 20) as f64) as usize;
+            if levels[i - 4..=i + 4].iter().all(|&l| l == levels[i]) {
+                x[i] += if levels[i] == 0.0 { step } else { -step };
+                put += 1;
+            }
+        }
+        let mut spikes = 0;
+        for v in x.iter_mut() {
+            if rng.uniform() < eps {
+                *v += 4.0 * rng.sign();
+                spikes += 1;
+            }
+        }
+        let less: Vec<f64> = x.iter().zip(&levels).map(|(x, l)| x - l).collect();
+        let base = GyroSim { n_deg_per_rt_s: white_sd / rate_hz.sqrt(), ..Default::default() };
+        let f = fit(&oadev_points(&less, rate_hz), &FitOptions::default()).unwrap();
+        let d = TrainingData { recorded_dps: &x, shaped_dps: Some(&levels), ..data_of(&less, rate_hz, &base, &f) };
+        let e = fit_effect(Effect::Outliers, &d);
+        if eps == 0.0 {
+            assert!(e.is_none(), "seed {seed}: excursions read as spikes: {:?}", e.map(|e| e.params));
+            let premise = fit_effect(Effect::Outliers, &TrainingData { shaped_dps: None, ..d });
+            assert!(premise.is_some(), "seed {seed}: premise: the excursions alone are no spike process");
+        } else {
+            let o = e.expect("the spikes are found").gyro.outliers.unwrap();
+            let share = spikes as f64 / n as f64;
+            assert!(rel(o.size_dps, 4.0) < 0.1 && rel(o.per_sample, share) < 0.2, "seed {seed}: {o:?} ({share})");
+        }
+    }
+}
+
 /// One bias step of 0.1 deg/s in a record of the base gyro (ten times the scan's threshold) is fitted as a
 /// process: found at its sample within a window, its size within 10%, and a rate of one step over the record's
 /// length divided by its detection probability. A Poisson process seen through half a record often leaves one

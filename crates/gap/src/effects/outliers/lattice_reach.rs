@@ -15,6 +15,7 @@
 use std::sync::OnceLock;
 
 use octavar_shared::sim::rng::SimRng;
+use octavar_stats::tails::poisson_sf;
 
 /// The reaches tried, steps (residuals on a lattice are whole or half steps). Where the noise is more than about
 /// half a step, even three steps do not hold the clean residuals, and the lattice has no reach: its dithered
@@ -102,6 +103,12 @@ pub(super) struct Reading {
     /// Where the spikes' magnitude law is held from, steps: the reach where more than [`BUSY_SHARE`] of the
     /// residuals stand between it and [`FAR_STEPS`] (spikes there to be read), [`FAR_STEPS`] otherwise.
     pub least_steps: f64,
+    /// Residuals read, and those at or beyond the reach.
+    pub read: usize,
+    pub beyond: usize,
+    /// How many residuals at or beyond the reach a clean lattice under this noise leaves, at most
+    /// ([`clean_share_bound`]).
+    pub clean_beyond: f64,
 }
 
 impl Reading {
@@ -109,7 +116,30 @@ impl Reading {
     pub fn busy(&self) -> bool {
         self.least_steps < FAR_STEPS
     }
+
+    /// Whether more residuals stand at or beyond the reach than a clean lattice leaves there, at [`RARE_ALPHA`]
+    /// (at least [`RARE_LEAST`] of them): spikes, however few.
+    pub fn spiked(&self) -> bool {
+        self.beyond >= RARE_LEAST && poisson_sf(self.clean_beyond, self.beyond) <= RARE_ALPHA
+    }
 }
+
+/// A bound on the share of a clean lattice's residuals at or beyond a reach of a step and a half or more, under
+/// white noise of `noise_steps` steps: `2 Q(0.9 / s)`. A residual of a step and a half needs the sample to move
+/// about a step against its neighbours' median: on clean records of two million samples the share measured is
+/// `2 Q(d / s)` with `d` from 1.01 steps (noise 0.2 steps) to 1.10 (0.35 steps), so the bound stands about ten
+/// times above it (at 0.2 steps 5e-7 against 7e-6, at 0.25 steps 3e-5 against 3e-4), which also covers a noise
+/// read a few percent low (`the_clean_share_bound_holds` below checks it at every level of the table).
+pub(super) fn clean_share_bound(noise_steps: f64) -> f64 {
+    2.0 * crate::effects::common::normal_sf(0.9 / noise_steps)
+}
+
+/// The chance, under a clean lattice's bound ([`clean_share_bound`]), of as many residuals at or beyond the reach
+/// as the record has, below which they are spikes ([`Reading::spiked`]), however few.
+pub(super) const RARE_ALPHA: f64 = 1e-4;
+
+/// Fewest residuals beyond the reach that make spikes on the count alone.
+const RARE_LEAST: usize = 5;
 
 /// A record's samples on a lattice that has a reach: the step, the residuals read on the samples as they are
 /// (undithered) and what those say of the lattice.
@@ -173,13 +203,22 @@ pub(super) fn read(r: &[f64], q: f64) -> Option<Reading> {
         let w = (ratio - lo.ratio) / (hi.ratio - lo.ratio);
         NOISES[above - 1] + w * (NOISES[above] - NOISES[above - 1])
     };
-    let (mut read, mut between) = (0usize, 0usize);
+    let (mut read, mut between, mut beyond) = (0usize, 0usize, 0usize);
     for a in r.iter().filter(|v| v.is_finite()).map(|v| (v / q).abs()) {
         read += 1;
+        beyond += usize::from(a >= reach_steps - 0.25);
         between += usize::from(a >= reach_steps - 0.25 && a < far - 0.25);
     }
+    let clean_beyond = read as f64 * clean_share_bound(noise_steps);
     let busy = between as f64 > BUSY_SHARE * read as f64;
-    Some(Reading { reach_steps, noise_steps, least_steps: if busy { reach_steps } else { far } })
+    Some(Reading {
+        reach_steps,
+        noise_steps,
+        least_steps: if busy { reach_steps } else { far },
+        read,
+        beyond,
+        clean_beyond,
+    })
 }
 
 #[cfg(test)]
@@ -226,6 +265,52 @@ mod tests {
                 }
                 None => assert!(noise > 0.5, "noise {noise}: no reach"),
             }
+        }
+    }
+
+    /// The clean share bound holds: on clean records of two million samples at each noise level of the table up
+    /// to half a step, the residuals at or beyond each reach (to [`FAR_STEPS`]) are no more than
+    /// [`clean_share_bound`] gives, and a count test against it finds no spikes there.
+    #[test]
+    fn the_clean_share_bound_holds() {
+        let n = 2_000_000;
+        for (k, &s) in NOISES.iter().filter(|&&s| s <= 0.5).enumerate() {
+            let mut rng = SimRng::new(70 + k as u64);
+            let white: Vec<f64> = (0..n).map(|_| s * rng.normal()).collect();
+            let x = rounded_over_slow_level(&white, 1.0);
+            let r = super::super::residuals(&x, &vec![false; n], None);
+            let n_read = r.iter().filter(|v| v.is_finite()).count() as f64;
+            let bound = clean_share_bound(s);
+            for l in REACHES {
+                let c = r.iter().filter(|v| v.abs() >= l - 0.25 && v.abs() < FAR_STEPS - 0.25).count();
+                eprintln!("noise {s}, reach {l}: {c} beyond, bound {:.2}", bound * n_read);
+                assert!(c as f64 <= bound * n_read, "noise {s}, reach {l}: {c} beyond, bound {:.3e}", bound * n_read);
+            }
+            if let Some(g) = read(&r, 1.0) {
+                assert!(!g.busy() && !g.spiked(), "noise {s}: clean, yet spiked: {g:?}");
+            }
+        }
+    }
+
+    /// Eleven spikes of 2.2 steps in a quarter of a million samples on a lattice seven times coarser than the
+    /// noise: too few for the share, but far more than a clean lattice leaves beyond its reach.
+    #[test]
+    fn rare_spikes_beyond_the_reach_are_counted() {
+        let q = 0.1;
+        let n = 250_000;
+        for seed in [1, 2, 3] {
+            let mut rng = SimRng::new(seed);
+            let mut x: Vec<f64> = (0..n).map(|_| 0.15 * q * rng.normal()).collect();
+            let clean = read(&super::super::residuals(&rounded_over_slow_level(&x, q), &vec![false; n], None), q);
+            assert!(!clean.expect("a reach").spiked(), "seed {seed}: the clean record reads spiked");
+            for k in 0..11 {
+                x[9_001 + 22_003 * k] += if k % 2 == 0 { 2.2 * q } else { -2.2 * q };
+            }
+            let got = read(&super::super::residuals(&rounded_over_slow_level(&x, q), &vec![false; n], None), q)
+                .expect("a reach");
+            assert!(got.reach_steps == 1.5 && got.spiked() && !got.busy(), "seed {seed}: {got:?}");
+            // A spike beside a neighbour's median half a step off may round in under the reach.
+            assert!((10..=11).contains(&got.beyond), "seed {seed}: {got:?}");
         }
     }
 
