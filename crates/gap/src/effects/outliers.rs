@@ -518,8 +518,10 @@ fn beyond_reach(at: &lattice_reach::OnLattice) -> Option<Contamination> {
 /// [`EXCURSION_LEAST_SDS`] out. A telegraph's
 /// dwells are exponential, so a few of hundreds are a sample or two long; the bistable model draws them, and the
 /// spike law would read them as spikes of the step's size (13 of them beside a Gauss-Markov process of 1.2 s at
-/// 6 Hz read as a spike process at 0.237 deg/s, the step being 0.229). Spikes of their own size and sign stand
-/// beside either level alike and are read.
+/// 6 Hz read as a spike process at 0.237 deg/s, the step being 0.229). Spikes of the step's size stand a step away
+/// from the other level as often as towards it, so the residuals towards it are left out only where a sign test
+/// says they outnumber those away ([`EXCURSION_ALPHA`]): beside a contamination whose spikes are of the step's
+/// size, leaving out half of them misread its law.
 fn leave_out_excursions(x: &[f64], shaped: &[f64], tiny: f64, gap: &mut [bool]) {
     let n = x.len().min(shaped.len());
     let lo = shaped[..n].iter().copied().fold(f64::INFINITY, f64::min);
@@ -537,21 +539,62 @@ fn leave_out_excursions(x: &[f64], shaped: &[f64], tiny: f64, gap: &mut [bool]) 
         return;
     }
     let step = hi - lo;
-    for (i, ri) in r.iter().enumerate().take(n) {
+    // Each residual's sign against the other level: +1 where it stands a step towards it, -1 a step away.
+    let side = |i: usize, ri: f64| {
         let towards = if (shaped[i] - lo).abs() <= tiny { step } else { -step };
-        if ri.abs() >= EXCURSION_LEAST_SDS * scale && (ri - towards).abs() < EXCURSION_SDS * scale {
-            gap[i] = true;
+        let near = |target: f64| ri.abs() >= EXCURSION_LEAST_SDS * scale && (ri - target).abs() < EXCURSION_SDS * scale;
+        if near(towards) {
+            1
+        } else if near(-towards) {
+            -1
+        } else {
+            0
+        }
+    };
+    let sides: Vec<i8> =
+        r.iter().enumerate().take(n).map(|(i, &ri)| if ri.is_finite() { side(i, ri) } else { 0 }).collect();
+    // Spikes stand a step away from the other level as often as towards it; excursions only towards it.
+    let towards = sides.iter().filter(|&&v| v == 1).count();
+    let away = sides.iter().filter(|&&v| v == -1).count();
+    if sign_test_sf(towards, away) > EXCURSION_ALPHA {
+        return;
+    }
+    for (g, &v) in gap.iter_mut().zip(&sides) {
+        if v == 1 {
+            *g = true;
         }
     }
 }
+
+/// The chance of at least `a` heads in `a + b` fair tosses.
+fn sign_test_sf(a: usize, b: usize) -> f64 {
+    let n = a + b;
+    let ln_half = -(n as f64) * std::f64::consts::LN_2;
+    // ln C(n, k) from k = 0 up, summed from k = a.
+    let (mut ln_c, mut sum) = (0.0f64, 0.0f64);
+    for k in 0..=n {
+        if k > 0 {
+            ln_c += ((n - k + 1) as f64 / k as f64).ln();
+        }
+        if k >= a {
+            sum += (ln_c + ln_half).exp();
+        }
+    }
+    sum.min(1.0)
+}
+
+/// The sign test's significance below which the residuals a step towards a two-level bias's other level are its
+/// excursions, not spikes ([`leave_out_excursions`]).
+const EXCURSION_ALPHA: f64 = 1e-3;
 
 /// How near, in residual sds, a residual must stand to a two-level bias's step towards the other level to be an
 /// excursion the bias's scan did not resolve ([`leave_out_excursions`]).
 const EXCURSION_SDS: f64 = 3.0;
 
-/// How far out, in residual sds, a residual must stand to be left out as an excursion: the core's own samples
-/// stay read, so its scale is not bent.
-const EXCURSION_LEAST_SDS: f64 = 4.0;
+/// How far out, in residual sds, a residual must stand to be left out as an excursion: where the spikes' evidence
+/// starts ([`TAIL_SIGMAS`]). The core's own samples stay read, so its scale is not bent, and its tail does not
+/// dilute the sign test.
+const EXCURSION_LEAST_SDS: f64 = TAIL_SIGMAS;
 
 /// The samples either side of a jump taken out that the spikes' reading leaves aside ([`outliers`]).
 const JUMP_GUARD: usize = 2;
