@@ -210,13 +210,8 @@ fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)], valid: usize) -> Opt
     let mut mags: Vec<f64> = flagged.iter().map(|f| f.1.abs()).collect();
     mags.sort_by(f64::total_cmp);
     let quartile_law = |mags: &[f64]| {
-        let quantile = |p: f64| {
-            let at = p * (mags.len() - 1) as f64;
-            let (i, frac) = (at.floor() as usize, at.fract());
-            mags[i] + frac * (mags[(i + 1).min(mags.len() - 1)] - mags[i])
-        };
-        let (q1, q3) = (quantile(0.25), quantile(0.75));
-        mixture::Mixture { centre: 0.5 * (q1 + q3), spread: q3 - q1, ..m }
+        let (centre, spread) = quartile_centre_spread(mags);
+        mixture::Mixture { centre, spread, ..m }
     };
     let quartiles = quartile_law(&mags);
     let clear = CLEAR_SIGMAS * m.sigma;
@@ -235,6 +230,18 @@ fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)], valid: usize) -> Opt
     // Within the law's support, widened by the core's noise on each spike's residual.
     let within = mags.iter().filter(|&&v| v >= law.centre - law.spread - 3.0 * m.sigma).count();
     Some(mixture::Mixture { eps: within as f64 / valid as f64, ..law })
+}
+
+/// The centre and half-width of a uniform law with the quartiles of `mags` (sorted, not empty): a uniform law on
+/// `centre +- spread` has its quartiles at `centre +- spread / 2`.
+fn quartile_centre_spread(mags: &[f64]) -> (f64, f64) {
+    let quantile = |p: f64| {
+        let at = p * (mags.len() - 1) as f64;
+        let (i, frac) = (at.floor() as usize, at.fract());
+        mags[i] + frac * (mags[(i + 1).min(mags.len() - 1)] - mags[i])
+    };
+    let (q1, q3) = (quantile(0.25), quantile(0.75));
+    (0.5 * (q1 + q3), q3 - q1)
 }
 
 /// How far apart, in residual sds, the medians of a sample's left and right neighbours must be for the level to
@@ -497,13 +504,7 @@ fn beyond_reach(at: &lattice_reach::OnLattice) -> Option<Contamination> {
     let mut mags: Vec<f64> = flagged.iter().map(|f| f.1.abs()).collect();
     mags.sort_by(f64::total_cmp);
     let (centre, spread) = if k >= QUARTILE_SPIKES {
-        let quantile = |p: f64| {
-            let pos = p * (k - 1) as f64;
-            let (i, frac) = (pos.floor() as usize, pos.fract());
-            mags[i] + frac * (mags[(i + 1).min(k - 1)] - mags[i])
-        };
-        let (q1, q3) = (quantile(0.25), quantile(0.75));
-        (0.5 * (q1 + q3), q3 - q1)
+        quartile_centre_spread(&mags)
     } else {
         (0.5 * (mags[0] + mags[k - 1]), 0.5 * (mags[k - 1] - mags[0]))
     };
