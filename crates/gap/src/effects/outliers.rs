@@ -399,7 +399,9 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let lattice = lattice(&outside_gaps(d.recorded_dps, d.gaps));
     // The residuals on the lattice itself, and how far the lattice's own reach: beyond it, every residual is a
     // spike's.
-    let on_lattice = lattice.and_then(|(q, _)| lattice_reach::OnLattice::read(residuals(x, &gap, None), q));
+    let on_lattice = lattice.and_then(|(q, point)| {
+        lattice_reach::OnLattice::read(residuals(x, &gap, None), d.recorded_dps, &gap, q, point)
+    });
     let dithered = lattice.map(|(q, _)| dither(x, q));
     let least = match (&on_lattice, lattice) {
         (Some(at), _) => at.least(),
