@@ -48,16 +48,6 @@ struct Flips {
     threshold: f64,
 }
 
-/// `P(X >= k)` for X binomial with `n` trials of probability 1/2.
-fn binomial_half_tail(n: usize, k: usize) -> f64 {
-    if k == 0 {
-        return 1.0;
-    }
-    // Sum in the log domain: ln C(n, j) - n ln 2.
-    let ln_choose = |j: usize| -> f64 { (1..=j).map(|i| ((n - j + i) as f64).ln() - (i as f64).ln()).sum::<f64>() };
-    (k..=n).map(|j| (ln_choose(j) - n as f64 * std::f64::consts::LN_2).exp()).sum::<f64>().min(1.0)
-}
-
 /// The scan at window `l`, its jumps put in time order and their alternation counted.
 fn flips_at(x: &[f64], l: usize) -> Option<Flips> {
     let scan = mosum_scan(x, l)?;

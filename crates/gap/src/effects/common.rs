@@ -326,6 +326,23 @@ pub(super) fn ieee_squares(gyro: &GyroSim) -> [f64; 4] {
 
 pub(super) use octavar_stats::tails::normal_sf;
 
+/// `P(X >= k)` for X binomial with `n` trials of probability 1/2 (a sign test's significance), summed in the log
+/// domain.
+pub(super) fn binomial_half_tail(n: usize, k: usize) -> f64 {
+    let ln_half = -(n as f64) * std::f64::consts::LN_2;
+    // ln C(n, j) from j = 0 up, summed from j = k.
+    let (mut ln_c, mut sum) = (0.0f64, 0.0f64);
+    for j in 0..=n {
+        if j > 0 {
+            ln_c += ((n - j + 1) as f64 / j as f64).ln();
+        }
+        if j >= k {
+            sum += (ln_c + ln_half).exp();
+        }
+    }
+    sum.min(1.0)
+}
+
 /// Golden-section minimisation of `f` on [lo, hi].
 pub(super) fn golden(mut lo: f64, mut hi: f64, iters: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
     let g = 0.5 * (5f64.sqrt() - 1.0);

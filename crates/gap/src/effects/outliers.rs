@@ -559,7 +559,7 @@ fn leave_out_excursions(x: &[f64], shaped: &[f64], tiny: f64, gap: &mut [bool]) 
     // Spikes stand a step away from the other level as often as towards it; excursions only towards it.
     let towards = sides.iter().filter(|&&v| v == 1).count();
     let away = sides.iter().filter(|&&v| v == -1).count();
-    if sign_test_sf(towards, away) > EXCURSION_ALPHA {
+    if binomial_half_tail(towards + away, towards) > EXCURSION_ALPHA {
         return;
     }
     for (g, &v) in gap.iter_mut().zip(&sides) {
@@ -567,23 +567,6 @@ fn leave_out_excursions(x: &[f64], shaped: &[f64], tiny: f64, gap: &mut [bool]) 
             *g = true;
         }
     }
-}
-
-/// The chance of at least `a` heads in `a + b` fair tosses.
-fn sign_test_sf(a: usize, b: usize) -> f64 {
-    let n = a + b;
-    let ln_half = -(n as f64) * std::f64::consts::LN_2;
-    // ln C(n, k) from k = 0 up, summed from k = a.
-    let (mut ln_c, mut sum) = (0.0f64, 0.0f64);
-    for k in 0..=n {
-        if k > 0 {
-            ln_c += ((n - k + 1) as f64 / k as f64).ln();
-        }
-        if k >= a {
-            sum += (ln_c + ln_half).exp();
-        }
-    }
-    sum.min(1.0)
 }
 
 /// The sign test's significance below which the residuals a step towards a two-level bias's other level are its

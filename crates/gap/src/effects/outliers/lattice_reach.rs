@@ -264,13 +264,13 @@ pub(super) fn noise_by_levels(x: &[f64], gap: &[bool], q: f64, point: f64) -> Op
         if g.iter().any(|&b| b) || block.iter().any(|v| !v.is_finite()) {
             continue;
         }
-        let mut k: Vec<i64> = block.iter().map(|v| ((v - point) / q).round() as i64).collect();
+        let k: Vec<i64> = block.iter().map(|v| ((v - point) / q).round() as i64).collect();
         let mut sorted = k.clone();
         sorted.sort_unstable();
         let median = sorted[sorted.len() / 2];
         let mut c = [0.0; BINS];
-        for v in k.iter_mut() {
-            let d = *v - median;
+        for v in &k {
+            let d = v - median;
             let bin = if d.abs() <= LEVEL_REACH { (d + LEVEL_REACH) as usize } else { BINS - 1 };
             c[bin] += 1.0;
         }
@@ -398,8 +398,9 @@ mod tests {
     /// noises of 0.2 to 0.45 steps. At 0.12 steps most blocks near a point hold one value, the levels profiled out
     /// leave little to read, and it is within 20% (0.10-0.14); there a clean lattice leaves a residual beyond a
     /// step and a half once in 1e15 samples, so no count can reach the test's five. Where the level stays near a
-    /// point, the ratio of residuals off the lattice reads the noise a quarter low or more, so a count test against its bound took the lattice's own residuals for
-    /// spikes; against the bound of the larger reading it does not.
+    /// point, the ratio of residuals off the lattice reads the noise a quarter low or more, so a count test
+    /// against its bound took the lattice's own residuals for spikes; against the bound of the larger reading it
+    /// does not.
     #[test]
     fn the_noise_read_by_levels_holds_wherever_the_level_sits() {
         let n = 200_000;
