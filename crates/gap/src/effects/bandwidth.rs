@@ -71,22 +71,17 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     let known = GyroSim { gauss_markov: None, ..d.base.clone() };
     // The process's time constant as its own step read it, without the corner, is too long where the corner took
     // part of its roll-off (1.4 s read for 1.2 s beside a corner at 0.18 of the rate): it is searched beside each
-    // corner, on these factors of it.
-    // Without a process every factor gives the same fit, so one is tried.
-    let scales: &[f64] = if markov.is_some() { &[0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1] } else { &[1.0] };
+    // corner, on these factors of it. The fit returns the factor it kept (1 without a process).
+    const SCALES: [f64; 8] = [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1];
     let score = |f: Option<f64>| {
         let pts = less_known(&raw_at(f), &known, f, rate_hz, d.lattice_dps);
+        let base = base_columns(&pts, rate_hz, f, with_q);
+        let Some(g) = markov else { return joint_fit_keeping(&pts, &base, 0).map(|j| (j, 1.0)) };
         let mut best: Option<(super::curve::Joint, f64)> = None;
-        for &sc in scales {
-            let mut cols = base_columns(&pts, rate_hz, f, with_q);
-            let keep = match markov {
-                Some(g) => {
-                    cols.push(pts.iter().map(|p| filtered_gm_avar(g.tau_s * sc, f, p.tau_s, rate_hz)).collect());
-                    1 << BASE_COLS
-                }
-                None => 0,
-            };
-            if let Some(j) = joint_fit_keeping(&pts, &cols, keep) {
+        for sc in SCALES {
+            let mut cols = base.clone();
+            cols.push(pts.iter().map(|p| filtered_gm_avar(g.tau_s * sc, f, p.tau_s, rate_hz)).collect());
+            if let Some(j) = joint_fit_keeping(&pts, &cols, 1 << BASE_COLS) {
                 if best.as_ref().is_none_or(|b| j.chi2 < b.0.chi2) {
                     best = Some((j, sc));
                 }

@@ -651,26 +651,38 @@ fn a_markov_process_follows_a_corners_curve_no_better_than_the_corner() {
     assert!(markov > corner + 10.0 * one, "process's record: process {markov}, corner {corner}");
 }
 
+/// White noise, flicker and a Gauss-Markov process of seven samples at 6.1 Hz, through `bandwidth_hz`.
+fn markov_of_seven_samples(bandwidth_hz: Option<f64>) -> GyroSim {
+    GyroSim {
+        n_deg_per_rt_s: 3.4e-3,
+        b_dps: 2.5e-3,
+        bandwidth_hz,
+        gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.046, tau_s: 1.2 }),
+        ..Default::default()
+    }
+}
+
+/// The bandwidth candidate on `x`, read on the model the Gauss-Markov process's own step fits to it, as the chain
+/// reads it after that step.
+fn corner_beside_the_markov_step(x: &[f64], rate_hz: f64) -> Option<EffectFit> {
+    let (g, f) = base_of(x, rate_hz);
+    let markov = fit_effect(Effect::GaussMarkov, &data_of(x, rate_hz, &g, &f)).expect("the process");
+    let d = TrainingData { base: &markov.gyro, ..data_of(x, rate_hz, &g, &f) };
+    fit_effect(Effect::Bandwidth, &d)
+}
+
 /// A filter corner read on a model that carries a Gauss-Markov process and no corner: the process is fitted
 /// beside each corner tried, so the curve's chi-square falls only by what a corner adds, below the corner's own
 /// test ([`crate::evidence`]) on every record; the process's variance stays in the model.
 #[test]
 fn no_corner_is_read_beside_a_markov_process_that_has_none() {
     let rate_hz = 6.1;
-    let m = GyroSim {
-        n_deg_per_rt_s: 3.4e-3,
-        b_dps: 2.5e-3,
-        gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.046, tau_s: 1.2 }),
-        ..Default::default()
-    };
+    let m = markov_of_seven_samples(None);
     let falls: Vec<f64> = (0..6u64)
         .into_par_iter()
         .map(|seed| {
             let (x, _) = simulate(&m, rate_hz, 128_000, seed, None);
-            let (g, f) = base_of(&x, rate_hz);
-            let markov = fit_effect(Effect::GaussMarkov, &data_of(&x, rate_hz, &g, &f)).expect("the process");
-            let d = TrainingData { base: &markov.gyro, ..data_of(&x, rate_hz, &g, &f) };
-            match fit_effect(Effect::Bandwidth, &d) {
+            match corner_beside_the_markov_step(&x, rate_hz) {
                 Some(e) => {
                     assert!(e.gyro.gauss_markov.is_some_and(|p| p.sigma_dps > 0.0), "seed {seed}: {:?}", e.gyro);
                     match e.params {
@@ -695,21 +707,12 @@ fn no_corner_is_read_beside_a_markov_process_that_has_none() {
 fn a_corner_is_read_beside_a_markov_process_whose_time_constant_took_part_of_it() {
     let rate_hz = 6.1;
     let f3 = 1.07;
-    let m = GyroSim {
-        n_deg_per_rt_s: 3.4e-3,
-        b_dps: 2.5e-3,
-        bandwidth_hz: Some(f3),
-        gauss_markov: Some(GaussMarkovSim { sigma_dps: 0.046, tau_s: 1.2 }),
-        ..Default::default()
-    };
+    let m = markov_of_seven_samples(Some(f3));
     let read: Vec<Option<f64>> = (0..6u64)
         .into_par_iter()
         .map(|seed| {
             let (x, _) = simulate(&m, rate_hz, 128_000, seed, None);
-            let (g, f) = base_of(&x, rate_hz);
-            let markov = fit_effect(Effect::GaussMarkov, &data_of(&x, rate_hz, &g, &f)).expect("the process");
-            let d = TrainingData { base: &markov.gyro, ..data_of(&x, rate_hz, &g, &f) };
-            fit_effect(Effect::Bandwidth, &d).and_then(|e| e.gyro.bandwidth_hz)
+            corner_beside_the_markov_step(&x, rate_hz).and_then(|e| e.gyro.bandwidth_hz)
         })
         .collect();
     assert!(read.iter().all(|r| r.is_some_and(|b| rel(b, f3) < 0.3)), "the corners read: {read:?}");
