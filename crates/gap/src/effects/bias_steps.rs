@@ -40,8 +40,16 @@ pub(super) fn scan_window(x: &[f64], rate_hz: f64) -> Option<usize> {
     (n >= 8 * l).then_some(l)
 }
 
-/// The moving-sum scan of `x` at window `l` (see [`bias_steps`]); `None` when the statistic has no scale.
+/// The moving-sum scan of `x` at window `l` (see [`bias_steps`]), keeping one step of any two closer than two
+/// windows; `None` when the statistic has no scale.
 pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
+    mosum_scan_apart(x, l, 2 * l)
+}
+
+/// The moving-sum scan of `x` at window `l`, keeping one step of any two closer than `apart` samples. A lone
+/// step's mean difference falls linearly to zero a window either side of it, so `apart` of one window or more
+/// never counts one step twice.
+pub(super) fn mosum_scan_apart(x: &[f64], l: usize, apart: usize) -> Option<Scan> {
     let n = x.len();
     if l == 0 || n < 2 * l + 1 {
         return None;
@@ -70,7 +78,7 @@ pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
     let mut steps: Vec<(usize, f64)> = Vec::new();
     for i in cand {
         let t = grid[i];
-        if steps.iter().all(|&(s, _)| s.abs_diff(t) >= 2 * l) {
+        if steps.iter().all(|&(s, _)| s.abs_diff(t) >= apart) {
             // Refine on a finer grid within +-h.
             let (a, b) = (t.saturating_sub(h).max(l), (t + h).min(n - l));
             let hf = (h / 8).max(1);
@@ -90,9 +98,9 @@ pub(super) fn mosum_scan(x: &[f64], l: usize) -> Option<Scan> {
 const SHARPNESS: f64 = 0.5;
 
 /// Whether the change of size `size` the scan found at sample `t` with window `l` is sharp: a step keeps its size
-/// in the mean difference across windows of `l / 4` (within an eighth of a window of where the scan put it), while a smooth
-/// change over a time longer than the window (a warm-up settling, found where its decay meets the record's start)
-/// keeps about a quarter. Where a process shows only one or two steps, each must be sharp and at least two
+/// in the mean difference across windows of `l / 4` (within an eighth of a window of where the scan put it),
+/// while a smooth change over a time longer than the window (a warm-up settling, found where its decay meets the
+/// record's start) keeps about a quarter. Where a process shows only one or two steps, each must be sharp and at least two
 /// windows from either end of the record; a run of steps proves itself by their number.
 fn is_sharp(x: &[f64], l: usize, t: usize, size: f64) -> bool {
     // Within two windows of an end, a change cannot be told from a start settling (a warm-up) or an end drifting.

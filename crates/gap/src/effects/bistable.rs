@@ -11,7 +11,7 @@ use super::params::BistableParams;
 use octavar_shared::sim::{BistableSim, GyroSim};
 use std::sync::Arc;
 
-use super::bias_steps::mosum_scan;
+use super::bias_steps::mosum_scan_apart;
 use super::common::*;
 use super::curve::{
     base_columns, filtered_gm_avar, joint_fit, joint_fit_keeping, less_known, with_base_terms, CURVE_DELTA_CHI2,
@@ -48,9 +48,10 @@ struct Flips {
     threshold: f64,
 }
 
-/// The scan at window `l`, its jumps put in time order and their alternation counted.
-fn flips_at(x: &[f64], l: usize) -> Option<Flips> {
-    let scan = mosum_scan(x, l)?;
+/// The scan at window `l`, keeping jumps `apart` samples or more apart, its jumps put in time order and their
+/// alternation counted.
+fn flips_at(x: &[f64], l: usize, apart: usize) -> Option<Flips> {
+    let scan = mosum_scan_apart(x, l, apart)?;
     let mut jumps = scan.steps;
     jumps.sort_by_key(|j| j.0);
     let pairs = jumps.len().saturating_sub(1);
@@ -68,9 +69,9 @@ fn flips_at(x: &[f64], l: usize) -> Option<Flips> {
 type Jump = (usize, f64, bool);
 
 /// The jumps with the ones the scan missed between two of the same sign put back: the scan keeps one jump of
-/// any two closer than two windows, so a short excursion shows one of its two jumps. Between consecutive jumps of
-/// one sign the missing opposite one is where the mean difference over windows bounded by the two (at most the
-/// scan's) is most opposite; its size is the opposite of the first's. Before the first jump and after the last the
+/// any two closer than its spacing (two windows, or one), so a shorter excursion shows one of its two jumps.
+/// Between consecutive jumps of one sign the missing opposite one is where the mean difference over windows
+/// bounded by the two (at most the scan's) is most opposite; its size is the opposite of the first's. Before the first jump and after the last the
 /// record's end stands in for the missing neighbour: a short excursion there shows only its inner jump, and the
 /// stretch to the end would take the wrong state. The missing jump is put back where the opposite mean
 /// difference passes the scan's threshold.
@@ -325,7 +326,12 @@ impl EffectKind for Kind {
 /// [`MIN_JUMPS`] jumps, and their sizes, measured again over the longest stretches the neighbouring jumps allow,
 /// spread by at most [`MAX_SIZE_SPREAD`] (robust coefficient of variation). The step is their mean size. Where two
 /// consecutive jumps have the same sign, the scan (which keeps one of two jumps closer than 2L) missed the one of
-/// a short excursion between them, and it is put back ([`repaired`]). The state between two jumps is the sign of
+/// a short excursion between them, and it is put back ([`repaired`]). Where that reading finds no telegraph, the
+/// scan is read again keeping jumps down to one window apart, the test taken over both readings' windows: a
+/// telegraph whose rarer state lasts one to two windows then shows both edges of each excursion, where the first
+/// reading sees one edge, of either sign, and leaves the alternation to chance. The second reading comes only
+/// second: on a telegraph the first reading finds, it would read excursions as short as two samples and leave
+/// residues at its edges that the spikes' estimator takes for spikes. The state between two jumps is the sign of
 /// the jump into it; a dwell's mean in each state is that state's time over its
 /// completed dwells (the first and last, cut by the record's ends, add time but no count), corrected for the
 /// excursions too short to be seen (about a window: each one merges two dwells of the other state into one,
@@ -333,6 +339,12 @@ impl EffectKind for Kind {
 /// less the reconstructed two-level bias (the base fit took its Gauss-Markov-like Allan variance for flicker or
 /// random walk).
 pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
+    bistable_read(d, 2, 1.0).or_else(|| bistable_read(d, 1, 2.0))
+}
+
+/// [`bistable`] with the scan keeping jumps `apart_windows` windows or more apart, its alternation test taken
+/// over `readings` times the windows tried (the readings [`bistable`] makes).
+fn bistable_read(d: &TrainingData, apart_windows: usize, readings: f64) -> Option<EffectFit> {
     let x = d.rate_dps;
     let n = x.len();
     let rate_hz = d.rate_hz;
@@ -345,10 +357,10 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
     if windows.is_empty() {
         return None;
     }
-    let tried = windows.len() as f64;
+    let tried = windows.len() as f64 * readings;
     let best = windows
         .iter()
-        .filter_map(|&l| flips_at(x, l))
+        .filter_map(|&l| flips_at(x, l, apart_windows * l))
         .filter(|f| f.jumps.len() >= MIN_JUMPS)
         .min_by(|a, b| a.p_value.total_cmp(&b.p_value).then(b.jumps.len().cmp(&a.jumps.len())))?;
     if !(best.p_value * tried < ALTERNATION_ALPHA) {
@@ -400,6 +412,7 @@ pub(super) fn bistable(d: &TrainingData) -> Option<EffectFit> {
             jumps: best.jumps.len(),
             alternating: best.alternating,
             window_s: best.window as f64 / rate_hz,
+            jumps_apart_windows: apart_windows,
             shortest_seen_s: c,
             p_value: best.p_value,
             size_spread: spread,
@@ -465,9 +478,9 @@ fn telegraph_levels(x: &[f64], edges: &[(usize, usize, bool)], step: f64, p_high
 /// The telegraph the scan at window `l` finds in `x`, as its two zero-mean levels: what [`bistable`] takes out of
 /// the samples, found again on any series by the same scan, jumps put back and states read the same way, with no
 /// test of its own (the effect is already named). `None` where the scan finds no completed dwell of each state.
-pub(super) fn recovered_levels(x: &[f64], l: usize) -> Option<Vec<f64>> {
+pub(super) fn recovered_levels(x: &[f64], l: usize, apart: usize) -> Option<Vec<f64>> {
     let n = x.len();
-    let flips = flips_at(x, l)?;
+    let flips = flips_at(x, l, apart)?;
     if flips.jumps.len() < 2 {
         return None;
     }

@@ -18,6 +18,8 @@ pub enum JumpScan {
     Bistable {
         /// Window, samples.
         window: usize,
+        /// The least distance between two jumps kept, samples.
+        apart: usize,
     },
 }
 
@@ -29,7 +31,8 @@ impl JumpScan {
         fit.cleaned.as_ref()?;
         match &fit.params {
             EffectParams::Bistable(p) => {
-                Some(JumpScan::Bistable { window: ((p.window_s * rate_hz).round() as usize).max(1) })
+                let window = ((p.window_s * rate_hz).round() as usize).max(1);
+                Some(JumpScan::Bistable { window, apart: p.jumps_apart_windows * window })
             }
             EffectParams::BiasSteps(_) => {
                 bias_steps::scan_window(x, rate_hz).map(|window| JumpScan::BiasSteps { window })
@@ -42,7 +45,7 @@ impl JumpScan {
     pub fn take_out(&self, x: &mut [f64]) {
         let levels = match *self {
             JumpScan::BiasSteps { window } => bias_steps::recovered_levels(x, window),
-            JumpScan::Bistable { window } => bistable::recovered_levels(x, window),
+            JumpScan::Bistable { window, apart } => bistable::recovered_levels(x, window, apart),
         };
         for (v, l) in x.iter_mut().zip(levels.iter().flatten()) {
             *v -= l;

@@ -75,6 +75,9 @@ pub struct BistableParams {
     /// Of the jumps, how many alternate in sign with the one before.
     pub alternating: usize,
     pub window_s: f64,
+    /// The least distance between two jumps the scan kept, in windows: 2, or 1 where the rarer state's excursions
+    /// last one to two windows and the scan at 2 saw one edge of them.
+    pub jumps_apart_windows: usize,
     pub shortest_seen_s: f64,
     pub p_value: f64,
     pub size_spread: f64,
@@ -89,7 +92,8 @@ pub struct GaussMarkovParams {
 }
 
 /// Outliers: spikes on a share of the samples, magnitudes uniform on `size_dps +- spread_dps`, in runs of mean
-/// length `run_mean` (a run of two goes on with probability `run_continue`); `robust_sigma_dps` is the residual's Gaussian core sd, `count` the spikes flagged.
+/// length `run_mean` (a run of two goes on with probability `run_continue`); `robust_sigma_dps` is the residual's
+/// Gaussian core sd, `count` the spikes flagged.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OutliersParams {
     pub per_sample: f64,
@@ -272,6 +276,7 @@ mod tests {
             jumps: 4,
             alternating: 3,
             window_s: 1.0,
+            jumps_apart_windows: 2,
             shortest_seen_s: 1.0,
             p_value: 0.01,
             size_spread: 0.1,
@@ -286,6 +291,7 @@ mod tests {
                 "dwell_low_s",
                 "dwell_low_se_s",
                 "jumps",
+                "jumps_apart_windows",
                 "p_value",
                 "shortest_seen_s",
                 "size_spread",
