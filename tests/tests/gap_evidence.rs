@@ -16,7 +16,9 @@
 //! per effect on each generator.
 //!
 //! `evidence_false_alarms` (where `CI` is set) runs 60 records of each generator and fails on more than 3 alarms
-//! of any effect (a true rate of 1% gives more than 3 in 60 with probability 0.3%); `evidence_false_alarm_study`
+//! of any effect (a true rate of 1% gives more than 3 in 60 with probability 0.3%), or on any statistic at twice
+//! its threshold (`evidence::STRONG_EVIDENCE`, which names an effect however the views' located band moves);
+//! `evidence_false_alarm_study`
 //! (`#[ignore]`d) runs `EVIDENCE_RECORDS` (default 400) and prints the rate with its 95% upper bound.
 
 use rand::rngs::StdRng;
@@ -203,6 +205,14 @@ fn report(records: u64) -> Vec<String> {
             // More than 5% of the records: above a rate of 1% beyond chance for 60 records and more.
             if hits.len() as f64 > (0.05 * records as f64).max(3.0) {
                 failures.push(format!("{generator:?} {e}: {} alarms in {records}", hits.len()));
+            }
+            // Evidence at twice its threshold names its effect however the views' located band moves
+            // (`evidence::STRONG_EVIDENCE`): no effect-free record may reach it.
+            let threshold = evidence::threshold(*e).expect("a tested effect has a test");
+            let strong: Vec<&(u64, f64)> =
+                hits.iter().filter(|(_, v)| v.abs() >= evidence::STRONG_EVIDENCE * threshold).collect();
+            if !strong.is_empty() {
+                failures.push(format!("{generator:?} {e}: strong evidence on effect-free records {strong:?}"));
             }
         }
     }

@@ -497,6 +497,11 @@ impl Search<'_, '_> {
                     }
                 }
             }
+            // Evidence far beyond its threshold names the effect wherever the views still agree with the record.
+            if worse {
+                let significant_after = rank::gap_of(&after.training) > rank::SIGNIFICANT_GAP;
+                worse = !evidence::names_whatever_the_band(&ev, rank::total_of(&after.training), significant_after);
+            }
             let clears = rank::band_gap(&after.training, location).is_some_and(|g| g < rank::SIGNIFICANT_GAP);
             // A curve's test names an effect only where the views find the model with it better: beside a
             // significant gap, below significance in the gap's band; elsewhere, a total lower by more than the
