@@ -71,10 +71,10 @@ type Jump = (usize, f64, bool);
 /// The jumps with the ones the scan missed between two of the same sign put back: the scan keeps one jump of
 /// any two closer than its spacing (two windows, or one), so a shorter excursion shows one of its two jumps.
 /// Between consecutive jumps of one sign the missing opposite one is where the mean difference over windows
-/// bounded by the two (at most the scan's) is most opposite; its size is the opposite of the first's. Before the first jump and after the last the
-/// record's end stands in for the missing neighbour: a short excursion there shows only its inner jump, and the
-/// stretch to the end would take the wrong state. The missing jump is put back where the opposite mean
-/// difference passes the scan's threshold.
+/// bounded by the two (at most the scan's) is most opposite; its size is the opposite of the first's. Before the
+/// first jump and after the last the record's end stands in for the missing neighbour: a short excursion there
+/// shows only its inner jump, and the stretch to the end would take the wrong state. The missing jump is put back
+/// where the opposite mean difference passes the scan's threshold.
 fn repaired(x: &[f64], f: &Flips) -> Vec<Jump> {
     let mut pre = Vec::with_capacity(x.len() + 1);
     let mut acc = 0.0;
@@ -325,13 +325,13 @@ impl EffectKind for Kind {
 /// counts when that binomial tail, times the windows tried, is below [`ALTERNATION_ALPHA`], there are at least
 /// [`MIN_JUMPS`] jumps, and their sizes, measured again over the longest stretches the neighbouring jumps allow,
 /// spread by at most [`MAX_SIZE_SPREAD`] (robust coefficient of variation). The step is their mean size. Where two
-/// consecutive jumps have the same sign, the scan (which keeps one of two jumps closer than 2L) missed the one of
-/// a short excursion between them, and it is put back ([`repaired`]). Where that reading finds no telegraph, the
-/// scan is read again keeping jumps down to one window apart, the test taken over both readings' windows: a
-/// telegraph whose rarer state lasts one to two windows then shows both edges of each excursion, where the first
-/// reading sees one edge, of either sign, and leaves the alternation to chance. The second reading comes only
-/// second: on a telegraph the first reading finds, it would read excursions as short as two samples and leave
-/// residues at its edges that the spikes' estimator takes for spikes. The state between two jumps is the sign of
+/// consecutive jumps have the same sign, the scan (which keeps one of two jumps closer than its spacing) missed the one
+/// of a short excursion between them, and it is put back ([`repaired`]). Where that reading finds no telegraph, the
+/// scan is read again keeping jumps down to one window apart, the test taken over both readings' windows: a telegraph
+/// whose rarer state lasts one to two windows then shows both edges of each excursion, where the first reading sees one
+/// edge, of either sign, and leaves the alternation to chance. The second reading comes only second: on a telegraph the
+/// first reading finds, it would read excursions as short as two samples and leave residues at its edges that the
+/// spikes' estimator takes for spikes. The state between two jumps is the sign of
 /// the jump into it; a dwell's mean in each state is that state's time over its
 /// completed dwells (the first and last, cut by the record's ends, add time but no count), corrected for the
 /// excursions too short to be seen (about a window: each one merges two dwells of the other state into one,
