@@ -20,7 +20,8 @@
 
 use super::model::{Model, NamedBy, Rounds};
 use super::search::{by_score, Found};
-use crate::effects::Effect;
+use crate::effects::params::EffectParams;
+use crate::effects::{Effect, EffectFit};
 use crate::error::GapError;
 use crate::evidence;
 use crate::judge::Evaluated;
@@ -33,6 +34,29 @@ use crate::rank::{self, PartGap};
 /// training total of 1.31 with the chain; the corner in its place 1.26, with one parameter fewer (scores 1.77 and
 /// 1.63).
 pub const EXCHANGE_MARGIN: f64 = 1.05;
+
+/// The fall of the Allan curve's log chi-square that a filter corner's or a Gauss-Markov process's fit carries
+/// (the two effects read on that curve; other effects' statistics are on other scales).
+fn allan_curve_fall(fit: &EffectFit) -> Option<f64> {
+    match &fit.params {
+        EffectParams::Bandwidth(p) => Some(p.delta_chi2),
+        EffectParams::GaussMarkov(p) => Some(p.delta_chi2),
+        _ => None,
+    }
+}
+
+/// Whether the Allan curve cannot prefer `candidate` to the step's own `fit`: both are read on that curve, the
+/// candidate has more parameters, and lowers the curve's chi-square by less than 2 a parameter more (Akaike's
+/// criterion). A Gauss-Markov process of a few samples' correlation time with no white noise beside it is white
+/// noise through a first-order corner: the same process, the same fall of the curve's chi-square (5,012.8 and
+/// 5,012.6 on a corner at 10.4 Hz of a 148 Hz record), and the views' totals then differ by the ensemble's draw.
+/// The corner, with fewer parameters, stays.
+fn curve_cannot_prefer(fit: &EffectFit, candidate: Option<&EffectFit>) -> bool {
+    let Some(candidate) = candidate else { return false };
+    let (Some(own), Some(other)) = (allan_curve_fall(fit), allan_curve_fall(candidate)) else { return false };
+    let extra = candidate.n_params.saturating_sub(fit.n_params);
+    extra > 0 && other - own < 2.0 * extra as f64
+}
 
 /// An effect of the chain exchanged for another, and the views' training totals of the chain before and after.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,6 +101,9 @@ pub(crate) fn exchange(
             .find(|&i| step.candidates[i].fit.is_some() && !effects.contains(&step.candidates[i].effect));
         let Some(c) = runner_up else { continue };
         let candidate = &step.candidates[c];
+        if curve_cannot_prefer(&step.fit, candidate.fit.as_ref()) {
+            continue;
+        }
         let mut with = effects.clone();
         with[k] = candidate.effect;
         let (model, eval) = relearn(&with, &rounds)?;
@@ -117,7 +144,7 @@ mod tests {
     use super::*;
     use crate::chain::model::Step;
     use crate::chain::prune::tests::{effects, eval, found, step};
-    use crate::effects::params::BandwidthParams;
+    use crate::effects::params::{BandwidthParams, GaussMarkovParams};
     use crate::effects::EffectFit;
     use crate::evidence::Evidence;
     use crate::rank::CandidateResult;
@@ -178,6 +205,45 @@ mod tests {
         // The exchange leaves a significant gap.
         let f = exchange(found(steps(NamedBy::View), 9.0), relearn(2.6)).unwrap();
         assert!(f.exchanged.is_empty());
+    }
+
+    /// A filter corner named (one parameter, the curve's chi-square lower by `corner_fall`), its step's runner-up a
+    /// Gauss-Markov process (two, lower by `process_fall`); the chain learnt with the process totals 1.0, with the
+    /// corner 1.5.
+    fn corner_then_process(corner_fall: f64, process_fall: f64) -> Found {
+        let mut first = step(Effect::Bandwidth, NamedBy::View);
+        first.fit.n_params = 1;
+        first.fit.params =
+            BandwidthParams { bandwidth_hz: 10.4, n_deg_per_rt_s: 3.4e-3, delta_chi2: corner_fall }.into();
+        let process = EffectFit {
+            effect: Effect::GaussMarkov,
+            params: GaussMarkovParams { sigma_dps: 0.019, tau_s: 0.016, delta_chi2: process_fall }.into(),
+            n_params: 2,
+            gyro: GyroSim::default(),
+            channel: None,
+            spread: None,
+            cleaned: None,
+        };
+        first.candidates = vec![
+            CandidateResult::new(Effect::Bandwidth, Some(first.fit.clone()), Some(eval(1.5)), None),
+            CandidateResult::new(Effect::GaussMarkov, Some(process), Some(eval(1.6)), None),
+        ];
+        found(vec![first], 1.5)
+    }
+
+    #[test]
+    fn a_corner_is_not_exchanged_for_a_process_the_allan_curve_cannot_prefer() {
+        let relearn = |effects: &[Effect], _: &[Rounds]| {
+            let model = Model { gyro: GyroSim::default(), spreads: Vec::new(), channel: None };
+            Ok((model, eval(if effects == [Effect::GaussMarkov] { 1.0 } else { 1.5 })))
+        };
+        // The same fall of the curve's chi-square: the same process, and the corner stays.
+        let f = exchange(corner_then_process(5012.6, 5012.8), relearn).unwrap();
+        assert_eq!(effects(&f), [Effect::Bandwidth]);
+        assert!(f.exchanged.is_empty());
+        // A process that lowers it by more than 2 for its extra parameter is the better reading of the curve.
+        let f = exchange(corner_then_process(5012.6, 5020.0), relearn).unwrap();
+        assert_eq!(effects(&f), [Effect::GaussMarkov]);
     }
 
     #[test]
