@@ -73,8 +73,21 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     // part of its roll-off (1.4 s read for 1.2 s beside a corner at 0.18 of the rate): it is searched beside each
     // corner, on these factors of it. The fit returns the factor it kept (1 without a process).
     const SCALES: [f64; 8] = [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1];
+    // Under an ADC lattice the rounding's share of the curve depends on how smooth the analog rate is under the
+    // corner tried: N, B and K are read on the curve once, and the lattice taken off over them.
+    let points_at = |f: Option<f64>| {
+        let raw = raw_at(f);
+        let pts = less_known(&raw, &known, f, rate_hz, d.lattice_dps);
+        if d.lattice_dps.is_none() {
+            return pts;
+        }
+        match joint_fit_keeping(&pts, &base_columns(&pts, rate_hz, f, with_q), 0) {
+            Some(j) => less_known_over(&raw, &known, &with_base_terms(d.base, &j.theta), f, rate_hz, d.lattice_dps),
+            None => pts,
+        }
+    };
     let score = |f: Option<f64>| {
-        let pts = less_known(&raw_at(f), &known, f, rate_hz, d.lattice_dps);
+        let pts = points_at(f);
         let base = base_columns(&pts, rate_hz, f, with_q);
         let Some(g) = markov else { return joint_fit_keeping(&pts, &base, 0).map(|j| (j, 1.0)) };
         let mut best: Option<(super::curve::Joint, f64)> = None;

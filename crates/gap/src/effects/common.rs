@@ -12,8 +12,8 @@ use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
 use super::curve::{
-    base_columns, base_curve, filtered_gm_avar, filtered_resonance_avar, joint_fit_keeping, less_known,
-    weighed_by_fit_error, with_base_terms, BASE_COLS,
+    base_columns, base_curve, coarse_lattice, filtered_gm_avar, filtered_resonance_avar, joint_fit_keeping, less_known,
+    less_known_as_recorded, weighed_by_fit_error, with_base_terms, BASE_COLS,
 };
 use super::TrainingData;
 use crate::fill::with_gaps;
@@ -178,15 +178,17 @@ const MARKOV_REREAD: f64 = 3.0;
 pub(super) fn refit_noise(d: &TrainingData, cleaned: &[f64]) -> Option<(GyroSim, [f64; 5])> {
     let (base, rate_hz) = (d.base, d.rate_hz);
     let pts = gapped_oadev_points(cleaned, d.gaps, rate_hz);
-    ieee_refit(base, &less_known(&pts, base, base.bandwidth_hz, rate_hz, d.lattice_dps), false)
+    ieee_refit(base, &less_known_as_recorded(&pts, base, base.bandwidth_hz, rate_hz, d.lattice_dps), false)
 }
 
 /// The noise of the step's samples as they are: the model's base where they are the record less deterministic
-/// parts, the IEEE fit of the samples themselves where jumps were taken out ([`refit_noise`]).
+/// parts, the IEEE fit of the samples themselves where jumps were taken out or an ADC lattice rounds them coarser
+/// than white noise ([`refit_noise`]).
 pub(super) fn samples_noise(d: &TrainingData) -> GyroSim {
-    match d.shaped_dps {
-        Some(_) => refit_noise(d, d.rate_dps).map_or_else(|| d.base.clone(), |r| r.0),
-        None => d.base.clone(),
+    let recorded = d.shaped_dps.is_some() || coarse_lattice(d.base, d.rate_hz, d.lattice_dps);
+    match recorded {
+        true => refit_noise(d, d.rate_dps).map_or_else(|| d.base.clone(), |r| r.0),
+        false => d.base.clone(),
     }
 }
 

@@ -7,6 +7,8 @@ use octavar_shared::sim::noise::Resonance;
 use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex64;
 
+use super::lattice::LatticeExcess;
+
 use octavar_stats::fit::{FitPoint, FLICKER_AVAR_FACTOR};
 
 /// Allan variance at `m` samples of a unit-variance discrete AR(1) of pole `a` (autocovariance `a^|k|`):
@@ -176,8 +178,9 @@ pub(super) fn known_avar(model: &GyroSim, f3db_hz: Option<f64>, tau: f64, rate_h
 }
 
 /// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`], through the bandwidth
-/// `f3db_hz`) and of the quantisation noise of an ADC lattice of step `lattice_dps` ([`lattice_avar`]), each point
-/// kept at no less than a tenth of its own value (the rest is what the fit has to explain).
+/// `f3db_hz`) and of the rounding to an ADC lattice of step `lattice_dps` over the analog rate `model` describes
+/// ([`LatticeExcess`]), each point kept at no less than a tenth of its own value (the rest is what the fit has to
+/// explain): the analog rate's curve, which the model sends through the lattice.
 pub(super) fn less_known(
     pts: &[FitPoint],
     model: &GyroSim,
@@ -185,19 +188,69 @@ pub(super) fn less_known(
     rate_hz: f64,
     lattice_dps: Option<f64>,
 ) -> Vec<FitPoint> {
+    less_known_over(pts, model, model, f3db_hz, rate_hz, lattice_dps)
+}
+
+/// [`less_known`] with the lattice's share taken over the analog rate of `analog` (the base terms a fit on this
+/// curve just read) rather than of `model`.
+pub(super) fn less_known_over(
+    pts: &[FitPoint],
+    model: &GyroSim,
+    analog: &GyroSim,
+    f3db_hz: Option<f64>,
+    rate_hz: f64,
+    lattice_dps: Option<f64>,
+) -> Vec<FitPoint> {
+    let lattice = lattice_excess(pts, analog, f3db_hz, rate_hz, lattice_dps);
     pts.iter()
         .map(|p| {
-            let known = known_avar(model, f3db_hz, p.tau_s, rate_hz) + lattice_avar(lattice_dps, p.tau_s, rate_hz);
+            let rounding = lattice.as_ref().map_or(0.0, |l| l.at(p.tau_s, rate_hz));
+            let known = known_avar(model, f3db_hz, p.tau_s, rate_hz) + rounding;
             FitPoint { avar: (p.avar - known).max(0.1 * p.avar), ..*p }
         })
         .collect()
 }
 
-/// The Allan variance at `tau` of the quantisation noise of an ADC lattice of step `lattice_dps` (`None`: none):
-/// white, `step^2 / 12` per sample (the noise spans several steps; below one step it is not white, and the
-/// quantisation estimator handles it), so `step^2 / 12 / m` at `m = tau rate_hz` samples.
-pub(super) fn lattice_avar(lattice_dps: Option<f64>, tau: f64, rate_hz: f64) -> f64 {
-    lattice_dps.map_or(0.0, |q| q * q / 12.0 / (tau * rate_hz).max(1.0))
+/// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`]): the noise of the samples
+/// as recorded, which a generalised least-squares test on them weighs by. An ADC lattice's rounding is part of it:
+/// where the rounding is white (the rate moves by more than a step from sample to sample) its `step^2 / 12` a
+/// sample is taken off, and the IEEE terms hold the analog white noise it joins; where it is not, the rounded
+/// record holds a value and then moves a whole step, no IEEE term has that shape, and the analog terms
+/// ([`less_known`]) would weigh its block means as far steadier than they are.
+pub(super) fn less_known_as_recorded(
+    pts: &[FitPoint],
+    model: &GyroSim,
+    f3db_hz: Option<f64>,
+    rate_hz: f64,
+    lattice_dps: Option<f64>,
+) -> Vec<FitPoint> {
+    let white = lattice_excess(pts, model, f3db_hz, rate_hz, lattice_dps).filter(LatticeExcess::is_white);
+    pts.iter()
+        .map(|p| {
+            let rounding = white.as_ref().map_or(0.0, |l| l.at(p.tau_s, rate_hz));
+            let known = known_avar(model, f3db_hz, p.tau_s, rate_hz) + rounding;
+            FitPoint { avar: (p.avar - known).max(0.1 * p.avar), ..*p }
+        })
+        .collect()
+}
+
+/// Whether an ADC lattice of step `lattice_dps` rounds the analog rate of `model` coarser than white noise (the
+/// rate moves by less than a step from sample to sample).
+pub(super) fn coarse_lattice(model: &GyroSim, rate_hz: f64, lattice_dps: Option<f64>) -> bool {
+    lattice_dps.is_some_and(|q| !LatticeExcess::new(q, model, model.bandwidth_hz, rate_hz, 1.0).is_white())
+}
+
+/// The lattice's share of the Allan variance at the taus of `pts`, over the analog rate of `analog` through
+/// `f3db_hz`; `None` without a lattice.
+pub(super) fn lattice_excess(
+    pts: &[FitPoint],
+    analog: &GyroSim,
+    f3db_hz: Option<f64>,
+    rate_hz: f64,
+    lattice_dps: Option<f64>,
+) -> Option<LatticeExcess> {
+    let max_m = pts.iter().map(|p| p.tau_s * rate_hz).fold(1.0, f64::max);
+    lattice_dps.map(|q| LatticeExcess::new(q, analog, f3db_hz, rate_hz, max_m))
 }
 
 /// Allan variance of white rate noise of unit N (per-sample variance rate_hz) through the sampled first-order
@@ -428,8 +481,8 @@ mod tests {
     use crate::effects::common::oadev_points;
 
     /// The quantisation noise of a lattice over noise several steps wide is white of `step^2 / 12` per sample:
-    /// the Allan variance of the rounding error itself follows [`lattice_avar`] at every octave, and
-    /// [`less_known`] takes it off the rounded record's curve, leaving the analog record's.
+    /// the Allan variance of the rounding error itself is `step^2 / 12 / m` at every octave, and [`less_known`]
+    /// takes it off the rounded record's curve, leaving the analog record's.
     #[test]
     fn an_adc_lattice_comes_off_the_allan_curve() {
         let rate_hz = 100.0;
@@ -438,12 +491,13 @@ mod tests {
         let rounded: Vec<f64> = analog.iter().map(|v| (v / step).round() * step).collect();
         let error: Vec<f64> = rounded.iter().zip(&analog).map(|(r, a)| r - a).collect();
         for p in oadev_points(&error, rate_hz).iter().filter(|p| p.edf > 1000.0) {
-            let want = lattice_avar(Some(step), p.tau_s, rate_hz);
+            let want = step * step / 12.0 / (p.tau_s * rate_hz);
             assert!((p.avar / want - 1.0).abs() < 6.0 / p.edf.sqrt(), "tau {}: {} for {want}", p.tau_s, p.avar);
         }
         let plain = oadev_points(&analog, rate_hz);
         let with_lattice = oadev_points(&rounded, rate_hz);
-        let cleaned = less_known(&with_lattice, &GyroSim::default(), None, rate_hz, Some(step));
+        let model = GyroSim { n_deg_per_rt_s: 4.0 * step / rate_hz.sqrt(), ..Default::default() };
+        let cleaned = less_known(&with_lattice, &model, None, rate_hz, Some(step));
         // At the shortest tau the lattice's noise is a 1/192 share of the rounded curve: taken off, the analog
         // curve is met to a tenth of that.
         let ratio = |a: &FitPoint, b: &FitPoint| a.avar / b.avar - 1.0;

@@ -21,7 +21,7 @@ use octavar_shared::sim::GyroSim;
 
 use super::common::{gapped_oadev_points, golden};
 use super::curve::{
-    base_columns, filtered_gm_avar, filtered_resonance_avar, joint_fit_keeping, lattice_avar, with_base_terms,
+    base_columns, filtered_gm_avar, filtered_resonance_avar, joint_fit_keeping, lattice_excess, with_base_terms,
     BASE_COLS,
 };
 use octavar_stats::fit::FitPoint;
@@ -128,9 +128,14 @@ pub fn stochastic(
     rate_hz: f64,
     lattice_dps: Option<f64>,
 ) -> Option<JointCurve> {
-    let pts: Vec<FitPoint> = gapped_oadev_points(rate_dps, gaps, rate_hz)
+    let raw = gapped_oadev_points(rate_dps, gaps, rate_hz);
+    let lattice = lattice_excess(&raw, model, model.bandwidth_hz, rate_hz, lattice_dps);
+    let pts: Vec<FitPoint> = raw
         .into_iter()
-        .map(|p| FitPoint { avar: (p.avar - lattice_avar(lattice_dps, p.tau_s, rate_hz)).max(0.1 * p.avar), ..p })
+        .map(|p| {
+            let rounding = lattice.as_ref().map_or(0.0, |l| l.at(p.tau_s, rate_hz));
+            FitPoint { avar: (p.avar - rounding).max(0.1 * p.avar), ..p }
+        })
         .collect();
     on_points(model, &pts, rate_hz, rate_dps.len() as f64 / rate_hz)
 }

@@ -45,6 +45,7 @@ mod curve;
 mod gauss_markov;
 pub mod joint_curve;
 mod jump_scan;
+mod lattice;
 pub(crate) mod noise_spectrum;
 mod outliers;
 pub mod params;

@@ -1453,3 +1453,34 @@ fn a_coupling_whose_lag_runs_past_the_search_is_not_read() {
         }
     }
 }
+
+/// On an ADC lattice five times coarser than the white noise (the rounded record holds a value, then moves a
+/// whole step), the warm-up's test weighs the samples by their own noise, rounding in: over 24 records of white
+/// noise, flicker and a random walk that carries the bias over several steps, rounded to the lattice at an offset
+/// of their own, the quantisation estimator's model and lattice given, no warm-up is named.
+#[test]
+fn a_coarse_lattice_is_no_warm_up() {
+    let rate_hz: f64 = 10.0;
+    let n = 262_144usize;
+    let white_sd = base_model().n_deg_per_rt_s * rate_hz.sqrt();
+    let step = 5.0 * white_sd;
+    let walk = GyroSim { k_dps_per_rt_s: 4.0 * step / (n as f64 / rate_hz).sqrt(), ..base_model() };
+    let named: Vec<Option<f64>> = (0..24u64)
+        .into_par_iter()
+        .map(|i| {
+            let (analog, _) = simulate(&walk, rate_hz, n, 900 + i, None);
+            let offset = step * (i as f64 / 24.0);
+            let x: Vec<f64> = analog.iter().map(|v| ((v - offset) / step).round() * step + offset).collect();
+            let (g, f) = base_of(&x, rate_hz);
+            let q = fit_effect(Effect::Quantization, &data_of(&x, rate_hz, &g, &f)).expect("the lattice is found");
+            let lattice = q.channel.as_ref().map(|c| c.dps_per_code());
+            assert!(lattice.is_some_and(|l| rel(l, step) < 0.01), "lattice {lattice:?} for {step}");
+            let d = TrainingData { base: &q.gyro, lattice_dps: lattice, ..data_of(&x, rate_hz, &g, &f) };
+            fit_effect(Effect::WarmUp, &d).map(|w| match w.params {
+                params::EffectParams::WarmUp(p) => p.t_stat,
+                _ => f64::NAN,
+            })
+        })
+        .collect();
+    assert!(named.iter().all(Option::is_none), "warm-ups named (their t): {named:?}");
+}
