@@ -150,18 +150,16 @@ mod tests {
     use crate::rank::CandidateResult;
     use octavar_shared::sim::GyroSim;
 
+    /// A step's runner-up: `effect` fitted with `params` and `n_params` parameters, on a default model.
+    fn runner_up(effect: Effect, params: EffectParams, n_params: usize) -> EffectFit {
+        EffectFit { effect, params, n_params, gyro: GyroSim::default(), channel: None, spread: None, cleaned: None }
+    }
+
     /// A Gauss-Markov process named before a resonance, its step's runner-up a filter corner (score 2.1).
     fn steps(first_by: NamedBy) -> Vec<Step> {
         let mut first = step(Effect::GaussMarkov, first_by);
-        let corner = EffectFit {
-            effect: Effect::Bandwidth,
-            params: BandwidthParams { bandwidth_hz: 0.4, n_deg_per_rt_s: 0.0, delta_chi2: 0.0 }.into(),
-            n_params: 2,
-            gyro: GyroSim::default(),
-            channel: None,
-            spread: None,
-            cleaned: None,
-        };
+        let params = BandwidthParams { bandwidth_hz: 0.4, n_deg_per_rt_s: 0.0, delta_chi2: 0.0 };
+        let corner = runner_up(Effect::Bandwidth, params.into(), 2);
         first.candidates = vec![
             CandidateResult::new(Effect::GaussMarkov, Some(first.fit.clone()), Some(eval(1.6)), None),
             CandidateResult::new(Effect::Bandwidth, Some(corner), Some(eval(1.9)), None),
@@ -215,15 +213,8 @@ mod tests {
         first.fit.n_params = 1;
         first.fit.params =
             BandwidthParams { bandwidth_hz: 10.4, n_deg_per_rt_s: 3.4e-3, delta_chi2: corner_fall }.into();
-        let process = EffectFit {
-            effect: Effect::GaussMarkov,
-            params: GaussMarkovParams { sigma_dps: 0.019, tau_s: 0.016, delta_chi2: process_fall }.into(),
-            n_params: 2,
-            gyro: GyroSim::default(),
-            channel: None,
-            spread: None,
-            cleaned: None,
-        };
+        let params = GaussMarkovParams { sigma_dps: 0.019, tau_s: 0.016, delta_chi2: process_fall };
+        let process = runner_up(Effect::GaussMarkov, params.into(), 2);
         first.candidates = vec![
             CandidateResult::new(Effect::Bandwidth, Some(first.fit.clone()), Some(eval(1.5)), None),
             CandidateResult::new(Effect::GaussMarkov, Some(process), Some(eval(1.6)), None),

@@ -7,7 +7,7 @@ use octavar_shared::sim::noise::Resonance;
 use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex64;
 
-use super::lattice::LatticeExcess;
+use super::lattice::{rounds_white, white_rounding_avar, LatticeExcess};
 
 use octavar_stats::fit::{FitPoint, FLICKER_AVAR_FACTOR};
 
@@ -202,13 +202,7 @@ pub(super) fn less_known_over(
     lattice_dps: Option<f64>,
 ) -> Vec<FitPoint> {
     let lattice = lattice_excess(pts, analog, f3db_hz, rate_hz, lattice_dps);
-    pts.iter()
-        .map(|p| {
-            let rounding = lattice.as_ref().map_or(0.0, |l| l.at(p.tau_s, rate_hz));
-            let known = known_avar(model, f3db_hz, p.tau_s, rate_hz) + rounding;
-            FitPoint { avar: (p.avar - known).max(0.1 * p.avar), ..*p }
-        })
-        .collect()
+    less_model_and(pts, model, f3db_hz, rate_hz, |tau| lattice.as_ref().map_or(0.0, |l| l.at(tau, rate_hz)))
 }
 
 /// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`]): the noise of the samples
@@ -224,11 +218,22 @@ pub(super) fn less_known_as_recorded(
     rate_hz: f64,
     lattice_dps: Option<f64>,
 ) -> Vec<FitPoint> {
-    let white = lattice_excess(pts, model, f3db_hz, rate_hz, lattice_dps).filter(LatticeExcess::is_white);
+    let white = lattice_dps.filter(|&q| rounds_white(q, model, f3db_hz, rate_hz));
+    less_model_and(pts, model, f3db_hz, rate_hz, |tau| white.map_or(0.0, |q| white_rounding_avar(q, tau, rate_hz)))
+}
+
+/// `pts` less [`known_avar`] of `model` and `rounding` (the lattice's share at a tau), each point kept at no less
+/// than a tenth of its own value.
+fn less_model_and(
+    pts: &[FitPoint],
+    model: &GyroSim,
+    f3db_hz: Option<f64>,
+    rate_hz: f64,
+    rounding: impl Fn(f64) -> f64,
+) -> Vec<FitPoint> {
     pts.iter()
         .map(|p| {
-            let rounding = white.as_ref().map_or(0.0, |l| l.at(p.tau_s, rate_hz));
-            let known = known_avar(model, f3db_hz, p.tau_s, rate_hz) + rounding;
+            let known = known_avar(model, f3db_hz, p.tau_s, rate_hz) + rounding(p.tau_s);
             FitPoint { avar: (p.avar - known).max(0.1 * p.avar), ..*p }
         })
         .collect()
@@ -237,7 +242,7 @@ pub(super) fn less_known_as_recorded(
 /// Whether an ADC lattice of step `lattice_dps` rounds the analog rate of `model` coarser than white noise (the
 /// rate moves by less than a step from sample to sample).
 pub(super) fn coarse_lattice(model: &GyroSim, rate_hz: f64, lattice_dps: Option<f64>) -> bool {
-    lattice_dps.is_some_and(|q| !LatticeExcess::new(q, model, model.bandwidth_hz, rate_hz, 1.0).is_white())
+    lattice_dps.is_some_and(|q| !rounds_white(q, model, model.bandwidth_hz, rate_hz))
 }
 
 /// The lattice's share of the Allan variance at the taus of `pts`, over the analog rate of `analog` through

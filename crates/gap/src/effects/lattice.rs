@@ -102,6 +102,17 @@ fn weight_sum(m: f64, x: f64) -> f64 {
     }
 }
 
+/// Whether a lattice of step `step_dps` rounds the analog rate of `model` through `f3db_hz` as white noise: the rate
+/// moves by more than a step from one sample to the next (or there is no step).
+pub(super) fn rounds_white(step_dps: f64, model: &GyroSim, f3db_hz: Option<f64>, rate_hz: f64) -> bool {
+    !(step_dps > 0.0 && analog_structure(model, f3db_hz, 1.0, rate_hz) < WHITE_FROM * step_dps * step_dps)
+}
+
+/// The Allan variance at `tau` of a lattice's rounding taken as white noise: `step^2 / 12` a sample.
+pub(super) fn white_rounding_avar(step_dps: f64, tau: f64, rate_hz: f64) -> f64 {
+    step_dps * step_dps / 12.0 / (tau * rate_hz).max(1.0)
+}
+
 /// The Allan variance an ADC lattice adds to the analog rate of a model, at every number of samples: built once
 /// per model ([`LatticeExcess::new`]), read per tau ([`LatticeExcess::at`]).
 pub(super) struct LatticeExcess {
@@ -115,7 +126,7 @@ impl LatticeExcess {
     /// averaging times up to `max_m` samples.
     pub(super) fn new(step_dps: f64, model: &GyroSim, f3db_hz: Option<f64>, rate_hz: f64, max_m: f64) -> Self {
         let mut bins = Vec::new();
-        if step_dps > 0.0 && analog_structure(model, f3db_hz, 1.0, rate_hz) < WHITE_FROM * step_dps * step_dps {
+        if !rounds_white(step_dps, model, f3db_hz, rate_hz) {
             let last_lag = (2.0 * max_m.max(1.0)).round() - 1.0;
             let mut lo = 1.0f64;
             while lo <= last_lag {
@@ -138,7 +149,7 @@ impl LatticeExcess {
     /// leaves out of it; negative where the rounded record stands still for longer than `m` samples).
     pub(super) fn at(&self, tau: f64, rate_hz: f64) -> f64 {
         if self.is_white() {
-            return self.step * self.step / 12.0 / (tau * rate_hz).max(1.0);
+            return white_rounding_avar(self.step, tau, rate_hz);
         }
         let m = (tau * rate_hz).round().max(1.0);
         let last_lag = 2.0 * m - 1.0;
