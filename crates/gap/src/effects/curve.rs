@@ -8,6 +8,7 @@ use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex64;
 
 use super::lattice::{rounds_white, white_rounding_avar, LatticeExcess};
+use super::lowpass::lowpass_pole;
 
 use octavar_stats::fit::{FitPoint, FLICKER_AVAR_FACTOR};
 
@@ -103,19 +104,6 @@ pub(super) fn ar_avar(poles: &[Complex64], m: f64) -> f64 {
     };
     let m = m.round().max(1.0);
     (4.0 * g(m) - g(2.0 * m)) / (2.0 * m * m)
-}
-
-/// The pole of shared::sim's sampled first-order low-pass `y = a y + (1 - a) x` at `f3db_hz`: `exp(-2 pi f3dB /
-/// rate_hz)`.
-pub(super) fn lowpass_pole(f3db_hz: f64, rate_hz: f64) -> f64 {
-    (-2.0 * std::f64::consts::PI * f3db_hz / rate_hz).exp()
-}
-
-/// The power gain of that low-pass at `f`: `(1 - a)^2 / |1 - a e^{-i w}|^2`, `w = 2 pi f / rate_hz`.
-pub(super) fn lowpass_gain(f3db_hz: f64, rate_hz: f64, f: f64) -> f64 {
-    let a = lowpass_pole(f3db_hz, rate_hz);
-    let w = 2.0 * std::f64::consts::PI * f / rate_hz;
-    (1.0 - a) * (1.0 - a) / (1.0 - 2.0 * a * w.cos() + a * a)
 }
 
 /// Allan variance at `m` samples of the unit-variance AR process with `poles` (`innovation_var`, the variance of

@@ -21,7 +21,7 @@ use octavar_shared::sim::flicker::{FIRST_WEIGHT, FLICKER_PROCESSES};
 use octavar_shared::sim::GyroSim;
 use std::f64::consts::PI;
 
-use super::curve::lowpass_pole;
+use super::lowpass::lowpass_pole;
 
 /// The lags summed one by one; beyond, in bins of [`BIN_GROWTH`] relative width.
 const EXACT_LAGS: usize = 256;

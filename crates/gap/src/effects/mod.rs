@@ -46,6 +46,7 @@ mod gauss_markov;
 pub mod joint_curve;
 mod jump_scan;
 mod lattice;
+mod lowpass;
 pub(crate) mod noise_spectrum;
 mod outliers;
 pub mod params;

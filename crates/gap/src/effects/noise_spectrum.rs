@@ -5,7 +5,7 @@
 use octavar_shared::sim::GyroSim;
 
 use super::common::ieee_squares;
-use super::curve::lowpass_gain;
+use super::lowpass::lowpass_gain;
 use super::resonance::unit_spectrum_at;
 
 /// The two-sided PSD, (deg/s)^2/Hz, of the stochastic parts of a model whose realisation stays in the samples:

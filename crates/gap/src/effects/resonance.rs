@@ -15,6 +15,7 @@ use rustfft::num_complex::Complex;
 
 use super::common::*;
 use super::curve::*;
+use super::lowpass::lowpass_gain;
 use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// Fewest Welch segments: the spectrum's log has a standard deviation of about `1 / sqrt(segments)`.
