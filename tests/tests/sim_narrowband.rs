@@ -1,5 +1,6 @@
 //! The virtual gyro's narrowband and event processes against their closed forms: the resonance (a second-order
-//! Gauss-Markov process, against its AR(2) spectrum and autocovariance), the bistable bias (random telegraph) and
+//! Gauss-Markov process, against the sampled oscillator's spectrum and autocovariance), the bistable bias (random
+//! telegraph) and
 //! the warm-up. The helpers and the error budget are those of [`crate::sim_closed_form`].
 
 use octavar::stats::edf::chi2_quantile;
@@ -16,11 +17,16 @@ fn resonance_poles(f0: f64, q: f64) -> (f64, f64) {
     ((-zeta * w0).exp(), w0 * (1.0 - zeta * zeta).sqrt())
 }
 
-/// Autocovariance at lag `k` samples of the AR(2) with poles `r e^{+-i theta}` and variance `var`:
-/// `var r^k (cos k theta + c sin k theta)`, `c = (1 - r^2) / (1 + r^2) cot theta` (it satisfies the AR(2)
-/// recursion for k >= 2 and the Yule-Walker equation at lag 1).
-fn resonance_acov(var: f64, (r, theta): (f64, f64), k: usize) -> f64 {
-    let c = (1.0 - r * r) / (1.0 + r * r) / theta.tan();
+/// The sine's weight in the damped oscillator's autocovariance, `zeta / sqrt(1 - zeta^2)` for `zeta = 1 / (2 q)`.
+fn oscillator_c(q: f64) -> f64 {
+    let zeta = 0.5 / q;
+    zeta / (1.0 - zeta * zeta).sqrt()
+}
+
+/// Autocovariance at lag `k` samples of the damped oscillator driven by white noise, variance `var`, read at each
+/// sample: the continuous process's `var e^(-zeta w0 t) (cos wd t + c sin wd t)` at `t = k tau0`, that is
+/// `var r^k (cos k theta + c sin k theta)` with the poles `r e^{+-i theta}` and `c` of [`oscillator_c`].
+fn resonance_acov(var: f64, (r, theta): (f64, f64), c: f64, k: usize) -> f64 {
     let k = k as f64;
     var * r.powf(k) * ((k * theta).cos() + c * (k * theta).sin())
 }
@@ -61,16 +67,19 @@ fn oavar_dof_exact(acov: &[f64], m: usize, n: usize) -> f64 {
     2.0 * (terms as f64 * c0).powi(2) / var
 }
 
-/// One-sided spectrum, (deg/s)^2/Hz, of the AR(2) `x = a1 x_1 + a2 x_2 + e` with poles `r e^{+-i theta}` and
-/// variance `var`: `2 tau0 s_e^2 / |1 - a1 e^{-iw} - a2 e^{-2iw}|^2`, `a1 = 2 r cos theta`, `a2 = -r^2`, the
-/// innovation variance `s_e^2 = var (1 + a2) ((1 - a2)^2 - a1^2) / (1 - a2)`.
-fn resonance_psd(var: f64, (r, theta): (f64, f64), f: f64) -> f64 {
-    let (a1, a2) = (2.0 * r * theta.cos(), -r * r);
-    let se2 = var * (1.0 + a2) * ((1.0 - a2).powi(2) - a1 * a1) / (1.0 - a2);
+/// One-sided spectrum, (deg/s)^2/Hz, of the sampled oscillator of [`resonance_acov`]: the autocovariance is
+/// `var Re((1 - i c) z^k)`, `z = r e^{i theta}`, whose one-sided sum against `e^{-iwk}` is the geometric
+/// `(1/2) ((1 - i c) / (1 - z e^{-iw}) + (1 + i c) / (1 - conj(z) e^{-iw}))`; the two-sided spectrum is twice its
+/// real part less the lag-0 term, and the one-sided density `2 tau0` times that.
+fn resonance_psd(var: f64, (r, theta): (f64, f64), c: f64, f: f64) -> f64 {
     let w = 2.0 * PI * f / FS;
-    let re = 1.0 - a1 * w.cos() - a2 * (2.0 * w).cos();
-    let im = a1 * w.sin() + a2 * (2.0 * w).sin();
-    2.0 / FS * se2 / (re * re + im * im)
+    // (cr + i ci) / (1 - r e^{i (phi - w)}), real part.
+    let re_of = |cr: f64, ci: f64, phi: f64| {
+        let (dr, di) = (1.0 - r * (phi - w).cos(), -r * (phi - w).sin());
+        (cr * dr + ci * di) / (dr * dr + di * di)
+    };
+    let one_sided_sum = 0.5 * (re_of(1.0, -c, theta) + re_of(1.0, c, -theta));
+    2.0 / FS * var * (2.0 * one_sided_sum - 1.0)
 }
 
 /// Allan variance at `m` samples of a stationary sequence from its autocovariance: `(4 G(m) - G(2m)) / (2 m^2)`,
@@ -80,23 +89,23 @@ fn avar_from_acov(acov: &[f64], m: usize) -> f64 {
     (4.0 * g(m) - g(2 * m)) / (2.0 * (m * m) as f64)
 }
 
-/// The resonance's two closed forms agree: the AR(2) spectrum is the Fourier sum of the damped-cosine
+/// The resonance's two closed forms agree: the spectrum is the Fourier sum of the damped-cosine
 /// autocovariance, it integrates to sigma^2, peaks within its half-width of f0, and its half-power width is f0/Q
 /// within 5% (Q = 8 and 30).
 #[test]
 fn sim_resonance_spectrum_and_autocovariance_agree() {
     for (f0, q) in [(7.0, 8.0), (20.0, 30.0)] {
         let sigma = 0.2;
-        let poles = resonance_poles(f0, q);
-        let acov: Vec<f64> = (0..20_000).map(|k| resonance_acov(sigma * sigma, poles, k)).collect();
+        let (poles, c) = (resonance_poles(f0, q), oscillator_c(q));
+        let acov: Vec<f64> = (0..20_000).map(|k| resonance_acov(sigma * sigma, poles, c, k)).collect();
         let grid: Vec<f64> = (1..50_000).map(|i| i as f64 * (FS / 2.0) / 50_000.0).collect();
-        let psd: Vec<f64> = grid.iter().map(|&f| resonance_psd(sigma * sigma, poles, f)).collect();
+        let psd: Vec<f64> = grid.iter().map(|&f| resonance_psd(sigma * sigma, poles, c, f)).collect();
         for &f in &[0.3 * f0, f0, 1.2 * f0, 2.0 * f0] {
             let w = 2.0 * PI * f / FS;
             let sum = 2.0 / FS
                 * (acov[0] + 2.0 * acov.iter().enumerate().skip(1).map(|(k, g)| g * (w * k as f64).cos()).sum::<f64>());
-            let s = resonance_psd(sigma * sigma, poles, f);
-            assert!((sum / s - 1.0).abs() < 1e-6, "f0 {f0} at {f}: Fourier sum {sum:e} vs AR(2) form {s:e}");
+            let s = resonance_psd(sigma * sigma, poles, c, f);
+            assert!((sum / s - 1.0).abs() < 1e-6, "f0 {f0} at {f}: Fourier sum {sum:e} vs closed form {s:e}");
         }
         let df = grid[1] - grid[0];
         let total: f64 = psd.iter().sum::<f64>() * df;
@@ -125,10 +134,10 @@ fn sim_resonance_matches_its_discrete_closed_form() {
     }
     let (sigma, f0, q) = (0.2, 7.0, 8.0);
     let model = GyroSim { resonance: Some(ResonanceSim { sigma_dps: sigma, freq_hz: f0, q }), ..Default::default() };
-    let poles = resonance_poles(f0, q);
+    let (poles, sine_weight) = (resonance_poles(f0, q), oscillator_c(q));
     let var = sigma * sigma;
     // r^k falls below 1e-30 of the variance within 2600 lags.
-    let acov: Vec<f64> = (0..4096).map(|k| resonance_acov(var, poles, k)).collect();
+    let acov: Vec<f64> = (0..4096).map(|k| resonance_acov(var, poles, sine_weight, k)).collect();
     let n = 1 << 21;
     let ms = octaves(1, n, 16);
     let seeds = [81u64, 82];
@@ -185,7 +194,7 @@ fn sim_resonance_matches_its_discrete_closed_form() {
             within_chi2(&what, SEG, est, mean, dof, p);
             // The expectation is the closed-form spectrum seen through the window: within 10% where the bump is
             // several window widths (4 FS / SEG = 0.8 Hz) wide.
-            let closed = resonance_psd(var, poles, f) * FS / 2.0 * r_w[0];
+            let closed = resonance_psd(var, poles, sine_weight, f) * FS / 2.0 * r_w[0];
             assert!((mean / closed - 1.0).abs() < 0.1, "{what}: expectation {mean:e} against the spectrum {closed:e}");
         }
     }

@@ -15,7 +15,7 @@
 //! | sinusoid A, f0 | `sinusoids` | `A^2 sin^4(pi f0 tau) / (pi f0 tau)^2` |
 //! | temperature coupling | `temperature` | through the thermal lag ([`temperature`]) |
 //! | bias steps, outliers | `bias_steps`, `outliers` | random-walk-like; white `p E s^2 / m`, plus an AR(1) form for runs ([`model::Outliers`]) |
-//! | resonance (second-order Gauss-Markov) | `resonance` | exact AR(2) form ([`noise::Resonance`]) |
+//! | resonance (second-order Gauss-Markov) | `resonance` | the sampled oscillator's, an exact ARMA(2,1) form ([`noise::Resonance`]) |
 //! | bistable bias (random telegraph) | `bistable` | Gauss-Markov form, T = 1/(l1 + l2) ([`effects::Telegraph`]) |
 //! | warm-up | `warm_up` | deterministic, `size exp(-t / tau)` |
 //!

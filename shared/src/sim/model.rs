@@ -130,8 +130,9 @@ pub struct BiasSteps {
 }
 
 /// Narrowband random vibration: a damped oscillator driven by white noise (a second-order Gauss-Markov
-/// process), sampled exactly as the AR(2) process whose poles are `exp((-zeta w0 +- i w0 sqrt(1 - zeta^2)) tau0)`,
-/// `w0 = 2 pi freq_hz`, `zeta = 1 / (2 q)`, started stationary. Its spectrum is a bump of half-power width about
+/// process), read at each sample: the ARMA(2,1) process whose poles are `exp((-zeta w0 +- i w0 sqrt(1 - zeta^2))
+/// tau0)`, `w0 = 2 pi freq_hz`, `zeta = 1 / (2 q)`, and whose zero gives it the oscillator's autocovariance at every
+/// lag ([`crate::sim::noise::Resonance`]), started stationary. Its spectrum is a bump of half-power width about
 /// `freq_hz / q` at `freq_hz`: a mount's resonance, or the sensor's own aliased through its decimation filter.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -64,10 +64,9 @@
 //! 1-3 spikes, weights 4:2:1); shared::sim draws it through `indep_gyro::oracle::outliers`, whose runs have a
 //! geometric tail.
 //!
-//! Where the generators differ by definition: shared::sim samples a resonance as the AR(2) process with the
-//! oscillator's poles, the independent generator as the oscillator itself read at each sample. The two agree for
-//! a centre far below the rate and part towards Nyquist with a low Q (`resonance_definitions_agree_far_below_
-//! nyquist` in `indep_gyro`); there the oracle of an independent record can fail.
+//! Both generators read the resonance's damped oscillator at each sample: shared::sim by the ARMA(2,1) process
+//! with its autocovariance, the independent generator by circulant embedding of that autocovariance; each is
+//! checked against the oscillator's closed form on its own.
 
 mod cases;
 

@@ -342,32 +342,3 @@ fn warm_up_settles_exponentially() {
         assert!((mean - want).abs() < se4, "block {b}: {mean} vs {want}");
     }
 }
-
-/// The sampled oscillator (this generator's resonance) against the AR(2) process with the oscillator's poles
-/// (shared::sim's, by the formula its model states): both have the lag-k correlation `r^k (cos k theta + c sin k
-/// theta)`, `r = exp(-zeta w0 tau0)`, `theta = w0 tau0 sqrt(1 - zeta^2)`, with `c = zeta / sqrt(1 - zeta^2)` for
-/// the oscillator and `c = (1 - r^2) / (1 + r^2) cot theta` for the AR(2). They agree within 0.002 at every lag up
-/// to a period when the centre is at most 2% of the rate; towards Nyquist with a low Q they part (printed).
-#[test]
-fn resonance_definitions_agree_far_below_nyquist() {
-    let rho = |f_rel: f64, q: f64, k: usize, ar2: bool| {
-        let zeta = 0.5 / q;
-        let w = 2.0 * PI * f_rel;
-        let r = (-zeta * w).exp();
-        let theta = w * (1.0 - zeta * zeta).sqrt();
-        let c = if ar2 { (1.0 - r * r) / (1.0 + r * r) / theta.tan() } else { zeta / (1.0 - zeta * zeta).sqrt() };
-        let k = k as f64;
-        r.powf(k) * ((k * theta).cos() + c * (k * theta).sin())
-    };
-    for (f_rel, q) in [(0.005, 3.0), (0.02, 3.0), (0.02, 30.0), (0.1, 3.0), (0.22, 3.4), (0.4, 10.0)] {
-        let worst = (1..=(1.0 / f_rel) as usize)
-            .map(|k| (rho(f_rel, q, k, true) - rho(f_rel, q, k, false)).abs())
-            .fold(0.0, f64::max);
-        println!("resonance at {f_rel} of the rate, Q {q}: largest difference of a correlation {worst:.4}");
-        if f_rel <= 0.02 {
-            assert!(worst < 0.002, "f0 {f_rel} of the rate, Q {q}: {worst}");
-        }
-    }
-    let o = Oscillator { sigma_dps: 1.0, freq_hz: 0.1, q: 5.0 };
-    assert!((oscillator_acf(&o, 3.0) - rho(0.1, 5.0, 3, false)).abs() < 1e-12);
-}

@@ -3,7 +3,7 @@
 //! terms that the bandwidth and Gauss-Markov estimators share.
 
 use octavar_shared::sim::flicker::{FIRST_WEIGHT, FLICKER_PROCESSES};
-use octavar_shared::sim::noise::Resonance;
+use octavar_shared::sim::noise::ResonanceCoefficients;
 use octavar_shared::sim::GyroSim;
 use rustfft::num_complex::Complex64;
 
@@ -41,9 +41,9 @@ pub(super) fn gm_avar(t_s: f64, tau: f64, tau0: f64) -> f64 {
     2.0 * shape / x
 }
 
-/// Allan variance at `m` samples of the unit-variance resonance of shared::sim (the AR(2) with poles
-/// `z = r e^{i theta}` of [`octavar_shared::sim::noise::Resonance`]), from its autocovariance
-/// `Re((1 - i c) z^k)`, `c = (1 - r^2) / (1 + r^2) cot theta`: `(4 G(m) - G(2m)) / (2 m^2)`, with the variance of a
+/// Allan variance at `m` samples of the unit-variance resonance (the damped oscillator read at each sample, as
+/// [`octavar_shared::sim::noise::Resonance`] draws it), from its autocovariance `Re((1 - i c) z^k)`,
+/// `z = r e^{i theta}`, `c = zeta / sqrt(1 - zeta^2)`: `(4 G(m) - G(2m)) / (2 m^2)`, with the variance of a
 /// sum of n samples `G(n) = n + 2 Re((1 - i c) S(n))`, `S(n) = sum_{k=1}^{n-1} (n - k) z^k
 /// = (z^{n+1} - n z^2 + (n - 1) z) / (1 - z)^2`.
 pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, rate_hz: f64) -> f64 {
@@ -52,7 +52,7 @@ pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, rate_hz: f64) -> f64 
     let w0 = 2.0 * std::f64::consts::PI * freq_hz / rate_hz;
     let r = (-zeta * w0).exp();
     let theta = w0 * (1.0 - zeta * zeta).sqrt();
-    let c = (1.0 - r * r) / (1.0 + r * r) / theta.tan();
+    let c = zeta / (1.0 - zeta * zeta).sqrt();
     let z = Complex::from_polar(r, theta);
     let one = Complex::new(1.0, 0.0);
     let g = |n: f64| {
@@ -68,7 +68,12 @@ pub(super) fn resonance_avar(freq_hz: f64, q: f64, m: f64, rate_hz: f64) -> f64 
 /// (prod_{j != i} (p_i - p_j) prod_j (1 - p_i p_j))` for P poles (the AR(p) covariance in partial fractions), and
 /// the Allan variance `(4 G(m) - G(2m)) / (2 m^2)` with `G(n) = n gamma(0) + 2 Re sum_i A_i S_i(n)`, `S_i` as in
 /// [`resonance_avar`]. Poles closer than 1e-9 are moved apart by that much (the form has no limit written out).
-pub(super) fn ar_avar(poles: &[Complex64], m: f64) -> f64 {
+///
+/// With a moving-average term `ma` (`ma = 0`: the autoregressive process itself), the process is `x_n + ma x_{n-1}`
+/// for the autoregressive `x`: its autocovariance is `(1 + ma^2) gamma(k) + ma (gamma(k - 1) + gamma(k + 1))`, so
+/// each coefficient becomes `A_i ((1 + ma^2) + ma (p_i + 1 / p_i))` at lags from one, and
+/// `gamma(0) = sum_i A_i (1 + ma^2 + 2 ma p_i)`.
+pub(super) fn arma_avar(poles: &[Complex64], ma: f64, m: f64) -> f64 {
     let one = Complex64::new(1.0, 0.0);
     let mut p: Vec<Complex64> = poles.to_vec();
     for i in 1..p.len() {
@@ -79,7 +84,9 @@ pub(super) fn ar_avar(poles: &[Complex64], m: f64) -> f64 {
         }
     }
     let order = p.len() as i32;
-    let coeffs: Vec<Complex64> = p
+    // Per pole, `A_i` and `A_i / p_i` (written as `p_i^(P-2) / den`, finite where a pole sits at zero: a corner
+    // far above the band).
+    let parts: Vec<(Complex64, Complex64)> = p
         .iter()
         .enumerate()
         .map(|(i, &pi)| {
@@ -90,10 +97,13 @@ pub(super) fn ar_avar(poles: &[Complex64], m: f64) -> f64 {
                 }
                 den *= one - pi * pj;
             }
-            pi.powi(order - 1) / den
+            let over_p = if ma == 0.0 { Complex64::new(0.0, 0.0) } else { pi.powi(order - 2) / den };
+            (pi.powi(order - 1) / den, over_p)
         })
         .collect();
-    let gamma0: f64 = coeffs.iter().map(|a| a.re).sum();
+    let gamma0: f64 = parts.iter().zip(&p).map(|((a, _), &pi)| (a * (1.0 + ma * ma + 2.0 * ma * pi)).re).sum();
+    let coeffs: Vec<Complex64> =
+        parts.iter().zip(&p).map(|(&(a, over_p), &pi)| a * (1.0 + ma * ma + ma * pi) + ma * over_p).collect();
     let g = |n: f64| {
         let s: f64 = coeffs
             .iter()
@@ -106,19 +116,26 @@ pub(super) fn ar_avar(poles: &[Complex64], m: f64) -> f64 {
     (4.0 * g(m) - g(2.0 * m)) / (2.0 * m * m)
 }
 
-/// Allan variance at `m` samples of the unit-variance AR process with `poles` (`innovation_var`, the variance of
-/// the white noise driving it, gives the unit variance) after the low-pass at `f3db_hz` (none: the process
-/// itself), as shared::sim adds a resonance, a Gauss-Markov process or a bistable bias before its output
-/// bandwidth: the low-pass adds its pole and scales the driving noise by `(1 - a)^2`.
-fn through_lowpass(poles: &[Complex64], innovation_var: f64, f3db_hz: Option<f64>, m: f64, rate_hz: f64) -> f64 {
+/// Allan variance at `m` samples of the unit-variance ARMA process with `poles` and the moving-average term `ma`
+/// (`innovation_var`, the variance of the white noise driving it, gives the unit variance) after the low-pass at
+/// `f3db_hz` (none: the process itself), as shared::sim adds a resonance, a Gauss-Markov process or a bistable
+/// bias before its output bandwidth: the low-pass adds its pole and scales the driving noise by `(1 - a)^2`.
+fn through_lowpass(
+    poles: &[Complex64],
+    ma: f64,
+    innovation_var: f64,
+    f3db_hz: Option<f64>,
+    m: f64,
+    rate_hz: f64,
+) -> f64 {
     match f3db_hz {
         Some(f) if f > 0.0 => {
             let a = lowpass_pole(f, rate_hz);
             let mut all = poles.to_vec();
             all.push(Complex64::new(a, 0.0));
-            innovation_var * (1.0 - a) * (1.0 - a) * ar_avar(&all, m)
+            innovation_var * (1.0 - a) * (1.0 - a) * arma_avar(&all, ma, m)
         }
-        _ => innovation_var * ar_avar(poles, m),
+        _ => innovation_var * arma_avar(poles, ma, m),
     }
 }
 
@@ -128,11 +145,11 @@ pub(super) fn filtered_resonance_avar(freq_hz: f64, q: f64, f3db_hz: Option<f64>
     if f3db_hz.is_none() {
         return resonance_avar(freq_hz, q, m, rate_hz);
     }
-    let (a1, a2, b) = Resonance::coefficients(freq_hz, q, 1.0 / rate_hz);
+    let c = ResonanceCoefficients::of(freq_hz, q, 1.0 / rate_hz);
     // The roots of z^2 - a1 z - a2: a complex pair for Q > 1/2.
-    let disc = Complex64::new(a1 * a1 + 4.0 * a2, 0.0).sqrt();
-    let poles = [(Complex64::new(a1, 0.0) + disc) / 2.0, (Complex64::new(a1, 0.0) - disc) / 2.0];
-    through_lowpass(&poles, b * b, f3db_hz, m, rate_hz)
+    let disc = Complex64::new(c.a1 * c.a1 + 4.0 * c.a2, 0.0).sqrt();
+    let poles = [(Complex64::new(c.a1, 0.0) + disc) / 2.0, (Complex64::new(c.a1, 0.0) - disc) / 2.0];
+    through_lowpass(&poles, c.ma, c.s * c.s, f3db_hz, m, rate_hz)
 }
 
 /// Allan variance at `tau` of a unit-variance Gauss-Markov process of correlation time `t_s` after the low-pass at
@@ -143,7 +160,7 @@ pub(super) fn filtered_gm_avar(t_s: f64, f3db_hz: Option<f64>, tau: f64, rate_hz
     match f3db_hz {
         Some(_) if t_s / tau0 <= 1000.0 => {
             let a = (-tau0 / t_s).exp();
-            through_lowpass(&[Complex64::new(a, 0.0)], 1.0 - a * a, f3db_hz, tau / tau0, rate_hz)
+            through_lowpass(&[Complex64::new(a, 0.0)], 0.0, 1.0 - a * a, f3db_hz, tau / tau0, rate_hz)
         }
         _ => gm_avar(t_s, tau, tau0),
     }
@@ -282,7 +299,7 @@ pub(super) fn lowpass_flicker_avar(f3db: Option<f64>, tau: f64, rate_hz: f64) ->
         }
         let weight = if j == 0 { FIRST_WEIGHT } else { 1.0 };
         let a = (-1.0 / t).exp();
-        let filtered = through_lowpass(&[Complex64::new(a, 0.0)], 1.0 - a * a, Some(f), m, rate_hz);
+        let filtered = through_lowpass(&[Complex64::new(a, 0.0)], 0.0, 1.0 - a * a, Some(f), m, rate_hz);
         v += weight * var * (filtered - ar1_avar(a, m));
     }
     v.max(0.0)

@@ -62,8 +62,11 @@ fn analog_structure(model: &GyroSim, f3db_hz: Option<f64>, d: f64, rate_hz: f64)
         model.gauss_markov.map_or(0.0, |g| 2.0 * g.sigma_dps * g.sigma_dps * -(-d / (g.tau_s * rate_hz)).exp_m1());
     let resonance = model.resonance.map_or(0.0, |r| {
         let w = 2.0 * PI * r.freq_hz / rate_hz;
-        let decay = (-0.5 * w * d / r.q).exp();
-        2.0 * r.sigma_dps * r.sigma_dps * (1.0 - decay * (w * d * (1.0 - 0.25 / (r.q * r.q)).max(0.0).sqrt()).cos())
+        let zeta = 0.5 / r.q;
+        let root = (1.0 - zeta * zeta).max(f64::MIN_POSITIVE).sqrt();
+        let decay = (-zeta * w * d).exp();
+        let rho = decay * ((w * d * root).cos() + zeta / root * (w * d * root).sin());
+        2.0 * r.sigma_dps * r.sigma_dps * (1.0 - rho)
     });
     white + flicker + walk + markov + resonance
 }

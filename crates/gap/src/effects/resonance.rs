@@ -1,6 +1,6 @@
 //! The resonance candidate: a spectral bump wider than a line (narrowband random vibration, a second-order
-//! Gauss-Markov process), found in a Welch spectrum against its local background and fitted with the AR(2)
-//! spectrum that shared::sim simulates.
+//! Gauss-Markov process), found in a Welch spectrum against its local background and fitted with the
+//! sampled oscillator's spectrum that shared::sim simulates.
 //!
 //! A mount's resonance, or a MEMS sensor's own resonance aliased through its decimation filter, puts a band of
 //! random power around a centre frequency: the ADIS16405's z axis shows ten times the power around it at 19-21 Hz.
@@ -9,7 +9,7 @@
 //! spectral window: that is the `sinusoid` candidate, and a bump no wider than a few bins is left to it.
 
 use super::params::ResonanceParams;
-use octavar_shared::sim::noise::Resonance;
+use octavar_shared::sim::noise::ResonanceCoefficients;
 use octavar_shared::sim::{GyroSim, ResonanceSim};
 use rustfft::num_complex::Complex;
 
@@ -100,19 +100,20 @@ fn median_background(ln_p: &[f64], k_lo: usize, k_hi: usize) -> Vec<f64> {
     bg
 }
 
-/// The unit-variance resonance's one-sided spectrum, 1/Hz, at frequencies given by their [`phasors`]: the AR(2)
-/// of shared::sim, `2 tau0 b^2 / |1 - a1 e^{-iw} - a2 e^{-2iw}|^2`, `w = 2 pi f / rate_hz`.
+/// The unit-variance resonance's one-sided spectrum, 1/Hz, at frequencies given by their [`phasors`]: the sampled
+/// oscillator's (the ARMA(2,1) of shared::sim), `2 tau0 s^2 |1 + m e^{-iw}|^2 / |1 - a1 e^{-iw} - a2 e^{-2iw}|^2`,
+/// `w = 2 pi f / rate_hz`.
 fn unit_spectrum<'a>(
     freq_hz: f64,
     q: f64,
     rate_hz: f64,
     phasors: impl Iterator<Item = &'a [f64; 4]> + 'a,
 ) -> impl Iterator<Item = f64> + 'a {
-    let (a1, a2, b) = Resonance::coefficients(freq_hz, q, 1.0 / rate_hz);
+    let ResonanceCoefficients { a1, a2, ma, s, .. } = ResonanceCoefficients::of(freq_hz, q, 1.0 / rate_hz);
     phasors.map(move |&[c1, s1, c2, s2]| {
         let re = 1.0 - a1 * c1 - a2 * c2;
         let im = a1 * s1 + a2 * s2;
-        2.0 / rate_hz * b * b / (re * re + im * im)
+        2.0 / rate_hz * s * s * (1.0 + 2.0 * ma * c1 + ma * ma) / (re * re + im * im)
     })
 }
 
@@ -393,7 +394,7 @@ impl EffectKind for Kind {
 /// and 16 segments, 50% overlap; where no bump passes, again with segments twice as long), in ln P. A median background over a window of one octave around each bin (a
 /// bump a fraction of an octave wide hardly moves it); the up to three largest local maxima of the excess over it
 /// (smoothed over 5 bins) are candidate centres. Each is fitted by Levenberg-Marquardt in ln P over a window from
-/// six half-widths below its centre to twelve above: a background quadratic in ln f plus the bump, the exact AR(2)
+/// six half-widths below its centre to twelve above: a background quadratic in ln f plus the bump, the exact
 /// spectrum of shared::sim's resonance (centre, quality factor, variance); twice, the window re-centred on the
 /// first fit. The most significant bump counts when the fit lowers the chi-square of ln P over its window by
 /// [`DELTA_CHI2`] against the background alone (in units of its own residual variance), its peak is at least half

@@ -394,23 +394,27 @@ fn bandwidth_recovered() {
     }
 }
 
-/// The Allan variance of an AR process from its poles ([`super::curve::ar_avar`] and the filtered forms built on
-/// it) against a brute-force reference: the impulse response of the recursion as shared::sim runs it (the AR(2)
+/// The Allan variance of an AR process from its poles ([`super::curve::arma_avar`] and the filtered forms built on
+/// it) against a brute-force reference: the impulse response of the recursion as shared::sim runs it (the ARMA(2,1)
 /// resonance, the AR(1) Gauss-Markov process, each through the first-order low-pass `y = a y + (1 - a) x`), its
 /// autocovariance summed from that response, and `Var(S_2 - S_1) / (2 m^2)` for two adjacent sums of m samples
 /// from the autocovariance. Also: one pole is `ar1_avar`, the two poles of a resonance are `resonance_avar`.
 #[test]
 fn filtered_allan_forms_match_the_impulse_response() {
     use super::curve::*;
-    use octavar_shared::sim::noise::Resonance;
+    use octavar_shared::sim::noise::ResonanceCoefficients;
     use rustfft::num_complex::Complex64;
     let rate_hz = 200.0;
-    let brute = |ar: &[f64], b: f64, lp: Option<f64>, m: usize| -> f64 {
+    let brute = |ar: &[f64], ma: f64, b: f64, lp: Option<f64>, m: usize| -> f64 {
         let len = 40_000;
         let a_lp = lp.map(|f| (-2.0 * std::f64::consts::PI * f / rate_hz).exp());
         let (mut x, mut y) = (vec![0.0; len], vec![0.0; len]);
         for i in 0..len {
-            let mut v = if i == 0 { b } else { 0.0 };
+            let mut v = match i {
+                0 => b,
+                1 => b * ma,
+                _ => 0.0,
+            };
             for (j, c) in ar.iter().enumerate() {
                 if i > j {
                     v += c * x[i - 1 - j];
@@ -438,10 +442,10 @@ fn filtered_allan_forms_match_the_impulse_response() {
         var / (2.0 * (m * m) as f64)
     };
     for (f0, q, lp) in [(13.7, 7.7, Some(23.2)), (30.0, 3.0, Some(50.0)), (5.0, 20.0, None), (40.0, 2.0, Some(8.0))] {
-        let (a1, a2, b) = Resonance::coefficients(f0, q, 1.0 / rate_hz);
+        let c = ResonanceCoefficients::of(f0, q, 1.0 / rate_hz);
         for m in [1usize, 2, 5, 16, 64] {
             let got = filtered_resonance_avar(f0, q, lp, m as f64, rate_hz);
-            let want = brute(&[a1, a2], b, lp, m);
+            let want = brute(&[c.a1, c.a2], c.ma, c.s, lp, m);
             assert!(rel(got, want) < 1e-6, "resonance {f0} Hz Q {q} through {lp:?}, m {m}: {got} vs {want}");
         }
     }
@@ -449,13 +453,13 @@ fn filtered_allan_forms_match_the_impulse_response() {
         let a = (-1.0 / (rate_hz * t_s)).exp();
         for m in [1usize, 3, 8, 32, 128] {
             let got = filtered_gm_avar(t_s, lp, m as f64 / rate_hz, rate_hz);
-            let want = brute(&[a], (1.0 - a * a).sqrt(), lp, m);
+            let want = brute(&[a], 0.0, (1.0 - a * a).sqrt(), lp, m);
             assert!(rel(got, want) < 1e-6, "Gauss-Markov T {t_s} through {lp:?}, m {m}: {got} vs {want}");
         }
     }
     for m in [1.0, 7.0, 100.0, 5000.0] {
         let a = 0.93;
-        let one = ar_avar(&[Complex64::new(a, 0.0)], m) * (1.0 - a * a);
+        let one = arma_avar(&[Complex64::new(a, 0.0)], 0.0, m) * (1.0 - a * a);
         assert!(rel(one, ar1_avar(a, m)) < 1e-9, "one pole, m {m}");
         let (f0, q) = (12.0, 6.0);
         let two = filtered_resonance_avar(f0, q, Some(1e9), m, rate_hz);
