@@ -734,13 +734,9 @@ fn spikes_on_a_lattice_are_named_after_it() {
 
 /// Estimates at their search's upper bound name nothing (seed 6, 2.29 Hz): beside a warm-up, a temperature
 /// coupling lagging three records (the lag search's top, where the lagged temperature is a slow ramp) took the
-/// warm-up's place (the independent generator's `temperature + warm_up`), and after a resonance and a warm-up a
-/// filter corner at the Nyquist frequency took the resonance's misfit at the shortest tau (shared::sim's
-/// `resonance + warm_up`). With such estimates refused, each names its true pair. Where `CI` is set (10 s).
+/// warm-up's place (the independent generator's `temperature + warm_up`). With such an estimate refused, the
+/// record names its true pair. Where `CI` is set (10 s).
 #[test]
 fn estimates_at_their_searchs_bound_name_nothing() {
-    cases_pass(
-        &[(Gen::Indep, &[Effect::Temperature, Effect::WarmUp], 6), (Gen::Sim, &[Effect::Resonance, Effect::WarmUp], 6)],
-        true,
-    );
+    cases_pass(&[(Gen::Indep, &[Effect::Temperature, Effect::WarmUp], 6)], true);
 }
