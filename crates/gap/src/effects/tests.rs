@@ -66,6 +66,13 @@ fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, rate_hz: f64) -> Option<Eff
     out
 }
 
+/// `n` samples of `m` at `rate_hz` as the channel `ch` records them (its ADC codes back in deg/s, on its lattice), at
+/// a steady 25 degC.
+fn on_the_bench_lattice(m: &GyroSim, ch: Channel, rate_hz: f64, seed: u64, n: usize) -> Vec<f64> {
+    let mut g = VirtualGyro::new(m, ch, rate_hz, seed).unwrap();
+    (0..n).map(|_| ch.code_to_dps(g.next(25.0).code)).collect()
+}
+
 fn base_model() -> GyroSim {
     GyroSim { n_deg_per_rt_s: 0.01, b_dps: 0.005, k_dps_per_rt_s: 2e-5, ..Default::default() }
 }
@@ -751,8 +758,7 @@ fn a_resonance_read_on_a_lattice_leaves_its_rounding_to_it() {
         resonance: Some(ResonanceSim { sigma_dps: 1.5 * q, freq_hz: 20.0, q: 10.0 }),
         ..Default::default()
     };
-    let mut g = VirtualGyro::new(&m, ch, rate_hz, 4).unwrap();
-    let x: Vec<f64> = (0..400_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+    let x = on_the_bench_lattice(&m, ch, rate_hz, 4, 400_000);
     let (b, f) = base_of(&x, rate_hz);
     let lattice = fit_effect(Effect::Quantization, &data_of(&x, rate_hz, &b, &f)).expect("the lattice");
     let on_lattice = TrainingData { base: &lattice.gyro, lattice_dps: Some(q), ..data_of(&x, rate_hz, &b, &f) };
@@ -783,8 +789,7 @@ fn a_corner_read_on_a_lattice_leaves_its_rounding_to_it() {
         bandwidth_hz: Some(f3db),
         ..Default::default()
     };
-    let mut g = VirtualGyro::new(&m, ch, rate_hz, 6).unwrap();
-    let x: Vec<f64> = (0..600_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+    let x = on_the_bench_lattice(&m, ch, rate_hz, 6, 600_000);
     let (b, f) = base_of(&x, rate_hz);
     let lattice = fit_effect(Effect::Quantization, &data_of(&x, rate_hz, &b, &f)).expect("the lattice");
     let on_lattice = TrainingData { base: &lattice.gyro, lattice_dps: Some(q), ..data_of(&x, rate_hz, &b, &f) };
