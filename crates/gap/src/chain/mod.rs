@@ -39,16 +39,14 @@
 //! Effects found one after the other are each read with only the ones before them in place: a filter corner read
 //! with a resonance still in the record takes part of the bump for its knee, and the resonance is then read on
 //! that corner. [`backfit`] estimates each effect again on the final model less itself; the search runs it when
-//! a later step's candidate explains too little on the chain as found, where the search is stuck (beside the
-//! joint round below), and once over the whole chain, keeping it where the fit improves, and [`learn`] repeats it
-//! where the diagnosis did. An ADC lattice read before spikes took the spikes' swing of the first differences
+//! a later step's candidate explains too little on the chain as found, and once over the whole chain, keeping it
+//! where the fit improves, and [`learn`] repeats it where the diagnosis did. An ADC lattice read before spikes took the spikes' swing of the first differences
 //! for white noise under it; read again once they are out, it gives the record's white noise back.
 //!
 //! The base terms and every effect of the chain are re-estimated together ([`joint`]): the deterministic effects
 //! by least squares in the time domain, the stochastic ones with the base terms on the Allan curve, GMWM-style.
 //! The round is kept where the views find the model no worse. It runs where the search is stuck (a significant
-//! gap that no route names an effect for), after a backfitting round, and where either is kept every route is
-//! tried once more on the re-estimated model,
+//! gap that no route names an effect for), after which every route is tried once more on the re-estimated model,
 //! and once the chain is found. It does not run after every step: there, the freedom of the effects found so far
 //! covers part of the gap the next one leaves (a resonance widened over a filter's roll-off), and that effect
 //! then goes unnamed. Where the search is stuck, no route names the next one as the model stands, and what is

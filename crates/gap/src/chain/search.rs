@@ -237,12 +237,10 @@ fn greedy(start: &Start, progress: &mut Progress, forced_first: Option<Effect>) 
         }
         // Stuck beside a significant gap: the chain's effects and the base terms, each read with only the steps
         // before it in place, may be what is off (a white noise the base fit read with a sinusoid still in the
-        // samples, an ADC lattice's white noise read with spikes still in them). Each re-estimated with the others
-        // in place, then all together, every route is tried once more on that model.
+        // samples). Re-estimated together, every route is tried once more on that model.
         if significant && !first && jointly_at != Some(s.steps.len()) {
             jointly_at = Some(s.steps.len());
-            let backfitted = s.backfit_round()?;
-            if s.joint_round()? || backfitted {
+            if s.joint_round()? {
                 continue;
             }
         }
@@ -706,16 +704,8 @@ impl Search<'_, '_> {
     /// A backfitting round over a chain of two or more whose last step had none: kept when the final model's
     /// training total falls.
     fn final_backfit(&mut self) -> Result<(), GapError> {
-        if self.steps.last().is_some_and(|s| s.backfitted) {
+        if self.steps.len() < 2 || self.steps.last().is_some_and(|s| s.backfitted) {
             return Ok(());
-        }
-        self.backfit_round().map(|_| ())
-    }
-
-    /// A backfitting round over a chain of two or more: kept, and says so, when the model's training total falls.
-    fn backfit_round(&mut self) -> Result<bool, GapError> {
-        if self.steps.len() < 2 {
-            return Ok(false);
         }
         let fits: Vec<&EffectFit> = self.steps.iter().map(Step::final_fit).collect();
         let (refitted, refits) = backfit(
@@ -730,7 +720,7 @@ impl Search<'_, '_> {
             self.base_fit,
         );
         if refits.iter().all(Option::is_none) {
-            return Ok(false);
+            return Ok(());
         }
         self.progress.expect("backfit", 1);
         let realised = self.realised.clone();
@@ -746,9 +736,8 @@ impl Search<'_, '_> {
             }
             self.model = refitted;
             self.eval = after;
-            return Ok(true);
         }
-        Ok(false)
+        Ok(())
     }
 }
 
