@@ -131,8 +131,9 @@ pub fn learn(
 mod tests {
     use super::*;
     use crate::base::{base_model, fit_base};
+    use crate::effects::tests::on_the_bench_lattice;
     use octavar_shared::sensor::{Channel, ADXRS300};
-    use octavar_shared::sim::{Outliers, VirtualGyro};
+    use octavar_shared::sim::Outliers;
     use octavar_stats::fit::FitOptions;
 
     /// Spikes on an ADC lattice coarser than the noise, the lattice read first: the white noise under the lattice,
@@ -151,8 +152,7 @@ mod tests {
         let m = GyroSim { n_deg_per_rt_s: n_true, bias_dps: 0.1, outliers: Some(spikes), ..Default::default() };
         let rel = |v: f64| (v / n_true - 1.0).abs();
         for seed in 1..4 {
-            let mut g = VirtualGyro::new(&m, ch, rate_hz, seed).unwrap();
-            let x: Vec<f64> = (0..200_000).map(|_| ch.code_to_dps(g.next(25.0).code)).collect();
+            let x = on_the_bench_lattice(&m, ch, rate_hz, seed, 200_000);
             let (_, f) = fit_base(&x, rate_hz, &FitOptions::default()).unwrap();
             let base = Model { gyro: base_model(&f, &x), spreads: Vec::new(), channel: None };
             let chain = [Effect::Quantization, Effect::Outliers];

@@ -40,8 +40,9 @@
 //! with a resonance still in the record takes part of the bump for its knee, and the resonance is then read on
 //! that corner. [`backfit`] estimates each effect again on the final model less itself; the search runs it when
 //! a later step's candidate explains too little on the chain as found, and once over the whole chain, keeping it
-//! where the fit improves, and [`learn`] repeats it where the diagnosis did. An ADC lattice read before spikes took the spikes' swing of the first differences
-//! for white noise under it; read again once they are out, it gives the record's white noise back.
+//! where the fit improves, and [`learn`] repeats it where the diagnosis did. An ADC lattice read while spikes were
+//! still in the samples holds their swing of the first differences as white noise; the round reads it again once
+//! they are out.
 //!
 //! The base terms and every effect of the chain are re-estimated together ([`joint`]): the deterministic effects
 //! by least squares in the time domain, the stochastic ones with the base terms on the Allan curve, GMWM-style.

@@ -58,7 +58,7 @@ mod resonance;
 mod sinusoid;
 mod temperature;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 mod warm_up;
 
 /// The outliers estimator's own acceptance, which its evidence test shares ([`crate::evidence`]).

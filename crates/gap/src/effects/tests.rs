@@ -68,7 +68,7 @@ fn run(effect: Effect, x: &[f64], t: Option<&[f64]>, rate_hz: f64) -> Option<Eff
 
 /// `n` samples of `m` at `rate_hz` as the channel `ch` records them (its ADC codes back in deg/s, on its lattice), at
 /// a steady 25 degC.
-fn on_the_bench_lattice(m: &GyroSim, ch: Channel, rate_hz: f64, seed: u64, n: usize) -> Vec<f64> {
+pub(crate) fn on_the_bench_lattice(m: &GyroSim, ch: Channel, rate_hz: f64, seed: u64, n: usize) -> Vec<f64> {
     let mut g = VirtualGyro::new(m, ch, rate_hz, seed).unwrap();
     (0..n).map(|_| ch.code_to_dps(g.next(25.0).code)).collect()
 }
