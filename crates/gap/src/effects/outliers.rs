@@ -47,19 +47,15 @@
 //! - **Calibration.** Where the spikes stand near the core, the law and the runs read so are biased (a run's
 //!   partner pulls a spike's residual in; run members are flagged less often than lone spikes); the law is
 //!   corrected by indirect inference against synthetic records of itself ([`calibrate`]).
-//! - **Base terms.** The flagged spikes' samples are drawn again from their clean neighbours under the record's own
-//!   short-lag variogram ([`impute`]: a median of neighbours would be too smooth, and would lower the Allan
-//!   variance at a few samples that a filter corner is read from next), and the base terms are re-fitted on the
-//!   OADEV of those samples less the Allan variance of the spikes the flags missed (the law's share times one less
-//!   the flagged count over the spikes it puts in the record). The spikes can carry several times the white
-//!   noise's variance, so N is not read off the curve less the whole law's Allan variance, where each 0.45% of
-//!   error in the law's share moved it by 1.7%. Those samples are the realisation the chain's later steps learn
+//! - **Base terms.** The spikes' own Allan variance (autocovariance `eps E s^2` at lag 0, `eps centre^2 rho_k` at
+//!   lag k: runs share a sign) is taken off the OADEV and the base terms are re-fitted on what is left, each
+//!   point's degrees of freedom scaled by the share left squared (its sampling error is the whole variance's). The
+//!   flagged spikes, replaced by their neighbours' median, are the realisation the chain's later steps learn
 //!   without, and those steps' re-fits keep the white noise read here ([`super::common::refit_base`]).
 //! - **Beside jumps taken out.** Where an earlier step took jumps out (a bistable bias's flips, bias steps), a
 //!   jump placed a sample off leaves a pulse of its whole size: the samples within [`JUMP_GUARD`] of each jump are
 //!   not read, and the curve the base terms are re-fitted on is the model's own (fitted beside the jumps on the
-//!   record as recorded) less the law's whole Allan variance, not that of the samples less the jumps, which keeps
-//!   what the recovery missed. On a lattice the base terms stay the quantisation estimator's (above).
+//!   record as recorded), not that of the samples less the jumps, which keeps what the recovery missed.
 
 use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::{GyroSim, Outliers};
@@ -74,10 +70,8 @@ use octavar_stats::robust::mad_scale_in_place;
 use octavar_stats::tails::poisson_sf;
 
 mod calibrate;
-mod impute;
 mod lattice_reach;
 mod mixture;
-mod short_lag;
 #[cfg(test)]
 mod tests;
 
@@ -422,13 +416,10 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
             let law = match (clear_law(c.mix, &c.flagged, c.valid), lattice, &on_lattice) {
                 (Some(mix), _, _) => calibrate::Law { mix, ..calibrate::Law::of(&c) },
                 (None, Some(_), Some(at)) if at.busy() => {
-                    calibrate::corrected(&c, n, Some(calibrate::OnLattice::of(at)), None)
+                    calibrate::corrected(&c, n, Some(calibrate::OnLattice::of(at)))
                 }
                 (None, Some(_), _) => calibrate::Law::of(&c),
-                (None, None, _) => {
-                    let core = short_lag(x, &gap, &c).as_deref().and_then(short_lag::ShortLag::of_variogram);
-                    calibrate::corrected(&c, n, None, core.as_ref())
-                }
+                (None, None, _) => calibrate::corrected(&c, n, None),
             };
             (c, law)
         }
@@ -442,6 +433,7 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
     let m = law.mix;
     let run_mean = law.run_mean();
     let spikes = law.outliers();
+    let refit = refit_without(d, &spikes);
     let mut cleaned = x.to_vec();
     match (lattice, &on_lattice) {
         // On a lattice, the samples whose undithered residual stands beyond the lattice's reach, each moved onto
@@ -463,20 +455,12 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
                 cleaned[i] = x[i] - q * (r / q).round();
             }
         }
-        // Off a lattice, each flagged sample drawn again from its clean neighbours (its neighbours' median where
-        // too few are clean).
         (None, _) => {
-            let by_median: Vec<(usize, f64)> = c.flagged.iter().map(|&(i, r)| (i, x[i] - r)).collect();
-            cleaned = impute::fill(x, &by_median, &gap, short_lag(x, &gap, &c).as_deref());
+            for &(i, r) in &c.flagged {
+                cleaned[i] = x[i] - r;
+            }
         }
     }
-    // The samples filled in carry the base terms where the flags and the law agree; flags well beyond the law's
-    // count are not all spikes' (a fast sinusoid's crests stand out of their neighbours' median), and the curve of
-    // the samples with those filled in would lose the noise's own variance.
-    let refit = match (lattice, unflagged_share(&c, m.eps)) {
-        (None, Some(missed)) if d.shaped_dps.is_none() => refit_on_cleaned(d, &cleaned, &spikes, missed),
-        _ => refit_without(d, &spikes),
-    };
     Some(EffectFit {
         effect: Effect::Outliers,
         params: OutliersParams {
@@ -497,16 +481,6 @@ pub(super) fn outliers(d: &TrainingData) -> Option<EffectFit> {
         spread: Some(ParamSpread::SpikeRate { runs: m.eps * n as f64 / run_mean.max(1.0) }),
         cleaned: Some(Arc::new(cleaned)),
     })
-}
-
-/// The short-lag variogram of `x` outside the gaps and the spikes `c` flagged, at the lags both the law's
-/// calibration ([`short_lag`]) and the spikes' filling in ([`impute`]) read.
-fn short_lag(x: &[f64], gap: &[bool], c: &Contamination) -> Option<Vec<f64>> {
-    let mut skip = gap.to_vec();
-    for &(i, _) in &c.flagged {
-        skip[i] = true;
-    }
-    short_lag::variogram(x, &skip, (short_lag::ORDER + 1).max(2 * HALF_WINDOW))
 }
 
 /// Spikes on a lattice read off the undithered residuals at or beyond its reach, where no clean residual stands
@@ -673,38 +647,6 @@ fn refit_without(d: &TrainingData, o: &Outliers) -> GyroSim {
         })
         .collect();
     refit_base_terms(d.base, &pts, rate_hz)
-}
-
-/// The share of a law's spikes (`eps` a sample) that the flags of `c` missed: one less the flagged count over the
-/// spikes the law puts among the residuals read; `None` where the flags exceed that count beyond its Poisson
-/// scatter (three sds) and a tenth, so that some flags are not spikes'.
-fn unflagged_share(c: &Contamination, eps: f64) -> Option<f64> {
-    let expected = eps * c.valid as f64;
-    let flagged = c.flagged.len() as f64;
-    (expected > 0.0 && flagged <= 1.1 * expected + 3.0 * expected.sqrt() + 3.0)
-        .then(|| (1.0 - flagged / expected).clamp(0.0, 1.0))
-}
-
-/// The base terms re-fitted on the OADEV of the samples with the flagged spikes filled in ([`impute`]), less the
-/// Allan variance of the spikes the flags missed (a share `missed` of the law `o`'s, taken as isolated, at the
-/// law's magnitudes: an upper bound, since those are the smaller ones). Where nearly every spike is flagged, N no
-/// longer rests on the law: the spikes can carry several times the white noise's variance, and taking the law's
-/// whole Allan variance off the record's curve moved N by 1.7% for each 0.45% of error in the law's share.
-fn refit_on_cleaned(d: &TrainingData, cleaned: &[f64], o: &Outliers, missed: f64) -> GyroSim {
-    let left = Outliers { per_sample: o.per_sample * missed, run_mean: 1.0, run_continue: 0.0, ..*o };
-    let pts: Vec<_> = gapped_oadev_points(cleaned, d.gaps, d.rate_hz)
-        .into_iter()
-        .filter_map(|mut p| {
-            let own = spike_avar(&left, p.tau_s * d.rate_hz);
-            let share = (p.avar - own) / p.avar;
-            (share > 0.02).then(|| {
-                p.avar -= own;
-                p.edf *= share * share;
-                p
-            })
-        })
-        .collect();
-    refit_base_terms(d.base, &pts, d.rate_hz)
 }
 
 /// Whether more than half of the spikes at sample indices `hits` (sorted) lie within [`CLUSTER_SPAN`] of a record

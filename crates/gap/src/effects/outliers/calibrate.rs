@@ -5,8 +5,7 @@
 //! run members are flagged less often than the fitted law says (the runs read short), and part of the law hides
 //! in the core's shoulders. What matters to the diagnosis is that the simulation of the law reproduces the
 //! record, so the law is corrected against the estimator itself: a synthetic record is drawn from the law read
-//! (shared::sim's spikes, the generator the simulation uses, on a Gaussian noise with the record's own variogram
-//! over a few samples, [`super::short_lag`]), read again by the same estimator,
+//! (white noise plus shared::sim's spikes, the generator the simulation uses), read again by the same estimator,
 //! and each parameter is moved by the difference between what the record gave and what the synthetic record
 //! gave (`theta <- theta + (read(record) - read(synthetic(theta)))`, [`ROUNDS`] times). Scale parameters (the
 //! core's sd, the share, the centre) are corrected on a log scale; the spread and the run law on their own.
@@ -20,7 +19,6 @@ use octavar_shared::sim::rng::SimRng;
 use octavar_shared::sim::Outliers;
 
 use super::mixture::Mixture;
-use super::short_lag::ShortLag;
 use super::{read, Contamination, CLEAR_SIGMAS};
 
 /// What the correction moves: the law and the run law.
@@ -95,20 +93,10 @@ impl OnLattice {
 /// The law of `read_off` (read from a record of `n` samples) corrected for the estimator's bias; as read where the
 /// spikes stand clear of the core, or where a synthetic record gives no reading.
 ///
-/// Off a lattice the synthetic records' noise is `core`, the process with the record's short-lag variogram, scaled
-/// each round so the residuals' core sd matches the record's (white noise where the variogram was not read): a
-/// spike whose run partner is left out of its window loses its nearest neighbour, which on a correlated noise
-/// widens its residual, and white noise would leave the law read that much too wide.
-///
 /// On an ADC lattice the synthetic records are rounded to it, over a level that crosses it slowly, and read as the
 /// record was (dithered, the magnitudes beyond the lattice's reach); their white noise is the one under the
 /// lattice, which the dithered core's scale (mostly the dither's and the rounding's) does not follow.
-pub(super) fn corrected(
-    read_off: &Contamination,
-    n: usize,
-    lattice: Option<OnLattice>,
-    core: Option<&ShortLag>,
-) -> Law {
+pub(super) fn corrected(read_off: &Contamination, n: usize, lattice: Option<OnLattice>) -> Law {
     let seen = Law::of(read_off);
     let m = seen.mix;
     if m.centre - m.spread >= CLEAR_SIGMAS * m.sigma || n < 64 {
@@ -116,16 +104,10 @@ pub(super) fn corrected(
     }
     let len = ((SYNTHETIC_SPIKES / m.eps.max(1e-12)) as usize).clamp(n, (MAX_LENGTHS * n as f64) as usize);
     let mut law = seen;
-    // The noise's scale: the white noise's sd, or the factor on `core`.
-    let core = core.filter(|_| lattice.is_none());
-    let mut white = match (lattice, core) {
-        (Some(l), _) => l.white,
-        (None, Some(_)) => 1.0,
-        (None, None) => m.sigma / RESIDUAL_INFLATION,
-    };
+    let mut white = lattice.map_or(m.sigma / RESIDUAL_INFLATION, |l| l.white);
     let no_gaps = vec![false; len];
     for round in 0..ROUNDS {
-        let x = synthetic(&law, core, white, len, SEED + round as u64);
+        let x = synthetic(&law, white, len, SEED + round as u64);
         let got = match lattice {
             Some(l) => {
                 let x = super::lattice_reach::rounded_over_slow_level(&x, l.step);
@@ -149,14 +131,9 @@ pub(super) fn corrected(
     law
 }
 
-/// `len` samples of `core` times `scale` (white noise of sd `scale` without one) plus the spikes of `law`, stream
-/// `seed`.
-fn synthetic(law: &Law, core: Option<&ShortLag>, scale: f64, len: usize, seed: u64) -> Vec<f64> {
+/// `len` samples of white noise of sd `white` plus the spikes of `law`, stream `seed`.
+fn synthetic(law: &Law, white: f64, len: usize, seed: u64) -> Vec<f64> {
     let mut rng = SimRng::new(seed);
-    let noise = match core {
-        Some(c) => c.draw(len, scale, &mut rng),
-        None => (0..len).map(|_| scale * rng.normal()).collect(),
-    };
-    let mut spikes = Spikes::new(&law.outliers(), scale, &mut rng);
-    noise.into_iter().map(|v| v + spikes.next(&mut rng)).collect()
+    let mut spikes = Spikes::new(&law.outliers(), white, &mut rng);
+    (0..len).map(|_| white * rng.normal() + spikes.next(&mut rng)).collect()
 }
