@@ -5,6 +5,7 @@ use octavar_shared::sim::GyroSim;
 
 use super::common::*;
 use super::curve::*;
+use super::lowpass::refer_to_bandwidth;
 use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// The bandwidth effect: [`bandwidth`] and its parameters.
@@ -68,7 +69,13 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     // log-domain chi-square measures the process's misfit there; any corner that bends it away lowered it by
     // 2,900-3,800 on records with no corner at all.
     let markov = d.base.gauss_markov;
-    let known = GyroSim { gauss_markov: None, ..d.base.clone() };
+    // A resonance read from the output before the corner is what passed it: under each corner tried, its input
+    // is larger by what that corner takes ([`refer_to_bandwidth`]), so what is taken off is what was read.
+    let known_at = |f: Option<f64>| {
+        let mut known = GyroSim { gauss_markov: None, bandwidth_hz: f, ..d.base.clone() };
+        refer_to_bandwidth(&mut known, d.base.bandwidth_hz, rate_hz);
+        known
+    };
     // The process's time constant as its own step read it, without the corner, is too long where the corner took
     // part of its roll-off (1.4 s read for 1.2 s beside a corner at 0.18 of the rate): it is searched beside each
     // corner, on these factors of it. The fit returns the factor it kept (1 without a process).
@@ -77,12 +84,16 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     // corner tried: N, B and K are read on the curve once, and the lattice taken off over them.
     let points_at = |f: Option<f64>| {
         let raw = raw_at(f);
+        let known = known_at(f);
         let pts = less_known(&raw, &known, f, rate_hz, d.lattice_dps);
         if d.lattice_dps.is_none() {
             return pts;
         }
         match joint_fit_keeping(&pts, &base_columns(&pts, rate_hz, f, with_q), 0) {
-            Some(j) => less_known_over(&raw, &known, &with_base_terms(d.base, &j.theta), f, rate_hz, d.lattice_dps),
+            Some(j) => {
+                let analog = GyroSim { gauss_markov: markov, ..with_base_terms(&known, &j.theta) };
+                less_known_over(&raw, &known, &analog, f, rate_hz, d.lattice_dps)
+            }
             None => pts,
         }
     };
@@ -116,6 +127,8 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     }
     let mut gyro = with_base_terms(d.base, &j.theta);
     gyro.bandwidth_hz = Some(f);
+    // The sinusoids and the resonance were read from the output: the model sends them through the corner.
+    refer_to_bandwidth(&mut gyro, d.base.bandwidth_hz, rate_hz);
     if let (Some(g), Some(&v)) = (gyro.gauss_markov.as_mut(), j.theta.get(BASE_COLS)) {
         g.sigma_dps = v.max(0.0).sqrt();
         g.tau_s *= sc;

@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::common::*;
 use super::curve::*;
+use super::lowpass::sinusoid_moved;
 use super::noise_spectrum::NoiseSpectrum;
 use super::{Effect, EffectFit, EffectKind, ParamSpread, TrainingData};
 
@@ -687,6 +688,19 @@ fn sinusoids_fit(
                 [sd_a, sd_p, f.se[2] * sd_a / f.se[0].max(1e-300)]
             }
             None => f.se,
+        })
+        .collect();
+    // Read from the output; the model sends its sinusoids through the sensor's bandwidth, so under a corner each
+    // is the larger input that gives what was read, its standard error scaled alike.
+    let bw = d.base.bandwidth_hz;
+    let list: Vec<Sinusoid> = list.iter().map(|s| sinusoid_moved(s, None, bw, d.rate_hz)).collect();
+    let se: Vec<[f64; 3]> = se
+        .iter()
+        .zip(&found)
+        .zip(&list)
+        .map(|((e, f), s)| {
+            let g = s.amplitude_dps / f.sinusoid.amplitude_dps.max(1e-300);
+            [e[0] * g, e[1], e[2]]
         })
         .collect();
     gyro.sinusoids.clear();
