@@ -5,7 +5,7 @@ use octavar_shared::sim::GyroSim;
 
 use super::common::*;
 use super::curve::*;
-use super::lowpass::refer_to_bandwidth;
+use super::filter_input::refer_to_bandwidth;
 use super::{Effect, EffectFit, EffectKind, TrainingData};
 
 /// The bandwidth effect: [`bandwidth`] and its parameters.

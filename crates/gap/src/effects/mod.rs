@@ -42,6 +42,7 @@ mod bias_steps;
 mod bistable;
 mod common;
 mod curve;
+mod filter_input;
 mod gauss_markov;
 pub mod joint_curve;
 mod jump_scan;
