@@ -391,7 +391,9 @@ fn bistable_read(d: &TrainingData, apart_windows: usize, readings: f64) -> Optio
     let p_high = time_high / (time_high + time_low);
     let on_curve = telegraph_on_curve(d, step, dwell_low, dwell_high, (count_low, count_high), p_high);
     let (dwell_low, dwell_high) = on_curve.as_ref().map_or((dwell_low, dwell_high), |c| (c.0, c.1));
-    let cleaned: Vec<f64> = x.iter().zip(telegraph_levels(x, &edges, step, p_high)).map(|(v, l)| v - l).collect();
+    let mut levels = telegraph_levels(x, &edges, step, p_high);
+    mend_level_errors(x, &mut levels, step, best.window);
+    let cleaned: Vec<f64> = x.iter().zip(levels).map(|(v, l)| v - l).collect();
     let refit = match &on_curve {
         Some((_, _, theta)) => with_base_terms(d.base, theta),
         None => refit_base(d, &cleaned, f64::INFINITY).map_or_else(|| d.base.clone(), |r| r.0),
@@ -487,7 +489,108 @@ pub(super) fn recovered_levels(x: &[f64], l: usize, apart: usize) -> Option<Vec<
     let ReadJumps { jumps, seen, .. } = read_jumps(x, &flips, l);
     let step = mean(&seen);
     let States { edges, time_high, time_low, .. } = States::between(&jumps, n, 1.0)?;
-    Some(telegraph_levels(x, &edges, step, time_high / (time_high + time_low)))
+    let mut levels = telegraph_levels(x, &edges, step, time_high / (time_high + time_low));
+    mend_level_errors(x, &mut levels, step, l);
+    Some(levels)
+}
+
+/// How far a jump's size may part from the telegraph's step, as a share of the step, and still be read as a flip
+/// the levels got wrong ([`mend_level_errors`]).
+const FLIP_SIZE_TOLERANCE: f64 = 0.25;
+
+/// The longest stretch either side of a jump, in windows, over which [`mend_level_errors`] measures its size.
+const MEND_SPAN: usize = 16;
+
+/// The share of a stretch's samples [`mend_level_errors`] finds in the state the stretch leaves, at least, for it
+/// to put them in the other: the rest are the residues of flips placed a few samples off, a pulse the scan passes
+/// over.
+const MEND_SHARE: f64 = 0.98;
+
+/// The stretches whose state the levels still give wrong, put in the other state. Where the jumps read a short
+/// excursion's edges at the wrong places (a quick up and down again, its down-edge put hundreds of samples late),
+/// `x` less the levels keeps a jump of the step's size at each end of the stretch in the wrong state;
+/// [`telegraph_levels`] compares whole stretches between the jumps it was given, and one whose neighbours the noise
+/// beneath has moved escapes it. So the scan of the jumps runs again, at the telegraph's window `l`, over `x` less
+/// the levels, each jump measured again over the stretches to its neighbours. The jumps of the step's size (within
+/// [`FLIP_SIZE_TOLERANCE`]) split the record into stretches, each a whole number of steps from the one before. A
+/// stretch one step from the level around it (its two neighbours' where they agree; at an end of the record, its
+/// one neighbour's where it is the shorter) is put in the other state, where one of its ends lies within two
+/// windows of an edge of the levels (the edge put in the wrong place), or the stretch reaches an end of the record
+/// (a flip the levels missed), and nearly all its levels are of the state it
+/// leaves ([`MEND_SHARE`]; a stretch whose levels mix both states is not a state error the step explains). A bias
+/// step of the telegraph's size reads as such a jump too, but at a place of its own, not at an edge of the levels:
+/// beside a process of 75 steps a record, most of them the size of the telegraph's step or less, stretches
+/// between such steps would be put in the wrong state.
+fn mend_level_errors(x: &[f64], levels: &mut [f64], step: f64, l: usize) {
+    let n = x.len().min(levels.len());
+    if !(step > 0.0) || n < 4 * l {
+        return;
+    }
+    let cleaned: Vec<f64> = x[..n].iter().zip(&levels[..n]).map(|(v, l)| v - l).collect();
+    let Some(scan) = mosum_scan_apart(&cleaned, l, 2 * l) else { return };
+    // Each jump measured again over the stretches to its neighbours (up to [`MEND_SPAN`] windows each side): the
+    // scan's own size is its largest mean difference near the jump, which the noise lifts.
+    let mut at: Vec<usize> = scan.steps.iter().map(|s| s.0).collect();
+    at.sort_unstable();
+    let span = MEND_SPAN * l;
+    let flips: Vec<(usize, f64)> = (0..at.len())
+        .map(|i| {
+            let t = at[i];
+            let before = at.get(i.wrapping_sub(1)).copied().unwrap_or(0).max(t.saturating_sub(span));
+            let after = at.get(i + 1).copied().unwrap_or(n).min(t + span);
+            (t, mean(&cleaned[t..after]) - mean(&cleaned[before..t]))
+        })
+        .filter(|&(_, s)| (s.abs() / step - 1.0).abs() <= FLIP_SIZE_TOLERANCE)
+        .collect();
+    if flips.is_empty() {
+        return;
+    }
+    // Each stretch and its offset from the first, in whole steps.
+    let mut stretches: Vec<(usize, usize, i64)> = Vec::with_capacity(flips.len() + 1);
+    let (mut start, mut offset) = (0usize, 0i64);
+    for &(t, size) in &flips {
+        stretches.push((start, t, offset));
+        offset += if size > 0.0 { 1 } else { -1 };
+        start = t;
+    }
+    stretches.push((start, n, offset));
+    let (high, low) = levels[..n].iter().fold((f64::MIN, f64::MAX), |(h, lo), &v| (h.max(v), lo.min(v)));
+    let len = |j: usize| stretches[j].1 - stretches[j].0;
+    // The levels' own edges, and whether a jump at `t` lies within two windows of one.
+    let edges: Vec<usize> = (1..n).filter(|&i| levels[i] != levels[i - 1]).collect();
+    let at_an_edge = |t: usize| {
+        let k = edges.partition_point(|&e| e + 2 * l < t);
+        edges.get(k).is_some_and(|&e| e <= t + 2 * l)
+    };
+    for j in 0..stretches.len() {
+        let (a, b, k) = stretches[j];
+        // The level around the stretch: its two neighbours' where they agree; at an end of the record, the one
+        // neighbour's where the stretch is the shorter.
+        let around = match (j.checked_sub(1), (j + 1 < stretches.len()).then_some(j + 1)) {
+            (Some(p), Some(q)) => (stretches[p].2 == stretches[q].2).then_some(stretches[p].2),
+            (None, Some(q)) => (len(j) < len(q)).then_some(stretches[q].2),
+            (Some(p), None) => (len(j) < len(p)).then_some(stretches[p].2),
+            (None, None) => None,
+        };
+        let Some(around) = around else { continue };
+        // Inside the record, a state error begins or ends where the levels put an edge in the wrong place; at an
+        // end, a flip the levels missed leaves the stretch to the end in the state before it.
+        let at_an_end = a == 0 || b == n;
+        if !(at_an_end || at_an_edge(a) || at_an_edge(b)) {
+            continue;
+        }
+        // Above the level around by a step in x less the levels: the levels there read low where the state was
+        // high.
+        let (from, to) = match k - around {
+            1 => (low, high),
+            -1 => (high, low),
+            _ => continue,
+        };
+        let in_from = levels[a..b].iter().filter(|&&v| v == from).count();
+        if b > a && in_from as f64 >= MEND_SHARE * (b - a) as f64 {
+            levels[a..b].iter_mut().filter(|v| **v == from).for_each(|v| *v = to);
+        }
+    }
 }
 
 /// The two states between the jumps: each stretch of the record with its state, and each state's time and
@@ -563,6 +666,29 @@ mod tests {
             let want = if (3_000..3_002).contains(&i) { level(true) } else { level(truth(i)) };
             assert!((l - want).abs() < 1e-12, "sample {i}: level {l}, want {want}");
         }
+    }
+
+    /// The case of an excursion read at the wrong places, from a record of the independent generator: the telegraph
+    /// went up and, 35 samples later, down again, and the levels kept it high 400 samples longer (the jumps put
+    /// the down-edge late, and the stretch's neighbours, moved by the noise beneath, did not tell it). `x` less the
+    /// levels then holds a step down and a step up, which a bias-step scan named as steps. [`mend_level_errors`]
+    /// finds the two and puts the samples between in their state: every sample is then the truth's. The other
+    /// stretches, and a bias step of half the telegraph's step, are left as they are.
+    #[test]
+    fn an_edge_read_late_is_mended_and_other_jumps_are_left() {
+        let (n, l, step, p_high) = (20_000, 8, 0.25, 0.25);
+        let noise = octavar_stats::test_signals::white(n, 11);
+        let high =
+            |i: usize| (2_000..5_000).contains(&i) || (8_000..8_035).contains(&i) || (14_000..16_000).contains(&i);
+        let bias_step = |i: usize| if i >= 11_000 { 0.5 * step } else { 0.0 };
+        let x: Vec<f64> = (0..n).map(|i| if high(i) { step } else { 0.0 } + bias_step(i) + 0.02 * noise[i]).collect();
+        let level = |h: bool| if h { step * (1.0 - p_high) } else { -step * p_high };
+        let mut levels: Vec<f64> = (0..n).map(|i| level(high(i) || (8_035..8_435).contains(&i))).collect();
+        let wrong = |levels: &[f64]| (0..n).filter(|&i| (levels[i] == level(true)) != high(i)).count();
+        assert_eq!(wrong(&levels), 400, "the premise");
+        mend_level_errors(&x, &mut levels, step, l);
+        assert_eq!(wrong(&levels), 0);
+        assert!(levels.iter().all(|&v| v == level(true) || v == level(false)));
     }
 
     /// Two short excursions, each seen by one edge (the scan keeps one of two edges within a window), whose seen
