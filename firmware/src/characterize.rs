@@ -8,6 +8,7 @@
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_futures::select::{select, Either};
+use embassy_futures::yield_now;
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, NoopRawMutex};
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
@@ -119,6 +120,9 @@ pub async fn characterize_task(mut blocks: BlockReceiver, core: &'static mut Cha
                 feed_block(core, block);
                 blocks.receive_done();
                 BLOCKS_TAKEN.fetch_add(1, Ordering::Relaxed);
+                // One block per turn: the link task runs between blocks and drains their frames, so the
+                // sampler's backlog after a stall comes out as a stream, not a burst the frame queue drops.
+                yield_now().await;
             }
             Either::Second((seq, cmd)) => {
                 core.command(seq, cmd, &mut Queue);

@@ -22,6 +22,7 @@
 use core::sync::atomic::Ordering;
 
 use cortex_m_semihosting::{debug, hprintln};
+use embassy_futures::select::select;
 use embassy_time::{Duration, Timer};
 use octavar_shared::device::ReadyBlock;
 use octavar_shared::proto::{Command, Decoder};
@@ -215,7 +216,10 @@ pub async fn uart_task() {
                 }
             }
         }
-        Timer::after(Duration::from_micros(500)).await;
+        // Woken by the first frame queued, as the USB task is: the link drains between any two of
+        // characterize's blocks, so a burst (the ring's backlog after a stall) never fills the queue. The timer
+        // is for the receive side, which has no interrupt here.
+        select(FRAMES_OUT.ready_to_receive(), Timer::after(Duration::from_micros(500))).await;
     }
 }
 
