@@ -498,9 +498,6 @@ pub(super) fn recovered_levels(x: &[f64], l: usize, apart: usize) -> Option<Vec<
 /// the levels got wrong ([`mend_level_errors`]).
 const FLIP_SIZE_TOLERANCE: f64 = 0.25;
 
-/// The longest stretch either side of a jump, in windows, over which [`mend_level_errors`] measures its size.
-const MEND_SPAN: usize = 16;
-
 /// The share of a stretch's samples [`mend_level_errors`] finds in the state the stretch leaves, at least, for it
 /// to put them in the other: the rest are the residues of flips placed a few samples off, a pulse the scan passes
 /// over.
@@ -528,18 +525,15 @@ fn mend_level_errors(x: &[f64], levels: &mut [f64], step: f64, l: usize) {
     }
     let cleaned: Vec<f64> = x[..n].iter().zip(&levels[..n]).map(|(v, l)| v - l).collect();
     let Some(scan) = mosum_scan_apart(&cleaned, l, 2 * l) else { return };
-    // Each jump measured again over the stretches to its neighbours (up to [`MEND_SPAN`] windows each side): the
-    // scan's own size is its largest mean difference near the jump, which the noise lifts.
-    let mut at: Vec<usize> = scan.steps.iter().map(|s| s.0).collect();
-    at.sort_unstable();
-    let span = MEND_SPAN * l;
-    let flips: Vec<(usize, f64)> = (0..at.len())
-        .map(|i| {
-            let t = at[i];
-            let before = at.get(i.wrapping_sub(1)).copied().unwrap_or(0).max(t.saturating_sub(span));
-            let after = at.get(i + 1).copied().unwrap_or(n).min(t + span);
-            (t, mean(&cleaned[t..after]) - mean(&cleaned[before..t]))
-        })
+    // Each jump measured again over the stretches to its neighbours: the scan's own size is its largest mean
+    // difference near the jump, which the noise lifts.
+    let mut jumps: Vec<Jump> = scan.steps.iter().map(|s| (s.0, s.1, true)).collect();
+    jumps.sort_unstable_by_key(|j| j.0);
+    let sizes = refined_sizes(&cleaned, &jumps, l);
+    let flips: Vec<(usize, f64)> = jumps
+        .iter()
+        .zip(sizes)
+        .map(|(j, s)| (j.0, s))
         .filter(|&(_, s)| (s.abs() / step - 1.0).abs() <= FLIP_SIZE_TOLERANCE)
         .collect();
     if flips.is_empty() {
