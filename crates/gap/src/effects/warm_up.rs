@@ -176,38 +176,71 @@ fn scan(x: &[f64], rate_hz: f64, noise: &BlockNoise, trend: bool) -> Option<(f64
         acc += v;
         pre.push(acc);
     }
-    let (mut best, mut instead_of_ramp): (Option<(f64, f64, f64)>, _) = (None, None);
+    // The best fit and where it was found: (size, se, tau_s), with its block length and the longest tau allowed
+    // there, samples.
+    type Found = Option<((f64, f64, f64), usize, f64)>;
+    let (mut best, mut instead_of_ramp): (Found, Found) = (None, None);
+    let better =
+        |best: &Found, (size, se): (f64, f64)| best.is_none_or(|((s, e, _), _, _)| (size / se).abs() > (s / e).abs());
     let mut b = MIN_BLOCK;
     while 8 * b <= n / 4 {
         // The longest block length (the next would leave fewer than 32 blocks) carries the time constants on,
         // four per octave, up to LONGEST_TAU of the record.
         let longest = 16 * b > n / 4;
         let taus = (0..).map(|j| 8.0 * 2f64.powf(j as f64 / 4.0)).take_while(|&k| longest || k < 16.0);
+        let reach = n as f64 * if longest { LONGEST_TAU } else { 0.25 };
         if let Some(blocks) = Blocks::new(&pre, b, noise, rate_hz, trend) {
             let trend_chi2 = blocks.trend_chi2();
             for k in taus {
                 let tau = k * b as f64;
-                if tau > n as f64 * if longest { LONGEST_TAU } else { 0.25 } {
+                if tau > reach {
                     break;
                 }
-                let better = |best: Option<(f64, f64, f64)>, (size, se): (f64, f64)| {
-                    best.is_none_or(|(s, e, _)| (size / se).abs() > (s / e).abs())
-                };
                 if let Some(fit) = blocks.fit(tau, true) {
-                    if better(best, fit) {
-                        best = Some((fit.0, fit.1, tau / rate_hz));
+                    if better(&best, fit) {
+                        best = Some(((fit.0, fit.1, tau / rate_hz), b, reach));
                     }
                 }
                 if let Some(fit @ (size, se)) = blocks.fit(tau, false).filter(|_| trend) {
-                    if (size / se).powi(2) > trend_chi2 + RAMP_MARGIN_CHI2 && better(instead_of_ramp, fit) {
-                        instead_of_ramp = Some((size, se, tau / rate_hz));
+                    if (size / se).powi(2) > trend_chi2 + RAMP_MARGIN_CHI2 && better(&instead_of_ramp, fit) {
+                        instead_of_ramp = Some(((size, se, tau / rate_hz), b, reach));
                     }
                 }
             }
         }
         b *= 2;
     }
-    instead_of_ramp.or(best)
+    let with_trend = instead_of_ramp.is_none();
+    let (found, b, reach) = instead_of_ramp.or(best)?;
+    Some(refined_tau(&pre, b, reach, noise, rate_hz, trend, with_trend, found))
+}
+
+/// The time constant between the scan's grid points: the grid steps by a quarter octave, which leaves a warm-up's
+/// tau up to a tenth off and, beside a warm-up of many standard errors, a residue of its decay that a later step
+/// reads as an effect of its own. So the fit's `|size| / se` is maximised over tau (the profile likelihood of the
+/// GLS fit at the block length `b` the grid's best was found at) by Brent's search within a grid step either side
+/// of it, up to the scan's `reach` (samples); the grid's fit `found` stands where the search finds no better.
+#[allow(clippy::too_many_arguments)]
+fn refined_tau(
+    pre: &[f64],
+    b: usize,
+    reach: f64,
+    noise: &BlockNoise,
+    rate_hz: f64,
+    trend: bool,
+    with_trend: bool,
+    found: (f64, f64, f64),
+) -> (f64, f64, f64) {
+    let Some(blocks) = Blocks::new(pre, b, noise, rate_hz, trend) else { return found };
+    let tau0 = found.2 * rate_hz;
+    let step = 2f64.powf(0.25);
+    let (lo, hi) = ((tau0 / step).ln(), (tau0 * step).min(reach).max(tau0).ln());
+    let t_of = |ln_tau: f64| blocks.fit(ln_tau.exp(), with_trend).map_or(f64::NAN, |(s, e)| -(s / e).abs());
+    let (ln_tau, neg_t) = brent(lo, hi, 1e-3, 24, t_of);
+    match blocks.fit(ln_tau.exp(), with_trend) {
+        Some((size, se)) if -neg_t > (found.0 / found.1).abs() => (size, se, ln_tau.exp() / rate_hz),
+        _ => found,
+    }
 }
 
 /// The scan's largest |t| on `x` under `noise`, with a trend or without (for the threshold's
