@@ -273,21 +273,21 @@ impl EffectKind for Kind {
 
 /// The bias settling after power-on.
 ///
-/// Method: block means at block lengths on an octave grid from 4 samples (at most 256 blocks each, from the
-/// record's start), as contrasts against the last block used, regressed by generalised least squares on the
-/// warm-up `exp(-t / tau)` averaged over each block exactly (t from the first sample), and on a linear trend where
-/// the base model has a ramp (else a warm-up of a long tau would be half taken by the trend; a warm-up without
-/// the trend that explains the block means better than the trend replaces it, [`scan`]); the covariance is the
-/// one the model's noise gives block means (white, flicker, random walk and a Gauss-Markov process, through their
-/// semivariogram, [`BlockNoise::semivariogram`]). tau runs over 8 to 16 blocks at each block length, four per
-/// octave, up to a quarter of the record, and on at the longest block length up to [`LONGEST_TAU`] of it; the
-/// largest t-statistic of the size wins. Two passes, as for the temperature coupling. The first proposes a
-/// warm-up under two noises: the base fit's, and the base fit's without random walk and ramp (the base fit took
-/// the warm-up's long tail for them, and a warm-up over half the record then looks like their wander). Each
-/// proposal beyond [`T_STAT_FIRST`] is taken out and the IEEE terms refitted on what is left; the second pass
-/// scans again under that refit's noise, which also gives the model's base terms, and the proposal whose second
-/// pass has the larger t-statistic is kept. The warm-up counts beyond [`T_STAT`] standard errors of that second
-/// pass, which weighs it against the noise the record has without it.
+/// Method: block means at block lengths on an octave grid from 4 samples (at most 256 blocks each, from the record's
+/// start), as contrasts against the last block used, regressed by generalised least squares on the warm-up `exp(-t /
+/// tau)` averaged over each block exactly (t from the first sample), and on a linear trend where the base model has a
+/// ramp (else a warm-up of a long tau would be half taken by the trend; a warm-up without the trend that explains the
+/// block means better than the trend replaces it, [`scan`]); the covariance is the one the model's noise gives block
+/// means (white, flicker, random walk and a Gauss-Markov process, through their semivariogram,
+/// [`BlockNoise::semivariogram`]). tau runs over 8 to 16 blocks at each block length, four per octave, up to a quarter
+/// of the record, and on at the longest block length up to [`LONGEST_TAU`] of it; the largest t-statistic of the size
+/// wins, its tau refined between the grid's points ([`refined_tau`]). Two passes, as for the temperature coupling. The
+/// first proposes a warm-up under two noises: the base fit's, and the base fit's without random walk and ramp (the base
+/// fit took the warm-up's long tail for them, and a warm-up over half the record then looks like their wander). Each
+/// proposal beyond [`T_STAT_FIRST`] is taken out and the IEEE terms refitted on what is left; the second pass scans
+/// again under that refit's noise, which also gives the model's base terms, and the proposal whose second pass has the
+/// larger t-statistic is kept. The warm-up counts beyond [`T_STAT`] standard errors of that second pass, which weighs
+/// it against the noise the record has without it.
 pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let rate_hz = d.rate_hz;
