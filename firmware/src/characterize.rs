@@ -8,7 +8,6 @@
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_futures::select::{select, Either};
-use embassy_futures::yield_now;
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, NoopRawMutex};
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
@@ -120,9 +119,11 @@ pub async fn characterize_task(mut blocks: BlockReceiver, core: &'static mut Cha
                 feed_block(core, block);
                 blocks.receive_done();
                 BLOCKS_TAKEN.fetch_add(1, Ordering::Relaxed);
-                // One block per turn: the link task runs between blocks and drains their frames, so the
-                // sampler's backlog after a stall comes out as a stream, not a burst the frame queue drops.
-                yield_now().await;
+                // The link takes this block's frames before the next block is fed, so the sampler's backlog
+                // after a stall comes out as a stream of one block's frames at a time, not a burst of several
+                // that the frame queue would drop. Bounded: a link that stops taking frames costs a block
+                // [`DRAIN_LIMIT`], well inside the sampler's ring, and its frames are dropped as before.
+                frames::drained_within(DRAIN_LIMIT).await;
             }
             Either::Second((seq, cmd)) => {
                 core.command(seq, cmd, &mut Queue);

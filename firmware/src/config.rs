@@ -33,6 +33,10 @@ pub const RING_SCANS: usize = 16 * BLOCK_SCANS;
 pub const RING_CODES: usize = RING_SCANS * CHANNELS;
 /// How often the sampler looks at the ring.
 pub const SAMPLER_POLL: Duration = Duration::from_millis(16);
+/// The longest characterize waits for the link to take a block's frames before it feeds the next block
+/// ([`crate::frames::drained_within`]): an eighth of a block's time, so a link that stops taking frames slows
+/// characterize by at most that and the sampler's backlog still drains.
+pub const DRAIN_LIMIT: Duration = Duration::from_millis(8);
 /// Scans in one sampler poll period.
 pub const POLL_SCANS: usize = (SAMPLER_POLL.as_micros() * SAMPLE_RATE_HZ as u64 / 1_000_000) as usize;
 /// Scans a stall of the CPU can last without losing one, when it starts with the sampler caught up: the ring,
@@ -51,4 +55,5 @@ const _: () = assert!(DEVICE.is_valid() && DEVICE.gyros == GYROS);
 const _: () = assert!(crate::board_config::BOARD.adc_pins.len() == CHANNELS, "one ADC pin per channel");
 const _: () = assert!(RING_CODES <= u16::MAX as usize, "the DMA counts at most 65535 transfers");
 // The sampler looks at the ring many times per lap.
+const _: () = assert!(DRAIN_LIMIT.as_micros() * 8 <= BLOCK_SCANS as u64 * 1_000_000 / SAMPLE_RATE_HZ as u64);
 const _: () = assert!(SAMPLER_POLL.as_micros() * 16 < RING_SCANS as u64 * 1_000_000 / SAMPLE_RATE_HZ as u64);

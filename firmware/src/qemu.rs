@@ -216,9 +216,9 @@ pub async fn uart_task() {
                 }
             }
         }
-        // Woken by the first frame queued, as the USB task is: the link drains between any two of
-        // characterize's blocks, so a burst (the ring's backlog after a stall) never fills the queue. The timer
-        // is for the receive side, which has no interrupt here.
+        // Woken by the first frame queued, as the USB task is (characterize waits for the queue to drain before
+        // its next block: `frames::drained_within`). The timer is for the receive side, which has no interrupt
+        // here.
         select(FRAMES_OUT.ready_to_receive(), Timer::after(Duration::from_micros(500))).await;
     }
 }
@@ -317,12 +317,14 @@ pub async fn finish_task() {
     }
     Timer::after_millis(5).await;
     hprintln!(
-        "octavar-qemu: {} scans, {} lost, {} frames dropped; stack peak {} of {} bytes",
+        "octavar-qemu: {} scans, {} lost, {} frames dropped; stack peak {} of {} bytes; frame queue peak {} of {}",
         RUN_SCANS,
         sampler::SCANS_LOST.load(Ordering::Relaxed),
         crate::frames::FRAMES_DROPPED.load(Ordering::Relaxed),
         crate::stack::peak_bytes(),
-        crate::stack::size_bytes()
+        crate::stack::size_bytes(),
+        crate::frames::FRAMES_PEAK.load(Ordering::Relaxed),
+        crate::frames::FRAME_QUEUE
     );
     debug::exit(debug::EXIT_SUCCESS);
 }

@@ -54,6 +54,10 @@ const RATE: u64 = 2000;
 const BLOCK: u64 = 128;
 const RING: u64 = 2048;
 const GYROS: u64 = 4;
+/// The most frames one sample block makes, which the frame queue (16) must hold at once when the link drains it
+/// between blocks: the block's raw frames (32 scans each) and, where it ends a round, a snapshot part per gyro,
+/// the estimate and the status.
+const QUEUE_PEAK_MAX: u32 = (BLOCK / 32 + GYROS + 2) as u32;
 /// QEMU gets this long (runs are paced at real time) before it is killed.
 const QEMU_TIMEOUT: Duration = Duration::from_secs(90);
 /// The paper's Table 1 N (deg/sqrt(s)) of the simulated gyros, in channel order (IDG1215 X, Y, ADXRS300, ENV-05H).
@@ -326,7 +330,7 @@ fn firmware_on_qemu_matches_the_host_replay_and_obeys_commands_over_usart() {
     let (end_peak, stack_size) = stdout
         .lines()
         .find_map(|l| {
-            let rest = l.split("; stack peak ").nth(1)?;
+            let rest = l.split("; stack peak ").nth(1)?.split(';').next()?;
             let (peak, size) = rest.split_once(" of ")?;
             Some((peak.parse::<u32>().ok()?, size.strip_suffix(" bytes")?.parse::<u32>().ok()?))
         })
@@ -383,6 +387,17 @@ fn run_built_with(dir: &Path, vars: &[(&str, String)]) -> (String, Vec<u8>, Dura
     let child = start_qemu(&elf, &format!("file:{}", serial.display()), &stdout_file);
     let stdout = wait_qemu(child, &stdout_file, t0, || {});
     (stdout, std::fs::read(&serial).expect("read the capture"), t0.elapsed())
+}
+
+/// The most frames the firmware's frame queue held at once, and its size, from the end-of-run line.
+fn frame_queue_peak(stdout: &str) -> (u32, u32) {
+    stdout
+        .lines()
+        .find_map(|l| {
+            let (peak, size) = l.split("; frame queue peak ").nth(1)?.split_once(" of ")?;
+            Some((peak.parse().ok()?, size.trim().parse().ok()?))
+        })
+        .unwrap_or_else(|| panic!("no frame queue peak in the end-of-run line:\n{stdout}"))
 }
 
 /// Build and run `seconds` of scans with a stall of `stall_ms` every `every` seconds.
@@ -477,6 +492,11 @@ fn stalls_longer_than_the_ring_become_exact_gaps_and_every_snapshot_still_matche
     }
     let status = last_status(&records);
     assert_eq!(status.frames_dropped, 0, "{status:?}");
+    // The ring's backlog after a stall comes out a block at a time, the link draining the frame queue between
+    // blocks: a burst of one block's frames at most, never two blocks' (14 of the queue's 16, which dropped
+    // frames where the host was loaded).
+    let (queue_peak, queue) = frame_queue_peak(&stdout);
+    assert!(queue_peak <= QUEUE_PEAK_MAX && QUEUE_PEAK_MAX < queue, "frame queue peak {queue_peak} of {queue}");
     assert!(status.samples_lost <= lost && status.samples_lost >= jumps[..jumps.len() - 1].iter().sum(), "{status:?}");
 
     // Verify: every snapshot checked and matching, the gaps reported with their exact sizes.
