@@ -194,13 +194,18 @@ const QUARTILE_SPIKES: usize = 8;
 /// - Where the fitted law's lower edge is [`CLEAR_SIGMAS`] core sds out, the flagged spikes are the whole sample
 ///   of it. The likelihood's uniform support must cover every flagged magnitude, so one stray spike at half the
 ///   others' size (a spike on a bias flip) stretches it to twice the width, and the simulated spikes lose a third
-///   of their fourth moment; the quartiles do not move. The share stays the likelihood's.
+///   of their fourth moment; the quartiles do not move.
 /// - Where only the quartiles' law is that far out, most flagged residuals are a cluster clear of the core and a
 ///   few stand between (a bistable bias's flips, the edges of a burst): the likelihood's law, stretched down to
 ///   cover them, reads the spikes a third small and far too spread. The law is the cluster's (the quartiles again
-///   of the magnitudes beyond the first law's lower edge), and its share is the flagged residuals within its
-///   support (less three core sds) over the `valid` residuals; the few between are left to the core and to the
+///   of the magnitudes beyond the first law's lower edge); the few between are left to the core and to the
 ///   effects that made them.
+///
+/// Either way the share is the flagged residuals within the law's support (less three core sds) over the `valid`
+/// residuals: clear of the core every spike is flagged, and the count does not depend on the core's shape. The
+/// likelihood's share does: on a core a sensor's bandwidth has coloured, its Gaussian meets the spikes' law in
+/// the wrong place, and the share moves by 3-6% (a sample's kurtosis and tail share move with it, and the
+/// distribution view sees that much).
 ///
 /// Elsewhere (spikes buried in the core, or too few) the likelihood's law stands.
 fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)], valid: usize) -> Option<mixture::Mixture> {
@@ -215,10 +220,18 @@ fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)], valid: usize) -> Opt
     };
     let quartiles = quartile_law(&mags);
     let clear = CLEAR_SIGMAS * m.sigma;
-    if m.centre - m.spread >= clear {
-        return Some(quartiles);
+    if valid == 0 {
+        return None;
     }
-    if quartiles.centre - quartiles.spread < clear || valid == 0 {
+    // The share: the flagged residuals within the law's support, widened by the core's noise on each spike's
+    // residual, over the `valid` residuals. Clear of the core, every spike is flagged.
+    let within_share = |law: &mixture::Mixture| {
+        mags.iter().filter(|&&v| v >= law.centre - law.spread - 3.0 * m.sigma).count() as f64 / valid as f64
+    };
+    if m.centre - m.spread >= clear {
+        return Some(mixture::Mixture { eps: within_share(&quartiles), ..quartiles });
+    }
+    if quartiles.centre - quartiles.spread < clear {
         return None;
     }
     // The few between pull the first quartile down: the law again from the cluster alone.
@@ -227,9 +240,7 @@ fn clear_law(m: mixture::Mixture, flagged: &[(usize, f64)], valid: usize) -> Opt
         return None;
     }
     let law = quartile_law(cluster);
-    // Within the law's support, widened by the core's noise on each spike's residual.
-    let within = mags.iter().filter(|&&v| v >= law.centre - law.spread - 3.0 * m.sigma).count();
-    Some(mixture::Mixture { eps: within as f64 / valid as f64, ..law })
+    Some(mixture::Mixture { eps: within_share(&law), ..law })
 }
 
 /// The centre and half-width of a uniform law with the quartiles of `mags` (sorted, not empty): a uniform law on
