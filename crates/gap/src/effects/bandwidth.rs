@@ -82,21 +82,7 @@ pub(super) fn bandwidth(d: &TrainingData) -> Option<EffectFit> {
     const SCALES: [f64; 8] = [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1];
     // Under an ADC lattice the rounding's share of the curve depends on how smooth the analog rate is under the
     // corner tried: N, B and K are read on the curve once, and the lattice taken off over them.
-    let points_at = |f: Option<f64>| {
-        let raw = raw_at(f);
-        let known = known_at(f);
-        let pts = less_known(&raw, &known, f, rate_hz, d.lattice_dps);
-        if d.lattice_dps.is_none() {
-            return pts;
-        }
-        match joint_fit_keeping(&pts, &base_columns(&pts, rate_hz, f, with_q), 0) {
-            Some(j) => {
-                let analog = GyroSim { gauss_markov: markov, ..with_base_terms(&known, &j.theta) };
-                less_known_over(&raw, &known, &analog, f, rate_hz, d.lattice_dps)
-            }
-            None => pts,
-        }
-    };
+    let points_at = |f: Option<f64>| analog_curve(&raw_at(f), &known_at(f), markov, f, rate_hz, d.lattice_dps, with_q);
     let score = |f: Option<f64>| {
         let pts = points_at(f);
         let base = base_columns(&pts, rate_hz, f, with_q);

@@ -4,7 +4,7 @@
 
 use octavar_shared::sim::flicker::{FIRST_WEIGHT, FLICKER_PROCESSES};
 use octavar_shared::sim::noise::ResonanceCoefficients;
-use octavar_shared::sim::GyroSim;
+use octavar_shared::sim::{GaussMarkovSim, GyroSim};
 use rustfft::num_complex::Complex64;
 
 use super::lattice::{rounds_white, white_rounding_avar, LatticeExcess};
@@ -208,6 +208,32 @@ pub(super) fn less_known_over(
 ) -> Vec<FitPoint> {
     let lattice = lattice_excess(pts, analog, f3db_hz, rate_hz, lattice_dps);
     less_model_and(pts, model, f3db_hz, rate_hz, |tau| lattice.as_ref().map_or(0.0, |l| l.at(tau, rate_hz)))
+}
+
+/// `raw` less what `known` carries, under the output bandwidth `f3db_hz` ([`less_known`]); under an ADC lattice of
+/// step `lattice_dps`, the rounding's share depends on how smooth the analog rate is, so N, B and K are read on
+/// that curve once (Q where `with_q`) and the lattice taken off over them, with `markov` beside them: each corner a
+/// search tries gets the analog rate's curve as that corner would have it.
+pub(super) fn analog_curve(
+    raw: &[FitPoint],
+    known: &GyroSim,
+    markov: Option<GaussMarkovSim>,
+    f3db_hz: Option<f64>,
+    rate_hz: f64,
+    lattice_dps: Option<f64>,
+    with_q: bool,
+) -> Vec<FitPoint> {
+    let pts = less_known(raw, known, f3db_hz, rate_hz, lattice_dps);
+    if lattice_dps.is_none() {
+        return pts;
+    }
+    match joint_fit_keeping(&pts, &base_columns(&pts, rate_hz, f3db_hz, with_q), 0) {
+        Some(j) => {
+            let analog = GyroSim { gauss_markov: markov, ..with_base_terms(known, &j.theta) };
+            less_known_over(raw, known, &analog, f3db_hz, rate_hz, lattice_dps)
+        }
+        None => pts,
+    }
 }
 
 /// `pts` less the Allan variance of the effects `model` already carries ([`known_avar`]): the noise of the samples

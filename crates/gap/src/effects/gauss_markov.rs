@@ -51,16 +51,7 @@ pub(super) fn gauss_markov(d: &TrainingData) -> Option<EffectFit> {
     let raw = gapped_oadev_points(d.rate_dps, d.gaps, rate_hz);
     let held = at_corner(d, &points_under(d, &raw, bw), bw).filter(Found::accepted);
     let free = bw.and_then(|_| beside_free_corner(d, &raw));
-    let found = match (held, free) {
-        (Some(h), Some(f)) => {
-            if f.j.chi2 < h.j.chi2 {
-                f
-            } else {
-                h
-            }
-        }
-        (h, f) => h.or(f)?,
-    };
+    let found = [held, free].into_iter().flatten().min_by(|a, b| a.j.chi2.total_cmp(&b.j.chi2))?;
     let Found { corner, t, j, delta_chi2, .. } = found;
     let s2 = j.theta[BASE_COLS];
     let mut gyro = with_base_terms(&GyroSim { bandwidth_hz: corner, ..d.base.clone() }, &j.theta);
@@ -111,8 +102,8 @@ fn plain_chi2(d: &TrainingData, pts: &[FitPoint], corner: Option<f64>) -> Option
     joint_fit(pts, &base_columns(pts, d.rate_hz, corner, d.base.q_deg > 0.0)).map(|j| j.chi2)
 }
 
-/// The process of best time constant beside the base terms under `corner`, its chi-square's fall measured from
-/// `plain` (the base terms alone under that corner where `None`); `None` with fewer than 6 points or no fit.
+/// The process of best time constant beside the base terms on `pts` under `corner`, its chi-square's fall
+/// measured from the base terms alone under that corner; `None` with fewer than 6 points or no fit.
 fn at_corner(d: &TrainingData, pts: &[FitPoint], corner: Option<f64>) -> Option<Found> {
     if pts.len() < 6 {
         return None;
@@ -152,22 +143,10 @@ const CORNER_GRID: usize = 16;
 /// the search's top (no filter in the band: the corner step's own reading stands).
 fn beside_free_corner(d: &TrainingData, raw: &[FitPoint]) -> Option<Found> {
     let (lo, hi) = (d.rate_hz / 2000.0, d.rate_hz / 2.0);
+    // Under an ADC lattice, each corner's curve has the rounding taken off over the base terms read under it.
     let pts_at = |f: f64| {
-        let pts = points_under(d, raw, Some(f));
-        // Under an ADC lattice the rounding's share taken off depends on how smooth the analog rate is: N, B and
-        // K are read on the curve under this corner once, and the lattice taken off over them (as the corner's
-        // own estimator does), so that every corner's curve is the analog rate's as that corner would have it.
-        if d.lattice_dps.is_none() {
-            return pts;
-        }
         let model = GyroSim { bandwidth_hz: Some(f), ..d.base.clone() };
-        match joint_fit(&pts, &base_columns(&pts, d.rate_hz, Some(f), d.base.q_deg > 0.0)) {
-            Some(j) => {
-                let analog = with_base_terms(&model, &j.theta);
-                less_known_over(raw, &model, &analog, Some(f), d.rate_hz, d.lattice_dps)
-            }
-            None => pts,
-        }
+        analog_curve(raw, &model, model.gauss_markov, Some(f), d.rate_hz, d.lattice_dps, d.base.q_deg > 0.0)
     };
     let chi_at = |f: f64| at_corner(d, &pts_at(f), Some(f)).map_or(f64::INFINITY, |g| g.j.chi2);
     let (corner, _) = log_search(lo, hi, CORNER_GRID, chi_at);
