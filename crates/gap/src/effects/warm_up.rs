@@ -276,7 +276,8 @@ impl EffectKind for Kind {
 /// means (white, flicker, random walk and a Gauss-Markov process, through their semivariogram,
 /// [`BlockNoise::semivariogram`]). tau runs over 8 to 16 blocks at each block length, four per octave, up to a quarter
 /// of the record, and on at the longest block length up to [`LONGEST_TAU`] of it; the largest t-statistic of the size
-/// wins, its tau refined between the grid's points ([`refined_tau`]). Two passes, as for the temperature coupling. The
+/// wins, its tau refined between the grid's points ([`Blocks::refined_tau`]). Two passes, as for the temperature
+/// coupling. The
 /// first proposes a warm-up under two noises: the base fit's, and the base fit's without random walk and ramp (the base
 /// fit took the warm-up's long tail for them, and a warm-up over half the record then looks like their wander). Each
 /// proposal beyond [`T_STAT_FIRST`] is taken out and the IEEE terms refitted on what is left; the second pass scans
@@ -335,10 +336,6 @@ mod tests {
     use octavar_shared::sim::rng::SimRng;
     use octavar_shared::sim::GaussMarkovSim;
 
-    /// Two neighbouring block means differ by the Allan variance at the block's length, so the Gauss-Markov
-    /// part of the semivariogram at one block is the process's Allan variance (curve.rs's exact AR(1) form), at
-    /// blocks shorter and longer than its correlation time; far apart, the block means are independent, and the
-    /// semivariogram tends to the block mean's variance.
     /// A warm-up whose time constant lies midway (in octaves) between two of the scan's grid points, in white
     /// noise far below it: the grid alone reads tau up to a tenth off; the refined tau comes back within 2% of the
     /// truth the record was drawn with, and the size within 2%.
@@ -358,6 +355,10 @@ mod tests {
         assert!((s / size - 1.0).abs() < 0.02, "size {s} for {size}");
     }
 
+    /// Two neighbouring block means differ by the Allan variance at the block's length, so the Gauss-Markov
+    /// part of the semivariogram at one block is the process's Allan variance (curve.rs's exact AR(1) form), at
+    /// blocks shorter and longer than its correlation time; far apart, the block means are independent, and the
+    /// semivariogram tends to the block mean's variance.
     #[test]
     fn the_gauss_markov_semivariogram_is_its_allan_variance_at_one_block() {
         let rate_hz = 10.0;
