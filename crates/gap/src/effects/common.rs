@@ -451,6 +451,15 @@ pub(super) fn at_top(x: f64, lo: f64, hi: f64, n: usize) -> bool {
     (hi / x).ln() < 1e-3 * step
 }
 
+/// Whether `x`, found by [`log_search`] on `[lo, hi]` with `n` points, sits at `lo`: the mirror of [`at_top`]. A
+/// Gauss-Markov time constant at the search's floor of two samples is not identified either: below it the process
+/// is white noise to the curve, and what the fit took for it is the first octaves' shape from something else (a
+/// corner, a lattice).
+pub(super) fn at_bottom(x: f64, lo: f64, hi: f64, n: usize) -> bool {
+    let step = (hi / lo).ln() / (n - 1) as f64;
+    (x / lo).ln() < 1e-3 * step
+}
+
 /// Grid search over `ln x` on [lo, hi] (n points), then golden refinement between the best point's neighbours.
 pub(super) fn log_search(lo: f64, hi: f64, n: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
     let (l0, l1) = (lo.ln(), hi.ln());

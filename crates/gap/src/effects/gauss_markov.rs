@@ -36,9 +36,9 @@ impl EffectKind for Kind {
 /// it has one, or IEEE 952 Annex C's continuous one for T beyond a thousand samples), weighted NNLS as for the
 /// bandwidth, T on a log grid from 2 tau0 to a third of the record refined by golden search. It counts when the
 /// log-domain chi-square falls by at least [`CURVE_DELTA_CHI2`] from the base-terms-only fit and the process
-/// carries at least a fifth of the model's Allan variance somewhere on the curve; N, B, K, R and Q are re-fitted
-/// with it. On a model that already carries a resonance or a bistable bias, their Allan variance is taken off the
-/// curve first.
+/// carries at least a fifth of the model's Allan variance somewhere on the curve, and T is not the search's floor
+/// of 2 tau0 ([`at_bottom`]); N, B, K, R and Q are re-fitted with it. On a model that already carries a resonance
+/// or a bistable bias, their Allan variance is taken off the curve first.
 ///
 /// Beside an output bandwidth an earlier step read, the corner is also searched again with the process
 /// ([`beside_free_corner`]), and the fit of smaller chi-square kept: white noise through a low corner is a
@@ -81,13 +81,15 @@ struct Found {
     delta_chi2: f64,
     /// The most of the model's Allan variance the process carries at any point.
     share: f64,
+    /// Whether the time constant sits at the search's floor of two samples ([`at_bottom`]).
+    at_floor: bool,
 }
 
 impl Found {
-    /// Whether the process counts: the chi-square falls by [`CURVE_DELTA_CHI2`] and the process carries a fifth
-    /// of the Allan variance somewhere.
+    /// Whether the process counts: the chi-square falls by [`CURVE_DELTA_CHI2`], the process carries a fifth
+    /// of the Allan variance somewhere, and its time constant is not the search's floor.
     fn accepted(&self) -> bool {
-        self.delta_chi2 > CURVE_DELTA_CHI2 && self.share >= 0.2
+        self.delta_chi2 > CURVE_DELTA_CHI2 && self.share >= 0.2 && !self.at_floor
     }
 }
 
@@ -118,7 +120,8 @@ fn at_corner(d: &TrainingData, pts: &[FitPoint], corner: Option<f64>) -> Option<
     };
     let record = d.rate_dps.len() as f64 * tau0;
     let t_hi = (record / 3.0).max(4.0 * tau0);
-    let (t, _) = log_search(2.0 * tau0, t_hi, 40, |t| joint_fit(pts, &cols_for(t)).map_or(f64::INFINITY, |j| j.chi2));
+    let (t, _) =
+        log_search(2.0 * tau0, t_hi, T_GRID, |t| joint_fit(pts, &cols_for(t)).map_or(f64::INFINITY, |j| j.chi2));
     let cols = cols_for(t);
     let j = joint_fit(pts, &cols)?;
     let s2 = j.theta[BASE_COLS];
@@ -131,8 +134,12 @@ fn at_corner(d: &TrainingData, pts: &[FitPoint], corner: Option<f64>) -> Option<
             s2 * cols[BASE_COLS][i] / tot
         })
         .fold(0.0, f64::max);
-    Some(Found { corner, t, delta_chi2: plain - j.chi2, share, j })
+    let at_floor = at_bottom(t, 2.0 * tau0, t_hi, T_GRID);
+    Some(Found { corner, t, delta_chi2: plain - j.chi2, share, j, at_floor })
 }
+
+/// Time constants of the search's log grid, from two samples to a third of the record.
+const T_GRID: usize = 40;
 
 /// Corners of the free search's log grid, from a thousandth of the Nyquist frequency to it.
 const CORNER_GRID: usize = 16;

@@ -662,6 +662,24 @@ fn a_markov_process_follows_a_corners_curve_no_better_than_the_corner() {
     assert!(markov > corner + 10.0 * one, "process's record: process {markov}, corner {corner}");
 }
 
+/// White noise through a corner whose time constant is under a sample (1.07 Hz at 6.1 Hz) is a process faster than
+/// the Gauss-Markov search's floor of two samples: the best time constant is that floor, and no process is read,
+/// where a corner is. A process of seven samples beside the same noise is read inside the search.
+#[test]
+fn a_process_faster_than_two_samples_is_not_read() {
+    let rate_hz = 6.1;
+    let fast = GyroSim { n_deg_per_rt_s: 3.4e-3, b_dps: 2.5e-3, bandwidth_hz: Some(1.07), ..Default::default() };
+    (0..4u64).into_par_iter().for_each(|seed| {
+        let (x, _) = simulate(&fast, rate_hz, 128_000, seed, None);
+        assert!(run(Effect::Bandwidth, &x, None, rate_hz).is_some(), "seed {seed}: the corner is read");
+        let markov = run(Effect::GaussMarkov, &x, None, rate_hz);
+        assert!(markov.is_none(), "seed {seed}: {:?}", markov.map(|e| e.params));
+        let (x, _) = simulate(&markov_of_seven_samples(None), rate_hz, 128_000, seed, None);
+        let g = run(Effect::GaussMarkov, &x, None, rate_hz).and_then(|e| e.gyro.gauss_markov);
+        assert!(g.is_some_and(|g| (g.tau_s / 1.2).ln().abs() < 1.5f64.ln()), "seed {seed}: {g:?}");
+    });
+}
+
 /// White noise, flicker and a Gauss-Markov process of seven samples at 6.1 Hz, through `bandwidth_hz`.
 fn markov_of_seven_samples(bandwidth_hz: Option<f64>) -> GyroSim {
     GyroSim {
@@ -1512,20 +1530,23 @@ fn a_named_jump_process_is_found_again_on_another_record() {
 }
 
 /// [`common::at_top`] marks a search's minimum at its upper bound (a criterion still falling there), and only there:
-/// not an interior minimum, nor one at the lower bound.
+/// not an interior minimum, nor one at the lower bound; [`common::at_bottom`] marks the lower bound alike.
 #[test]
-fn a_search_that_ends_at_its_top_is_told_from_one_inside() {
+fn a_search_that_ends_at_a_bound_is_told_from_one_inside() {
     let (lo, hi, n) = (0.1, 1000.0, 40);
     let falling = common::log_search(lo, hi, n, |x| -x.ln());
     let inside = common::log_search(lo, hi, n, |x| (x.ln() - 3.0).powi(2));
-    let at_bottom = common::log_search(lo, hi, n, |x| x.ln());
-    assert!(common::at_top(falling.0, lo, hi, n), "{falling:?}");
+    let rising = common::log_search(lo, hi, n, |x| x.ln());
+    assert!(common::at_top(falling.0, lo, hi, n) && !common::at_bottom(falling.0, lo, hi, n), "{falling:?}");
     assert!(!common::at_top(inside.0, lo, hi, n) && (inside.0.ln() - 3.0).abs() < 1e-3, "{inside:?}");
-    assert!(!common::at_top(at_bottom.0, lo, hi, n), "{at_bottom:?}");
-    // An interior minimum a tenth of a grid step below the top is inside.
+    assert!(!common::at_bottom(inside.0, lo, hi, n), "{inside:?}");
+    assert!(common::at_bottom(rising.0, lo, hi, n) && !common::at_top(rising.0, lo, hi, n), "{rising:?}");
+    // An interior minimum a tenth of a grid step inside either bound is inside.
     let step = (hi / lo).ln() / (n - 1) as f64;
-    let near = common::log_search(lo, hi, n, |x| (x.ln() - (hi.ln() - 0.1 * step)).powi(2));
-    assert!(!common::at_top(near.0, lo, hi, n), "{near:?}");
+    let near_top = common::log_search(lo, hi, n, |x| (x.ln() - (hi.ln() - 0.1 * step)).powi(2));
+    assert!(!common::at_top(near_top.0, lo, hi, n), "{near_top:?}");
+    let near_bottom = common::log_search(lo, hi, n, |x| (x.ln() - (lo.ln() + 0.1 * step)).powi(2));
+    assert!(!common::at_bottom(near_bottom.0, lo, hi, n), "{near_bottom:?}");
 }
 
 /// A coupling whose lag runs past the search (ten records: its response is a slow ramp whose size trades against
