@@ -119,9 +119,8 @@ fn at_corner(d: &TrainingData, pts: &[FitPoint], corner: Option<f64>) -> Option<
         c
     };
     let record = d.rate_dps.len() as f64 * tau0;
-    let t_hi = (record / 3.0).max(4.0 * tau0);
-    let (t, _) =
-        log_search(2.0 * tau0, t_hi, T_GRID, |t| joint_fit(pts, &cols_for(t)).map_or(f64::INFINITY, |j| j.chi2));
+    let (t_lo, t_hi) = (2.0 * tau0, (record / 3.0).max(4.0 * tau0));
+    let (t, _) = log_search(t_lo, t_hi, T_GRID, |t| joint_fit(pts, &cols_for(t)).map_or(f64::INFINITY, |j| j.chi2));
     let cols = cols_for(t);
     let j = joint_fit(pts, &cols)?;
     let s2 = j.theta[BASE_COLS];
@@ -134,7 +133,7 @@ fn at_corner(d: &TrainingData, pts: &[FitPoint], corner: Option<f64>) -> Option<
             s2 * cols[BASE_COLS][i] / tot
         })
         .fold(0.0, f64::max);
-    let at_floor = at_bottom(t, 2.0 * tau0, t_hi, T_GRID);
+    let at_floor = at_bottom(t, t_lo, t_hi, T_GRID);
     Some(Found { corner, t, delta_chi2: plain - j.chi2, share, j, at_floor })
 }
 

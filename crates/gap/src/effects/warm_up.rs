@@ -277,13 +277,12 @@ impl EffectKind for Kind {
 /// [`BlockNoise::semivariogram`]). tau runs over 8 to 16 blocks at each block length, four per octave, up to a quarter
 /// of the record, and on at the longest block length up to [`LONGEST_TAU`] of it; the largest t-statistic of the size
 /// wins, its tau refined between the grid's points ([`Blocks::refined_tau`]). Two passes, as for the temperature
-/// coupling. The
-/// first proposes a warm-up under two noises: the base fit's, and the base fit's without random walk and ramp (the base
-/// fit took the warm-up's long tail for them, and a warm-up over half the record then looks like their wander). Each
-/// proposal beyond [`T_STAT_FIRST`] is taken out and the IEEE terms refitted on what is left; the second pass scans
-/// again under that refit's noise, which also gives the model's base terms, and the proposal whose second pass has the
-/// larger t-statistic is kept. The warm-up counts beyond [`T_STAT`] standard errors of that second pass, which weighs
-/// it against the noise the record has without it.
+/// coupling. The first proposes a warm-up under two noises: the base fit's, and the base fit's without random walk and
+/// ramp (the base fit took the warm-up's long tail for them, and a warm-up over half the record then looks like their
+/// wander). Each proposal beyond [`T_STAT_FIRST`] is taken out and the IEEE terms refitted on what is left; the second
+/// pass scans again under that refit's noise, which also gives the model's base terms, and the proposal whose second
+/// pass has the larger t-statistic is kept. The warm-up counts beyond [`T_STAT`] standard errors of that second pass,
+/// which weighs it against the noise the record has without it.
 pub(super) fn warm_up(d: &TrainingData) -> Option<EffectFit> {
     let x = d.rate_dps;
     let rate_hz = d.rate_hz;
